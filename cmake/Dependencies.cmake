@@ -1,0 +1,33 @@
+# Every dependency is a Debian package; scripts/install-deps.sh installs them.
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(SYSTEMC REQUIRED IMPORTED_TARGET systemc)
+find_package(embree 3 REQUIRED)
+find_package(glm REQUIRED)
+find_package(TBB REQUIRED)
+find_package(assimp REQUIRED)
+find_package(SQLite3 REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(tomlplusplus REQUIRED)
+find_package(libzip REQUIRED)
+find_package(Threads REQUIRED)
+pkg_check_modules(STB REQUIRED IMPORTED_TARGET stb)
+if(RTSIM_BUILD_TESTS)
+  find_package(GTest REQUIRED)
+  include(GoogleTest)
+endif()
+if(RTSIM_BUILD_BENCH)
+  find_package(benchmark REQUIRED)
+endif()
+
+# GLM: keep the default (radians, no experimental extensions) but allow gtx helpers.
+add_compile_definitions(GLM_FORCE_CXX17 GLM_ENABLE_EXPERIMENTAL)
+
+# The git revision goes into every result file so that runs are self-describing.
+execute_process(COMMAND git rev-parse --short=12 HEAD
+                WORKING_DIRECTORY ${CMAKE_SOURCE_DIR}
+                OUTPUT_VARIABLE RTSIM_GIT_REVISION OUTPUT_STRIP_TRAILING_WHITESPACE
+                ERROR_QUIET)
+if(NOT RTSIM_GIT_REVISION)
+  set(RTSIM_GIT_REVISION "unknown")
+endif()

@@ -1,0 +1,1 @@
+// The model library grows with the functional core and SystemC issues.

@@ -1,0 +1,43 @@
+#pragma once
+// Embree is the oracle and the fast ray caster. This wraps one committed Embree
+// scene of a rtsim::Scene's triangles; geometry id 0, primitive id = triangle index.
+#include <rtsim/workloads/scene.h>
+
+#include <embree3/rtcore.h>
+
+#include <memory>
+
+namespace rtsim {
+
+struct EmbreeHit {
+  bool hit = false;
+  float t = 0.0f;
+  uint32_t prim = ~0u;
+  float u = 0.0f, v = 0.0f;
+  vec3 geometric_normal{0.0f};  // unnormalised, as Embree reports it
+};
+
+class EmbreeScene {
+ public:
+  explicit EmbreeScene(const Scene& scene);
+  ~EmbreeScene();
+  EmbreeScene(const EmbreeScene&) = delete;
+  EmbreeScene& operator=(const EmbreeScene&) = delete;
+
+  // Thread-safe: Embree queries on a committed scene may run concurrently.
+  EmbreeHit intersect(const vec3& origin, const vec3& direction, float tmin, float tmax) const;
+  bool occluded(const vec3& origin, const vec3& direction, float tmin, float tmax) const;
+
+  RTCDevice device() const { return device_; }
+  RTCScene handle() const { return scene_; }
+
+ private:
+  RTCDevice device_ = nullptr;
+  RTCScene scene_ = nullptr;
+};
+
+// One device per process is enough; Embree reports errors through this callback,
+// which turns them into std::runtime_error at the next call.
+RTCDevice shared_embree_device();
+
+}  // namespace rtsim

@@ -1,0 +1,61 @@
+#pragma once
+// Basic geometry shared by every layer: vectors come from GLM, boxes are ours.
+#include <glm/glm.hpp>
+
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+
+namespace rtsim {
+
+using glm::vec3;
+using glm::dvec3;
+using glm::uvec3;
+
+// Axis-aligned bounding box. An empty box has lo = +inf, hi = -inf so that
+// extending it by any point gives that point.
+struct Aabb {
+  vec3 lo{std::numeric_limits<float>::infinity()};
+  vec3 hi{-std::numeric_limits<float>::infinity()};
+
+  static Aabb of_triangle(const vec3& a, const vec3& b, const vec3& c) {
+    Aabb box;
+    box.extend(a);
+    box.extend(b);
+    box.extend(c);
+    return box;
+  }
+  void extend(const vec3& p) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  void extend(const Aabb& b) {
+    lo = glm::min(lo, b.lo);
+    hi = glm::max(hi, b.hi);
+  }
+  bool empty() const { return lo.x > hi.x || lo.y > hi.y || lo.z > hi.z; }
+  vec3 extent() const { return empty() ? vec3(0.0f) : hi - lo; }
+  vec3 centre() const { return 0.5f * (lo + hi); }
+  // Surface area; a flat box still has the area of its faces (>= 0, never NaN).
+  float area() const {
+    const vec3 d = extent();
+    return 2.0f * (d.x * d.y + d.y * d.z + d.z * d.x);
+  }
+  float diagonal() const { return glm::length(extent()); }
+  bool contains(const Aabb& b) const {
+    return b.lo.x >= lo.x && b.lo.y >= lo.y && b.lo.z >= lo.z && b.hi.x <= hi.x &&
+           b.hi.y <= hi.y && b.hi.z <= hi.z;
+  }
+  static Aabb intersection(const Aabb& a, const Aabb& b) {
+    Aabb r;
+    r.lo = glm::max(a.lo, b.lo);
+    r.hi = glm::min(a.hi, b.hi);
+    return r;
+  }
+};
+
+inline bool is_finite(const vec3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+}  // namespace rtsim

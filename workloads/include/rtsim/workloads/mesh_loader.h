@@ -1,0 +1,42 @@
+#pragma once
+// Mesh loaders: assimp for the formats it reads, our own for Quake 3 IBSP v46
+// (.bsp, or a map inside a .pk3) and SuperTuxKart (.spm meshes, scene.xml tracks).
+// Each is a pure function from bytes (or a folder) to a Mesh or an InputError
+// naming the file, offset or field.
+#include <rtsim/workloads/scene.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace rtsim {
+
+struct Mesh {
+  std::vector<vec3> vertices;
+  std::vector<uvec3> triangles;  // counter-clockwise seen from the front
+  std::vector<uint32_t> material_ids;  // per triangle, into materials
+  std::vector<Material> materials;
+  std::vector<Camera> suggested_cameras;  // spawn points, track quads
+};
+
+struct MeshOptions {
+  int bsp_patch_level = 5;      // Bezier patch tessellation level
+  bool bsp_drop_sky = true;     // drop faces whose texture has the sky flag (0x4)
+  std::string pk3_map;          // map name inside a .pk3, e.g. "oacmpdm1"
+};
+
+// Dispatches on the file name: .bsp/.pk3, .spm, scene.xml (a STK track), else assimp.
+Mesh load_mesh(const std::filesystem::path& path, const MeshOptions& options = {});
+
+Mesh load_mesh_assimp(const std::filesystem::path& path);
+Mesh parse_q3bsp(const std::vector<uint8_t>& bytes, const std::string& file_name,
+                 const MeshOptions& options = {});
+Mesh parse_spm(const std::vector<uint8_t>& bytes, const std::string& file_name);
+Mesh load_stk_track(const std::filesystem::path& track_dir);
+
+std::vector<uint8_t> read_file_bytes(const std::filesystem::path& path);  // InputError if unreadable
+// Reads one member of a zip archive (libzip). InputError names archive and member.
+std::vector<uint8_t> read_zip_member(const std::filesystem::path& archive, const std::string& member);
+
+}  // namespace rtsim

@@ -1,0 +1,92 @@
+#pragma once
+// The Scene: what every later stage consumes. Triangles, materials, lights,
+// named cameras and AO settings; validated once on load (see validate.h).
+#include <rtsim/workloads/geometry.h>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace rtsim {
+
+struct Material {
+  std::string name = "default";
+  vec3 albedo{0.7f};        // diffuse reflectance
+  float reflectance = 0.0f;  // mirror weight; > 0 spawns reflection rays
+  float transmittance = 0.0f;  // > 0 spawns refraction rays
+  float ior = 1.5f;
+  vec3 emission{0.0f};
+};
+
+struct Light {
+  enum class Kind { Point, Directional };
+  Kind kind = Kind::Point;
+  vec3 position{0.0f};   // Point
+  vec3 direction{0.0f, -1.0f, 0.0f};  // Directional: direction the light travels
+  vec3 intensity{1.0f};
+};
+
+// A pinhole camera. Primary ray for pixel (x, y) of a w x h image goes through
+// the pixel centre (plus an optional jitter in [0,1)^2).
+struct Camera {
+  std::string name;
+  vec3 position{0.0f};
+  vec3 target{0.0f, 0.0f, -1.0f};
+  vec3 up{0.0f, 1.0f, 0.0f};
+  float vertical_fov_deg = 60.0f;
+
+  struct Ray {
+    vec3 origin;
+    vec3 direction;  // unit length
+  };
+  Ray primary_ray(uint32_t x, uint32_t y, uint32_t width, uint32_t height, float jitter_x = 0.5f,
+                  float jitter_y = 0.5f) const;
+};
+
+struct AoSettings {
+  bool enabled = true;
+  float cutoff_relative = 0.05f;  // AO ray length as a fraction of the scene diagonal
+  uint32_t samples = 4;           // AO rays per primary hit
+};
+
+// What validation found, reported by `rtsim scenes info`. Policy: triangles with a
+// non-finite vertex or an out-of-range index are dropped; zero-area (degenerate)
+// triangles are kept and counted, because a mesh may legitimately contain them
+// and the traversal must cope with them anyway.
+struct ValidationReport {
+  uint64_t input_triangles = 0;
+  uint64_t dropped_non_finite = 0;
+  uint64_t dropped_bad_index = 0;
+  uint64_t degenerate_kept = 0;
+  uint64_t non_finite_vertices = 0;
+};
+
+struct Scene {
+  std::string name;
+  std::string source;  // file or "procedural:<name>"
+  std::string licence;  // shown by `scenes info`/`fetch`
+  std::vector<vec3> vertices;
+  std::vector<uvec3> triangles;
+  std::vector<uint32_t> material_ids;  // one per triangle
+  std::vector<Material> materials;
+  std::vector<Light> lights;
+  std::vector<Camera> cameras;
+  AoSettings ao;
+  ValidationReport validation;
+
+  size_t triangle_count() const { return triangles.size(); }
+  vec3 vertex(uint32_t tri, int k) const { return vertices[triangles[tri][k]]; }
+  Aabb triangle_bounds(uint32_t tri) const {
+    return Aabb::of_triangle(vertex(tri, 0), vertex(tri, 1), vertex(tri, 2));
+  }
+  Aabb bounds() const;
+  float diagonal() const { return bounds().diagonal(); }
+  float ao_cutoff() const { return ao.cutoff_relative * diagonal(); }
+  const Camera* find_camera(const std::string& camera_name) const;
+  const Camera& camera(const std::string& camera_name) const;  // throws InputError
+  // A 64-bit hash of geometry and materials: keys caches and BVH files to a scene.
+  uint64_t content_hash() const;
+};
+
+}  // namespace rtsim

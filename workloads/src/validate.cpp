@@ -1,0 +1,81 @@
+#include <rtsim/workloads/error.h>
+#include <rtsim/workloads/validate.h>
+
+#include <cmath>
+
+namespace rtsim {
+
+namespace {
+bool zero_area(const vec3& a, const vec3& b, const vec3& c) {
+  // Double precision so that tiny but valid triangles are not called degenerate.
+  const dvec3 n = glm::cross(dvec3(b) - dvec3(a), dvec3(c) - dvec3(a));
+  return glm::dot(n, n) == 0.0;
+}
+}  // namespace
+
+void validate_scene(Scene& scene) {
+  const std::string where = "scene '" + scene.name + "'";
+  if (scene.materials.empty()) scene.materials.push_back(Material{});
+  if (scene.material_ids.empty()) scene.material_ids.assign(scene.triangles.size(), 0);
+  if (scene.material_ids.size() != scene.triangles.size())
+    throw InputError(where, "material id count " + std::to_string(scene.material_ids.size()) +
+                                " differs from triangle count " +
+                                std::to_string(scene.triangles.size()));
+
+  ValidationReport report;
+  report.input_triangles = scene.triangles.size();
+  std::vector<char> vertex_finite(scene.vertices.size());
+  for (size_t i = 0; i < scene.vertices.size(); ++i) {
+    vertex_finite[i] = is_finite(scene.vertices[i]);
+    report.non_finite_vertices += !vertex_finite[i];
+  }
+
+  size_t kept = 0;
+  const size_t nv = scene.vertices.size();
+  for (size_t i = 0; i < scene.triangles.size(); ++i) {
+    const uvec3 t = scene.triangles[i];
+    if (t.x >= nv || t.y >= nv || t.z >= nv) {
+      ++report.dropped_bad_index;
+      continue;
+    }
+    if (!vertex_finite[t.x] || !vertex_finite[t.y] || !vertex_finite[t.z]) {
+      ++report.dropped_non_finite;
+      continue;
+    }
+    uint32_t material = scene.material_ids[i];
+    if (material >= scene.materials.size())
+      throw InputError(where, "triangle " + std::to_string(i) + " has material id " +
+                                  std::to_string(material) + " but only " +
+                                  std::to_string(scene.materials.size()) + " materials exist");
+    if (zero_area(scene.vertices[t.x], scene.vertices[t.y], scene.vertices[t.z]))
+      ++report.degenerate_kept;
+    scene.triangles[kept] = t;
+    scene.material_ids[kept] = material;
+    ++kept;
+  }
+  scene.triangles.resize(kept);
+  scene.material_ids.resize(kept);
+  scene.validation = report;
+
+  if (scene.triangles.empty())
+    throw InputError(where, "no valid triangle (" + std::to_string(report.input_triangles) +
+                                " in the input, all dropped or none given)");
+  for (const Material& m : scene.materials) {
+    const float values[] = {m.albedo.x, m.albedo.y, m.albedo.z, m.reflectance, m.transmittance,
+                            m.ior};
+    for (float v : values)
+      if (!std::isfinite(v) || v < 0.0f)
+        throw InputError(where + " material '" + m.name + "'",
+                         "albedo, reflectance, transmittance and ior must be finite and >= 0");
+  }
+  for (const Camera& c : scene.cameras) {
+    if (!is_finite(c.position) || !is_finite(c.target) || !is_finite(c.up) ||
+        c.position == c.target || !(c.vertical_fov_deg > 0.0f && c.vertical_fov_deg < 180.0f))
+      throw InputError(where + " camera '" + c.name + "'",
+                       "position/target/up must be finite, target != position, 0 < fov < 180");
+  }
+  if (!(scene.ao.cutoff_relative > 0.0f) || !std::isfinite(scene.ao.cutoff_relative))
+    throw InputError(where + " ao.cutoff", "must be a finite number > 0");
+}
+
+}  // namespace rtsim
