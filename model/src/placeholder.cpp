@@ -1,1 +1,0 @@
-// The model library grows with the functional core and SystemC issues.
