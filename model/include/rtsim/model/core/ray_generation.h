@@ -1,0 +1,66 @@
+#pragma once
+// Ray generation driven by the scene: primary rays from a named camera, and the
+// secondary rays (AO, shadow, reflection, refraction) that the scene's materials
+// and lights call for. All randomness from KeyedRng(seed, {pixel, sample,
+// bounce, k}), so every ray is fixed by its ids whatever the thread count.
+#include <rtsim/model/core/ray.h>
+#include <rtsim/workloads/scene.h>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rtsim {
+
+struct EffectSettings {
+  uint32_t width = 256, height = 256;
+  uint32_t spp = 1;     // samples per pixel; > 1 jitters inside the pixel
+  uint64_t seed = 1;
+  int ao_samples = -1;  // < 0: the scene decides (ao.enabled, ao.samples); 0: off; N > 0: on, N rays
+  bool shadows = true;       // run-level switches: an effect runs only if the scene calls for it
+  bool reflections = true;   // AND the run allows it
+  bool refractions = true;
+  uint32_t max_depth = 2;    // reflection/refraction bounces after the primary hit
+};
+
+// Which effects run for one (scene, settings), and why the others do not.
+struct EffectPlan {
+  std::array<bool, kRayTypeCount> enabled{};
+  std::array<std::string, kRayTypeCount> reason{};  // why on / why off, one line each
+  uint32_t ao_samples = 0;
+  float ao_length = 0.0f;  // scene.ao_cutoff()
+  uint32_t max_depth = 0;
+  bool on(RayType t) const { return enabled[ray_type_index(t)]; }
+};
+EffectPlan plan_effects(const Scene& scene, const EffectSettings& settings);
+
+// Primary ray of (x, y, sample): through the pixel centre for spp == 1, jittered
+// by KeyedRng(seed, {pixel, sample, 0, 0}) otherwise. tmin 0, tmax inf.
+Ray make_primary_ray(const Camera& camera, const EffectSettings& settings, uint32_t x, uint32_t y,
+                     uint32_t sample);
+// All primary rays, pixel-major (pixel = y * width + x), then sample.
+std::vector<Ray> generate_primary_rays(const Camera& camera, const EffectSettings& settings);
+
+// The surface a ray hit: position from barycentrics (no t rounding), unit
+// geometric normal turned to face the incoming ray, and the material.
+struct SurfaceHit {
+  vec3 position{0.0f};
+  vec3 normal{0.0f, 1.0f, 0.0f};
+  const Material* material = nullptr;
+};
+SurfaceHit surface_at(const Scene& scene, const Ray& ray, const HitRecord& hit);
+
+// Appends the secondary rays a finished ray spawns (parent = ray_index): AO
+// rays from primary hits; shadow rays (one per light on the lit side) and
+// mirror/refraction rays from primary, reflection and refraction hits below
+// max depth. AO and shadow rays spawn nothing. Origins are offset robustly.
+void spawn_secondary_rays(const Scene& scene, const EffectPlan& plan, const EffectSettings& settings,
+                          const Ray& ray, uint32_t ray_index, const HitRecord& hit,
+                          std::vector<Ray>& out);
+
+// Cosine-weighted direction over the hemisphere around unit `normal`, from two
+// uniform numbers in [0,1).
+vec3 cosine_hemisphere_direction(const vec3& normal, float r1, float r2);
+
+}  // namespace rtsim
