@@ -38,5 +38,7 @@ Mesh load_stk_track(const std::filesystem::path& track_dir);
 std::vector<uint8_t> read_file_bytes(const std::filesystem::path& path);  // InputError if unreadable
 // Reads one member of a zip archive (libzip). InputError names archive and member.
 std::vector<uint8_t> read_zip_member(const std::filesystem::path& archive, const std::string& member);
+// Names of every member of a zip archive (libzip). InputError if it is not a zip.
+std::vector<std::string> list_zip_members(const std::filesystem::path& archive);
 
 }  // namespace rtsim
