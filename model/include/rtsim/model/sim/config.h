@@ -1,0 +1,121 @@
+#pragma once
+// Hardware configuration of the simulated accelerator: every parameter of the
+// ray generation, TRV, IST and shading units, the caches, the DRAM and the
+// fidelity-specific knobs, with a documented default, a range and a unit.
+//
+// One table (for_each_parameter) is the single source of truth: loading a TOML
+// file, writing the resolved configuration as JSON and the documentation of
+// model/presets/*.toml all walk it, so they cannot drift apart.
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace rtsim::sim {
+
+enum class Fidelity { Functional, Lt, Cycle };
+const char* fidelity_name(Fidelity fidelity);        // "functional", "lt", "cycle"
+Fidelity parse_fidelity(const std::string& name);    // throws InputError naming --fidelity
+
+struct CacheConfig {
+  uint32_t size_bytes = 16 * 1024;
+  uint32_t line_bytes = 64;
+  uint32_t associativity = 4;
+  uint32_t hit_latency_cycles = 2;  // accelerator cycles from request to data on a hit
+  uint32_t mshrs = 8;               // outstanding distinct missing lines
+  uint32_t sets() const { return size_bytes / (line_bytes * associativity); }
+};
+
+// DRAM timing is in DRAM clock cycles (tCK), as the datasheets and public DRAM
+// simulators state it; the model converts to picoseconds with tck_ps.
+struct DramConfig {
+  std::string part = "lpddr4-3200";  // preset the timings below start from
+  uint32_t channels = 2;
+  uint32_t ranks = 1;
+  uint32_t banks = 8;
+  uint32_t row_bytes = 2048;       // bytes of one row in one channel (page size)
+  uint32_t tck_ps = 625;           // DRAM clock period
+  uint32_t tcl = 28;               // column read to first data (RL)
+  uint32_t trcd = 29;              // activate to column command
+  uint32_t trp = 29;               // precharge to activate
+  uint32_t tras = 68;              // activate to precharge (minimum row open time)
+  uint32_t burst_cycles = 8;       // tCK the data bus is busy for one burst
+  uint32_t burst_bytes = 64;       // bytes one burst carries
+  uint32_t queue_entries = 32;     // request queue per channel (bounded, FR-FCFS)
+  // Address bits above the access offset, most significant first.
+  std::string address_mapping = "row:rank:bank:column:channel";
+};
+
+struct HardwareConfig {
+  std::string preset = "mobile";
+  uint32_t clock_mhz = 1000;  // accelerator clock; every *_cycles parameter counts it
+
+  // Ray generation
+  double raygen_rays_per_cycle = 1.0;
+
+  // TRV
+  uint32_t trv_units = 4;
+  uint32_t trv_ray_slots = 16;        // rays in flight per unit (hide memory latency)
+  uint32_t trv_stack_entries = 8;     // short stack on chip; deeper entries spill to memory
+  uint32_t trv_stack_entry_bytes = 8; // node index + entry distance
+  uint32_t trv_box_test_latency = 4;  // cycles from node data to the next decision
+  double trv_nodes_per_cycle = 1.0;   // box-test pipeline throughput per unit
+
+  // IST
+  uint32_t ist_units = 2;
+  uint32_t ist_queue_entries = 16;    // leaf jobs waiting per unit (back-pressure to TRV)
+  uint32_t ist_test_latency = 8;      // cycles per triangle test
+  double ist_tests_per_cycle = 1.0;   // throughput per unit
+
+  // Shading
+  uint32_t shading_latency = 16;      // cycles per finished ray
+  double shading_rays_per_cycle = 1.0;
+
+  CacheConfig l1_node{16 * 1024, 64, 4, 2, 8};
+  CacheConfig l1_triangle{16 * 1024, 64, 4, 2, 8};
+  CacheConfig l2{512 * 1024, 64, 8, 20, 32};
+  DramConfig dram;
+
+  // Memory image layout
+  std::string node_layout = "bvh2-64";  // bvh2-64 | single-32
+  uint32_t triangle_bytes = 36;
+
+  // Loosely timed: the quantum keeper's global quantum
+  uint32_t lt_quantum_cycles = 1000;
+
+  double clock_period_ps() const { return 1e6 / clock_mhz; }
+};
+
+// Kinds of parameter values the table knows.
+struct ParameterInfo {
+  std::string key;          // "trv.units", "dram.tcl", ...
+  std::string unit;         // "cycles", "bytes", ...
+  std::string description;
+  // Exactly one of these is set.
+  uint32_t* u32 = nullptr;
+  double* f64 = nullptr;
+  std::string* text = nullptr;
+  double min = 0, max = 0;              // numeric range (inclusive)
+  std::vector<std::string> choices;     // allowed strings (empty: any)
+};
+void for_each_parameter(HardwareConfig& config, const std::function<void(ParameterInfo&)>& visit);
+
+std::vector<std::string> preset_names();  // "mobile", "desktop"
+HardwareConfig preset(const std::string& name);  // throws InputError
+std::vector<std::string> dram_part_names();  // "lpddr4-3200", "ddr4-2400", "gddr6"
+void apply_dram_part(DramConfig& dram, const std::string& part);  // throws InputError
+
+// A preset name or a TOML file: `preset = "..."` (default "mobile") picks the base,
+// `dram.part` the DRAM timings, then every other key overrides. Unknown keys,
+// wrong types and out-of-range values throw InputError naming file and key.
+HardwareConfig load_hardware_config(const std::string& preset_or_path);
+HardwareConfig parse_hardware_config(const std::string& toml_text, const std::string& source_name);
+// Cross-parameter checks (powers of two, line sizes, set counts); throws InputError.
+void validate(const HardwareConfig& config);
+// The resolved configuration as a JSON object text, keys sorted.
+std::string to_json(const HardwareConfig& config);
+// A documented TOML listing of every parameter with its value (model/presets/*.toml).
+std::string to_documented_toml(const HardwareConfig& config);
+
+}  // namespace rtsim::sim
