@@ -1,0 +1,68 @@
+#pragma once
+// The one entry point to every BVH builder, selected by name.
+#include <rtsim/builder/bvh.h>
+#include <rtsim/builder/validate_bvh.h>
+#include <rtsim/workloads/scene.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rtsim {
+
+struct BuildParams {
+  std::string builder = "sah";  // sah | median | sbvh | osah | aobvh | embree | embree-sbvh
+  float t1 = 1.0f;              // cost of one ray-node test
+  float t2 = 1.0f;              // cost of one ray-triangle test
+  uint32_t max_leaf_size = 4;   // must fit the hardware leaf count field
+  uint32_t max_depth = 64;
+  uint32_t bins = 32;           // binned SAH; 0 = full sweep
+  uint64_t seed = 1;
+  uint32_t threads = 0;         // 0 = all cores; never changes the tree
+  // sbvh
+  float sbvh_alpha = 1e-5f;
+  float sbvh_reference_budget = 1.3f;  // x N triangles
+  uint32_t sbvh_split_limit = 7;       // times one reference may be split (0..7)
+  // osah
+  std::string camera = "view1";
+  float osah_w = 0.9f;
+  uint32_t osah_width = 256, osah_height = 256;  // primary rays cast for visibility
+  // aobvh
+  uint32_t ao_rays = 16;          // K AO rays per primitive
+  float ao_cutoff_relative = -1;  // < 0: the scene's ao.cutoff_relative
+  float ao_weight_floor = 0.05f;  // w = floor + (1 - floor) * occlusion value
+  bool ao_both_sides = false;
+  // Per-triangle values supplied by the caller instead of casting rays (tests,
+  // cached estimates). Empty = estimate with Embree. NaN / infinite / negative
+  // entries are sanitised (occlusion: treated as 1 = fully open; counted in
+  // BuildReport::sanitised_values).
+  std::vector<float> occlusion_values;   // aobvh, in [0, 1]
+  std::vector<uint8_t> visibility;       // osah, 0 / 1
+};
+
+// Everything the quality report shows, filled by the builder that ran.
+struct BuildReport {
+  std::string builder;
+  double estimate_seconds = 0;  // visibility / AO estimation
+  double build_seconds = 0;     // tree construction
+  uint64_t peak_memory_bytes = 0;
+  std::vector<float> weights;   // per-triangle weights the builder used (empty for sah/median)
+  std::vector<uint8_t> visibility;  // osah: per-triangle visibility from the camera
+  uint64_t references = 0;      // prim_refs (> N only with spatial splits)
+  uint64_t spatial_splits = 0;  // sbvh: nodes split spatially
+  uint64_t forced_splits = 0;   // nodes over max_leaf_size split although a leaf was cheaper
+  uint64_t median_splits = 0;   // fallback median splits (no usable SAH split / depth limit)
+  uint64_t sanitised_values = 0;  // NaN/invalid weights or occlusion values replaced by 1
+  uint64_t visible_triangles = 0;  // osah
+  double mean_occlusion = 0;    // aobvh: mean occlusion value (1 = open)
+  uint64_t ao_rays = 0;         // aobvh: rays cast
+};
+
+// Limits a tree from `params` must satisfy (for validate_bvh).
+BvhLimits limits_for(const BuildParams& params);
+
+// Throws InputError for unknown builders, bad parameters or an empty scene.
+Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report = nullptr);
+std::vector<std::string> builder_names();
+
+}  // namespace rtsim

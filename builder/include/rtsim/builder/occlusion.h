@@ -1,0 +1,48 @@
+#pragma once
+// Per-triangle estimates the weighted builders use, cast with Embree.
+//
+// Occlusion value (AO-BVH, the patent's "occlusion information"): the mean over K
+// AO rays of clamp(t, 0, cutoff) / cutoff, t the closest hit (a miss counts as the
+// cutoff, i.e. 1). Rays start at stratified points on the triangle and are
+// cosine-distributed over the hemisphere on its front side (the side its winding
+// normal (v1-v0)x(v2-v0) points to); with both_sides, even-numbered rays use the
+// front and odd-numbered rays the back. 1 = fully open, near 0 = heavily occluded.
+// A zero-area triangle has no side to shoot from: its value is 1 (no information,
+// so it keeps the plain SAH weight).
+//
+// Visibility (OSAH): a triangle is visible if any primary ray of the camera
+// (one through each pixel centre of a width x height image) hits it first.
+#include <rtsim/workloads/embree_scene.h>
+#include <rtsim/workloads/scene.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace rtsim {
+
+struct OcclusionParams {
+  uint32_t rays = 16;         // K per triangle
+  float cutoff = 1.0f;        // absolute AO ray length
+  bool both_sides = false;
+  uint64_t seed = 1;
+};
+
+// Deterministic: values depend on (seed, triangle, ray index) only.
+std::vector<float> estimate_occlusion(const Scene& scene, const EmbreeScene& embree,
+                                      const OcclusionParams& params);
+
+std::vector<uint8_t> estimate_visibility(const Scene& scene, const EmbreeScene& embree,
+                                         const Camera& camera, uint32_t width, uint32_t height);
+
+// AO-BVH weights from occlusion values: w = floor + (1 - floor) * value, then scaled
+// to mean 1 so that T2 keeps meaning "one average triangle test" and the balance
+// against the 2*T1 node cost is that of the plain SAH (equal values give exactly
+// weight 1, hence exactly the SAH tree). The floor keeps fully occluded regions
+// from costing nothing (they would otherwise be swallowed into huge, arbitrary
+// subtrees and, at value 0 everywhere, every split would cost the same).
+// NaN / infinite values count as 1 (open); values outside [0, 1] are clamped;
+// both are counted in *sanitised.
+std::vector<float> occlusion_weights(const std::vector<float>& values, float floor,
+                                     uint64_t* sanitised = nullptr);
+
+}  // namespace rtsim

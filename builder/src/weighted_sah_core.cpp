@@ -1,0 +1,730 @@
+#include "weighted_sah_core.h"
+
+#include <rtsim/workloads/error.h>
+
+#include <tbb/concurrent_vector.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace rtsim::detail {
+
+uint32_t levels_needed(uint64_t n, uint32_t max_leaf) {
+  if (n <= max_leaf) return 0;
+  uint64_t leaves = (n + max_leaf - 1) / max_leaf;
+  uint32_t levels = 0;
+  while ((uint64_t(1) << levels) < leaves) ++levels;
+  return levels;
+}
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+// A reference packs its triangle index, the OSAH visibility flag and how often it
+// was split (SBVH) into one word, so that a reference stays 32 bytes (binning is
+// memory-bound).
+constexpr uint32_t kPrimMask = 0x0FFF'FFFFu;
+constexpr uint32_t kSplitShift = 28;
+constexpr uint32_t kSplitMask = 0x7000'0000u;
+constexpr uint32_t kVisibleBit = 0x8000'0000u;
+constexpr uint32_t kMaxBins = 256;
+// Nodes with more references than this bin in fixed-size chunks in parallel and
+// recurse into their children in parallel.
+constexpr uint32_t kChunk = 16384;
+constexpr uint32_t kParallelRecursion = 4096;
+
+struct Ref {
+  vec3 lo;
+  uint32_t tag;
+  vec3 hi;
+  float weight;
+  uint32_t prim() const { return tag & kPrimMask; }
+  uint32_t visible() const { return (tag & kVisibleBit) ? 1u : 0u; }
+  uint32_t splits() const { return (tag & kSplitMask) >> kSplitShift; }
+  // Twice the box centre: binning needs only an affine map of it.
+  float centroid2(int axis) const { return lo[axis] + hi[axis]; }
+  Aabb box() const { return Aabb{lo, hi}; }
+};
+static_assert(sizeof(Ref) == 32, "a reference should stay 32 bytes");
+
+// Strict total order on references along an axis, for sorts that must not depend
+// on the implementation's handling of ties.
+struct RefLess {
+  int axis;
+  bool operator()(const Ref& a, const Ref& b) const {
+    const float ca = a.centroid2(axis), cb = b.centroid2(axis);
+    if (ca != cb) return ca < cb;
+    if (a.prim() != b.prim()) return a.prim() < b.prim();
+    for (int k = 0; k < 3; ++k) {
+      if (a.lo[k] != b.lo[k]) return a.lo[k] < b.lo[k];
+      if (a.hi[k] != b.hi[k]) return a.hi[k] < b.hi[k];
+    }
+    return false;
+  }
+};
+
+struct Bin {
+  Aabb box;
+  float weight = 0;
+  uint32_t count = 0;
+  uint32_t visible = 0;
+  void add(const Ref& r) {
+    box.extend(r.box());
+    weight += r.weight;
+    count += 1;
+    visible += r.visible();
+  }
+  void add(const Bin& b) {
+    box.extend(b.box);
+    weight += b.weight;
+    count += b.count;
+    visible += b.visible;
+  }
+};
+
+struct NodeInfo {
+  Aabb box;
+  Aabb centroids;  // of centroid2 (twice the centre)
+  float weight = 0;
+  uint32_t visible = 0;
+  uint32_t count = 0;
+  void add(const Ref& r) {
+    box.extend(r.box());
+    centroids.extend(r.lo + r.hi);
+    weight += r.weight;
+    visible += r.visible();
+    count += 1;
+  }
+  void add(const NodeInfo& o) {
+    box.extend(o.box);
+    centroids.extend(o.centroids);
+    weight += o.weight;
+    visible += o.visible;
+    count += o.count;
+  }
+};
+
+struct Split {
+  enum class Kind { None, Object, Sweep, Spatial } kind = Kind::None;
+  int axis = -1;
+  uint32_t bin = 0;   // object/spatial: split after this bin; sweep: left count - 1
+  float position = 0;  // spatial: the split plane
+  float cost = kInf;
+  uint32_t left_count = 0, right_count = 0;  // spatial: upper bounds before unsplitting
+  Aabb left_box, right_box;
+  float left_weight = 0, right_weight = 0;
+  bool valid() const { return kind != Kind::None; }
+};
+
+// Maps a reference's centroid to one of `bins` bins along an axis.
+struct CentroidBinning {
+  vec3 origin{0.0f};
+  vec3 scale{0.0f};  // 0 on axes without extent
+  uint32_t bins = 0;
+  CentroidBinning(const Aabb& centroids, uint32_t bin_count) : origin(centroids.lo), bins(bin_count) {
+    for (int a = 0; a < 3; ++a) {
+      const float extent = centroids.hi[a] - centroids.lo[a];
+      // (1 - 1e-6) keeps the largest centroid inside the last bin.
+      const float s = extent > 0 ? float(bins) * (1.0f - 1e-6f) / extent : 0.0f;
+      scale[a] = std::isfinite(s) ? s : 0.0f;
+    }
+  }
+  bool usable(int axis) const { return scale[axis] > 0; }
+  uint32_t index(const Ref& r, int axis) const {
+    const float f = (r.centroid2(axis) - origin[axis]) * scale[axis];
+    if (!(f > 0.0f)) return 0;
+    if (f >= float(bins - 1)) return bins - 1;
+    return uint32_t(f);
+  }
+};
+
+// Maps a coordinate to a spatial bin of the node box along an axis.
+struct SpatialBinning {
+  float origin = 0, extent = 0, scale = 0;
+  uint32_t bins = 0;
+  SpatialBinning(float lo, float hi, uint32_t bin_count) : origin(lo), extent(hi - lo), bins(bin_count) {
+    const float s = extent > 0 ? float(bins) * (1.0f - 1e-6f) / extent : 0.0f;
+    scale = std::isfinite(s) ? s : 0.0f;
+  }
+  uint32_t index(float x) const {
+    const float f = (x - origin) * scale;
+    if (!(f > 0.0f)) return 0;
+    if (f >= float(bins - 1)) return bins - 1;
+    return uint32_t(f);
+  }
+  float plane(uint32_t after_bin) const { return origin + extent * float(after_bin + 1) / float(bins); }
+};
+
+struct TempNode {
+  Aabb box;
+  uint32_t left = ~0u, right = ~0u;  // ~0u: leaf
+  uint32_t begin = 0, count = 0;
+};
+
+class Builder {
+ public:
+  Builder(const Scene& scene, const CoreConfig& config) : scene_(scene), config_(config) {}
+
+  Bvh run(CoreStats* stats);
+
+ private:
+  uint32_t build(uint32_t begin, uint32_t count, uint32_t capacity, uint32_t depth);
+  NodeInfo node_info(uint32_t begin, uint32_t count) const;
+  float split_cost(float area_left, float weight_left, uint32_t visible_left, float area_right,
+                   float weight_right, uint32_t visible_right, float node_area,
+                   const NodeInfo& info) const;
+  Split find_object_split(uint32_t begin, uint32_t count, const NodeInfo& info) const;
+  Split find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info) const;
+  Split find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info) const;
+  uint32_t partition_object(const Split& split, uint32_t begin, uint32_t count,
+                            const NodeInfo& info);
+  bool partition_spatial(const Split& split, uint32_t begin, uint32_t count, uint32_t capacity,
+                         const NodeInfo& info, uint32_t* left_count, uint32_t* right_count,
+                         uint32_t* left_capacity);
+  uint32_t partition_median(uint32_t begin, uint32_t count, const NodeInfo& info);
+  std::pair<Aabb, Aabb> split_reference(const Ref& ref, int axis, float position) const;
+  bool depth_allows(uint32_t depth, uint64_t left, uint64_t right) const {
+    return depth + 1 + levels_needed(left, config_.max_leaf_size) <= config_.max_depth &&
+           depth + 1 + levels_needed(right, config_.max_leaf_size) <= config_.max_depth;
+  }
+
+  const Scene& scene_;
+  const CoreConfig& config_;
+  std::vector<Ref> refs_;
+  tbb::concurrent_vector<TempNode> nodes_;
+  float root_area_ = 0;
+  std::atomic<uint64_t> spatial_splits_{0}, forced_splits_{0}, median_splits_{0};
+};
+
+NodeInfo Builder::node_info(uint32_t begin, uint32_t count) const {
+  if (count < 2 * kChunk) {
+    NodeInfo info;
+    for (uint32_t i = begin; i < begin + count; ++i) info.add(refs_[i]);
+    return info;
+  }
+  // Fixed chunks reduced in chunk order: the float weight sum does not depend on
+  // the thread count.
+  const uint32_t chunks = (count + kChunk - 1) / kChunk;
+  std::vector<NodeInfo> partial(chunks);
+  tbb::parallel_for(uint32_t(0), chunks, [&](uint32_t c) {
+    const uint32_t lo = begin + c * kChunk, hi = std::min(begin + count, lo + kChunk);
+    for (uint32_t i = lo; i < hi; ++i) partial[c].add(refs_[i]);
+  });
+  NodeInfo info;
+  for (const NodeInfo& p : partial) info.add(p);
+  return info;
+}
+
+float Builder::split_cost(float area_left, float weight_left, uint32_t visible_left,
+                          float area_right, float weight_right, uint32_t visible_right,
+                          float node_area, const NodeInfo& info) const {
+  float p_left = 1.0f, p_right = 1.0f;
+  // A node box without area (all vertices on a line or a point) gives no
+  // probability information: both children count as certainly visited.
+  if (node_area > 0) {
+    p_left = area_left / node_area;
+    p_right = area_right / node_area;
+  }
+  // OSAH: only nodes holding both visible and hidden triangles mix in visibility.
+  if (config_.visible && info.visible > 0 && info.visible < info.count) {
+    const float w = config_.osah_w;
+    const float v = float(info.visible);
+    p_left = w * float(visible_left) / v + (1.0f - w) * p_left;
+    p_right = w * float(visible_right) / v + (1.0f - w) * p_right;
+  }
+  return 2.0f * config_.t1 + config_.t2 * (p_left * weight_left + p_right * weight_right);
+}
+
+Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo& info) const {
+  const uint32_t bins = config_.bins;
+  const CentroidBinning binning(info.centroids, bins);
+  Split best;
+  if (!binning.usable(0) && !binning.usable(1) && !binning.usable(2)) return best;
+
+  std::array<Bin, 3 * kMaxBins> bin_store;
+  Bin* b = bin_store.data();
+  auto bin_range = [&](Bin* out, uint32_t lo, uint32_t hi) {
+    for (uint32_t i = lo; i < hi; ++i) {
+      const Ref& r = refs_[i];
+      for (int a = 0; a < 3; ++a)
+        if (binning.usable(a)) out[a * bins + binning.index(r, a)].add(r);
+    }
+  };
+  if (count < 2 * kChunk) {
+    bin_range(b, begin, begin + count);
+  } else {
+    const uint32_t chunks = (count + kChunk - 1) / kChunk;
+    std::vector<Bin> partial(size_t(chunks) * 3 * bins);
+    tbb::parallel_for(uint32_t(0), chunks, [&](uint32_t c) {
+      const uint32_t lo = begin + c * kChunk, hi = std::min(begin + count, lo + kChunk);
+      bin_range(&partial[size_t(c) * 3 * bins], lo, hi);
+    });
+    for (uint32_t c = 0; c < chunks; ++c)
+      for (uint32_t k = 0; k < 3 * bins; ++k) b[k].add(partial[size_t(c) * 3 * bins + k]);
+  }
+
+  const float node_area = info.box.area();
+  std::array<float, kMaxBins> right_area, right_weight;
+  std::array<uint32_t, kMaxBins> right_count, right_visible;
+  for (int a = 0; a < 3; ++a) {
+    if (!binning.usable(a)) continue;
+    const Bin* axis_bins = b + a * bins;
+    Bin acc;
+    for (uint32_t i = bins - 1; i > 0; --i) {
+      acc.add(axis_bins[i]);
+      right_area[i] = acc.box.area();
+      right_weight[i] = acc.weight;
+      right_count[i] = acc.count;
+      right_visible[i] = acc.visible;
+    }
+    Bin left;
+    for (uint32_t i = 0; i + 1 < bins; ++i) {
+      left.add(axis_bins[i]);
+      if (left.count == 0 || right_count[i + 1] == 0) continue;
+      const float cost = split_cost(left.box.area(), left.weight, left.visible, right_area[i + 1],
+                                    right_weight[i + 1], right_visible[i + 1], node_area, info);
+      if (cost < best.cost) {
+        best.kind = Split::Kind::Object;
+        best.axis = a;
+        best.bin = i;
+        best.cost = cost;
+        best.left_count = left.count;
+        best.right_count = right_count[i + 1];
+        best.left_box = left.box;
+      }
+    }
+  }
+  if (best.valid()) {
+    // The right box is needed by the SBVH overlap test only; recompute it here.
+    Aabb right;
+    for (uint32_t i = best.bin + 1; i < bins; ++i) right.extend(b[best.axis * bins + i].box);
+    best.right_box = right;
+  }
+  return best;
+}
+
+Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info) const {
+  Split best;
+  if (count < 2) return best;
+  const float node_area = info.box.area();
+  std::vector<Ref> sorted(refs_.begin() + begin, refs_.begin() + begin + count);
+  std::vector<float> right_area(count), right_weight(count);
+  std::vector<uint32_t> right_visible(count);
+  for (int a = 0; a < 3; ++a) {
+    if (!(info.centroids.hi[a] > info.centroids.lo[a])) continue;
+    std::sort(sorted.begin(), sorted.end(), RefLess{a});
+    Bin acc;
+    for (uint32_t i = count - 1; i > 0; --i) {
+      acc.add(sorted[i]);
+      right_area[i] = acc.box.area();
+      right_weight[i] = acc.weight;
+      right_visible[i] = acc.visible;
+    }
+    Bin left;
+    for (uint32_t i = 0; i + 1 < count; ++i) {
+      left.add(sorted[i]);
+      const float cost = split_cost(left.box.area(), left.weight, left.visible, right_area[i + 1],
+                                    right_weight[i + 1], right_visible[i + 1], node_area, info);
+      if (cost < best.cost) {
+        best.kind = Split::Kind::Sweep;
+        best.axis = a;
+        best.bin = i;
+        best.cost = cost;
+        best.left_count = i + 1;
+        best.right_count = count - i - 1;
+        best.left_box = left.box;
+      }
+    }
+  }
+  if (best.valid()) {
+    std::sort(sorted.begin(), sorted.end(), RefLess{best.axis});
+    Aabb right;
+    for (uint32_t i = best.bin + 1; i < count; ++i) right.extend(sorted[i].box());
+    best.right_box = right;
+  }
+  return best;
+}
+
+// Clips the real triangle (not its box) at a plane and bounds each side within the
+// reference's current box.
+std::pair<Aabb, Aabb> Builder::split_reference(const Ref& ref, int axis, float position) const {
+  const uint32_t tri = ref.prim();
+  const vec3 v[3] = {scene_.vertex(tri, 0), scene_.vertex(tri, 1), scene_.vertex(tri, 2)};
+  Aabb left, right;
+  for (int e = 0; e < 3; ++e) {
+    const vec3& a = v[e];
+    const vec3& b = v[(e + 1) % 3];
+    if (a[axis] <= position) left.extend(a);
+    if (a[axis] >= position) right.extend(a);
+    if ((a[axis] < position && position < b[axis]) || (b[axis] < position && position < a[axis])) {
+      const float t = (position - a[axis]) / (b[axis] - a[axis]);
+      vec3 p = a + t * (b - a);
+      p = glm::clamp(p, glm::min(a, b), glm::max(a, b));
+      p[axis] = position;
+      left.extend(p);
+      right.extend(p);
+    }
+  }
+  const Aabb box = ref.box();
+  left = Aabb::intersection(left, box);
+  right = Aabb::intersection(right, box);
+  left.hi[axis] = std::min(left.hi[axis], position);
+  right.lo[axis] = std::max(right.lo[axis], position);
+  return {left, right};
+}
+
+Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info) const {
+  const uint32_t bins = std::min<uint32_t>(config_.bins == 0 ? 32 : config_.bins, kMaxBins);
+  const float node_area = info.box.area();
+  Split best;
+  struct SpatialBin {
+    Aabb box;
+    float enter_weight = 0, exit_weight = 0;
+    uint32_t enter = 0, exit = 0, enter_visible = 0, exit_visible = 0;
+  };
+  std::vector<SpatialBin> b(bins);
+  std::vector<float> right_area(bins), right_weight(bins);
+  std::vector<uint32_t> right_count(bins), right_visible(bins);
+  for (int a = 0; a < 3; ++a) {
+    const SpatialBinning binning(info.box.lo[a], info.box.hi[a], bins);
+    if (!(binning.scale > 0)) continue;
+    std::fill(b.begin(), b.end(), SpatialBin{});
+    for (uint32_t i = begin; i < begin + count; ++i) {
+      const Ref& r = refs_[i];
+      const uint32_t b0 = binning.index(r.lo[a]), b1 = binning.index(r.hi[a]);
+      b[b0].enter += 1;
+      b[b0].enter_weight += r.weight;
+      b[b0].enter_visible += r.visible();
+      b[b1].exit += 1;
+      b[b1].exit_weight += r.weight;
+      b[b1].exit_visible += r.visible();
+      if (b0 == b1 || r.splits() >= config_.split_limit) {
+        // Not split: the whole box counts in every bin it spans (conservative).
+        for (uint32_t k = b0; k <= b1; ++k) b[k].box.extend(r.box());
+        continue;
+      }
+      Ref rest = r;
+      for (uint32_t k = b0; k < b1; ++k) {
+        const auto [left, right] = split_reference(rest, a, binning.plane(k));
+        if (!left.empty()) b[k].box.extend(left);
+        if (right.empty()) break;
+        rest.lo = right.lo;
+        rest.hi = right.hi;
+        if (k + 1 == b1) b[b1].box.extend(right);
+      }
+    }
+    SpatialBin acc;
+    for (uint32_t i = bins - 1; i > 0; --i) {
+      acc.box.extend(b[i].box);
+      acc.exit += b[i].exit;
+      acc.exit_weight += b[i].exit_weight;
+      acc.exit_visible += b[i].exit_visible;
+      right_area[i] = acc.box.area();
+      right_weight[i] = acc.exit_weight;
+      right_count[i] = acc.exit;
+      right_visible[i] = acc.exit_visible;
+    }
+    SpatialBin left;
+    for (uint32_t i = 0; i + 1 < bins; ++i) {
+      left.box.extend(b[i].box);
+      left.enter += b[i].enter;
+      left.enter_weight += b[i].enter_weight;
+      left.enter_visible += b[i].enter_visible;
+      if (left.enter == 0 || right_count[i + 1] == 0) continue;
+      const float cost =
+          split_cost(left.box.area(), left.enter_weight, left.enter_visible, right_area[i + 1],
+                     right_weight[i + 1], right_visible[i + 1], node_area, info);
+      if (cost < best.cost) {
+        best.kind = Split::Kind::Spatial;
+        best.axis = a;
+        best.bin = i;
+        best.position = binning.plane(i);
+        best.cost = cost;
+        best.left_count = left.enter;
+        best.right_count = right_count[i + 1];
+        best.left_box = left.box;
+        best.left_weight = left.enter_weight;
+        best.right_weight = right_weight[i + 1];
+      }
+    }
+    if (best.kind == Split::Kind::Spatial && best.axis == a) {
+      Aabb right;
+      for (uint32_t i = best.bin + 1; i < bins; ++i) right.extend(b[i].box);
+      best.right_box = right;
+    }
+  }
+  return best;
+}
+
+uint32_t Builder::partition_object(const Split& split, uint32_t begin, uint32_t count,
+                                   const NodeInfo& info) {
+  Ref* first = refs_.data() + begin;
+  Ref* last = first + count;
+  Ref* middle;
+  if (split.kind == Split::Kind::Sweep) {
+    std::sort(first, last, RefLess{split.axis});
+    middle = first + split.bin + 1;
+  } else {
+    const CentroidBinning binning(info.centroids, config_.bins);
+    middle = std::partition(first, last, [&](const Ref& r) {
+      return binning.index(r, split.axis) <= split.bin;
+    });
+  }
+  return uint32_t(middle - first);
+}
+
+// Object median along the widest centroid axis; with all centroids equal, the
+// index median of the (deterministic) current order.
+uint32_t Builder::partition_median(uint32_t begin, uint32_t count, const NodeInfo& info) {
+  const vec3 extent = info.centroids.hi - info.centroids.lo;
+  int axis = 0;
+  if (extent.y > extent[axis]) axis = 1;
+  if (extent.z > extent[axis]) axis = 2;
+  const uint32_t half = count / 2;
+  if (extent[axis] > 0) {
+    Ref* first = refs_.data() + begin;
+    std::nth_element(first, first + half, first + count, RefLess{axis});
+  }
+  return half;
+}
+
+bool Builder::partition_spatial(const Split& split, uint32_t begin, uint32_t count,
+                                uint32_t capacity, const NodeInfo& info, uint32_t* left_count,
+                                uint32_t* right_count, uint32_t* left_capacity) {
+  const uint32_t bins = std::min<uint32_t>(config_.bins == 0 ? 32 : config_.bins, kMaxBins);
+  const int a = split.axis;
+  const SpatialBinning binning(info.box.lo[a], info.box.hi[a], bins);
+  std::vector<Ref> left, right;
+  left.reserve(split.left_count);
+  right.reserve(split.right_count);
+  Aabb left_box = split.left_box, right_box = split.right_box;
+  float left_weight = split.left_weight, right_weight = split.right_weight;
+  for (uint32_t i = begin; i < begin + count; ++i) {
+    const Ref& r = refs_[i];
+    const uint32_t b0 = binning.index(r.lo[a]), b1 = binning.index(r.hi[a]);
+    if (b1 <= split.bin) {
+      left.push_back(r);
+      continue;
+    }
+    if (b0 > split.bin) {
+      right.push_back(r);
+      continue;
+    }
+    // Reference unsplitting (Stich et al. 2009): keep the reference whole on one
+    // side when that is cheaper than duplicating it.
+    Aabb left_with = left_box, right_with = right_box;
+    left_with.extend(r.box());
+    right_with.extend(r.box());
+    const float cost_whole_left =
+        left_with.area() * left_weight + right_box.area() * (right_weight - r.weight);
+    const float cost_whole_right =
+        left_box.area() * (left_weight - r.weight) + right_with.area() * right_weight;
+    const float cost_split = left_box.area() * left_weight + right_box.area() * right_weight;
+    const bool may_split = r.splits() < config_.split_limit;
+    if (may_split && cost_split <= cost_whole_left && cost_split <= cost_whole_right) {
+      const auto [lb, rb] = split_reference(r, a, split.position);
+      if (lb.empty()) {
+        right.push_back(r);
+      } else if (rb.empty()) {
+        left.push_back(r);
+      } else {
+        Ref l = r, rr = r;
+        const uint32_t tag = (r.tag & ~kSplitMask) | ((r.splits() + 1) << kSplitShift);
+        l.lo = lb.lo, l.hi = lb.hi, l.tag = tag;
+        rr.lo = rb.lo, rr.hi = rb.hi, rr.tag = tag;
+        left.push_back(l);
+        right.push_back(rr);
+      }
+    } else if (cost_whole_left <= cost_whole_right) {
+      left.push_back(r);
+      left_box = left_with;
+      right_weight -= r.weight;
+    } else {
+      right.push_back(r);
+      right_box = right_with;
+      left_weight -= r.weight;
+    }
+  }
+  // Never an empty child; never over the node's share of the reference budget.
+  if (left.empty() || right.empty() || left.size() + right.size() > capacity) return false;
+  const uint32_t nl = uint32_t(left.size()), nr = uint32_t(right.size());
+  const uint32_t spare = capacity - nl - nr;
+  const uint32_t cap_left = nl + uint32_t(uint64_t(spare) * nl / (nl + nr));
+  std::copy(left.begin(), left.end(), refs_.begin() + begin);
+  std::copy(right.begin(), right.end(), refs_.begin() + begin + cap_left);
+  *left_count = nl;
+  *right_count = nr;
+  *left_capacity = cap_left;
+  return true;
+}
+
+uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint32_t depth) {
+  const NodeInfo info = node_info(begin, count);
+  const uint32_t index = uint32_t(nodes_.emplace_back() - nodes_.begin());
+  nodes_[index].box = info.box;
+
+  auto make_leaf = [&] {
+    nodes_[index].begin = begin;
+    nodes_[index].count = count;
+    return index;
+  };
+  if (count == 1 || depth >= config_.max_depth) return make_leaf();
+
+  Split best = config_.bins == 0 ? find_sweep_split(begin, count, info)
+                                 : find_object_split(begin, count, info);
+  if (config_.spatial_splits && best.valid() && capacity > count) {
+    const Aabb overlap = Aabb::intersection(best.left_box, best.right_box);
+    if (!overlap.empty() && overlap.area() >= config_.sbvh_alpha * root_area_) {
+      const Split spatial = find_spatial_split(begin, count, info);
+      if (spatial.valid() && spatial.cost < best.cost &&
+          uint64_t(spatial.left_count) + spatial.right_count <= capacity)
+        best = spatial;
+    }
+  }
+  const float leaf_cost = config_.t2 * info.weight;
+  const bool fits_leaf = count <= config_.max_leaf_size;
+  if (fits_leaf && (!best.valid() || leaf_cost <= best.cost)) return make_leaf();
+  if (!fits_leaf && best.valid() && leaf_cost <= best.cost) forced_splits_.fetch_add(1);
+
+  uint32_t left_count = 0, right_count = 0, left_capacity = 0;
+  bool partitioned = false;
+  if (best.valid() && depth_allows(depth, best.left_count, best.right_count)) {
+    if (best.kind == Split::Kind::Spatial) {
+      partitioned = partition_spatial(best, begin, count, capacity, info, &left_count,
+                                      &right_count, &left_capacity);
+      if (partitioned) spatial_splits_.fetch_add(1);
+    } else {
+      left_count = partition_object(best, begin, count, info);
+      right_count = count - left_count;
+      partitioned = left_count > 0 && right_count > 0;
+    }
+  }
+  if (!partitioned) {
+    // No usable SAH split (all centroids in one bin, or the depth limit is near):
+    // a balanced split keeps both the leaf-size and the depth limits.
+    median_splits_.fetch_add(1);
+    left_count = partition_median(begin, count, info);
+    right_count = count - left_count;
+  }
+  if (left_capacity == 0) {
+    // Share the node's spare references (SBVH budget) in proportion to the counts.
+    const uint32_t spare = capacity - left_count - right_count;
+    left_capacity = left_count + uint32_t(uint64_t(spare) * left_count / count);
+    if (left_capacity > left_count) {
+      Ref* first = refs_.data() + begin;
+      std::move_backward(first + left_count, first + count, first + left_capacity + right_count);
+    }
+  }
+  const uint32_t right_begin = begin + left_capacity;
+  const uint32_t right_capacity = capacity - left_capacity;
+  uint32_t left_node = 0, right_node = 0;
+  if (count >= kParallelRecursion) {
+    tbb::parallel_invoke(
+        [&] { left_node = build(begin, left_count, left_capacity, depth + 1); },
+        [&] { right_node = build(right_begin, right_count, right_capacity, depth + 1); });
+  } else {
+    left_node = build(begin, left_count, left_capacity, depth + 1);
+    right_node = build(right_begin, right_count, right_capacity, depth + 1);
+  }
+  nodes_[index].left = left_node;
+  nodes_[index].right = right_node;
+  return index;
+}
+
+Bvh Builder::run(CoreStats* stats) {
+  const size_t n = scene_.triangle_count();
+  if (n == 0) throw InputError("scene '" + scene_.name + "'", "has no triangles to build a BVH over");
+  if (n > kPrimMask) throw InputError("scene '" + scene_.name + "'", "too many triangles (max 2^28)");
+  if (config_.max_leaf_size == 0) throw InputError("max_leaf_size", "must be at least 1");
+  if (config_.bins == 1 || config_.bins > kMaxBins)
+    throw InputError("bins", "must be 0 (full sweep) or 2.." + std::to_string(kMaxBins));
+  if (levels_needed(n, config_.max_leaf_size) > config_.max_depth)
+    throw InputError("max_depth", "too small for " + std::to_string(n) +
+                                      " triangles with max_leaf_size " +
+                                      std::to_string(config_.max_leaf_size));
+  if (config_.weights && config_.weights->size() != n)
+    throw InputError("weights", "one weight per triangle expected");
+  if (config_.visible && config_.visible->size() != n)
+    throw InputError("visibility", "one flag per triangle expected");
+
+  const uint64_t capacity64 =
+      config_.spatial_splits
+          ? std::max<uint64_t>(n, uint64_t(std::floor(double(config_.reference_budget) * double(n))))
+          : n;
+  const uint32_t capacity = uint32_t(std::min<uint64_t>(capacity64, kPrimMask));
+  refs_.resize(capacity);
+  tbb::parallel_for(size_t(0), n, [&](size_t i) {
+    const Aabb box = scene_.triangle_bounds(uint32_t(i));
+    Ref& r = refs_[i];
+    r.lo = box.lo;
+    r.hi = box.hi;
+    r.tag = uint32_t(i) | (config_.visible && (*config_.visible)[i] ? kVisibleBit : 0u);
+    r.weight = config_.weights ? (*config_.weights)[i] : 1.0f;
+  });
+  nodes_.reserve(2 * n / std::max<uint32_t>(1, config_.max_leaf_size) + 16);
+  root_area_ = scene_.bounds().area();
+  build(0, uint32_t(n), capacity, 0);
+
+  // Depth-first flatten: node indices and prim_ref order depend only on the tree.
+  Bvh bvh;
+  bvh.nodes.reserve(nodes_.size());
+  bvh.prim_refs.reserve(n);
+  bvh.nodes.push_back(BvhNode{nodes_[0].box, 0, 0});
+  std::vector<std::pair<uint32_t, uint32_t>> stack{{0u, 0u}};  // (temp node, final node)
+  std::vector<uint32_t> leaf_prims;
+  while (!stack.empty()) {
+    const auto [temp, final_index] = stack.back();
+    stack.pop_back();
+    const TempNode& t = nodes_[temp];
+    if (t.left == ~0u) {
+      leaf_prims.clear();
+      for (uint32_t i = t.begin; i < t.begin + t.count; ++i) leaf_prims.push_back(refs_[i].prim());
+      if (config_.spatial_splits) {
+        // Two pieces of one split triangle can meet again in one leaf: test it once.
+        std::sort(leaf_prims.begin(), leaf_prims.end());
+        leaf_prims.erase(std::unique(leaf_prims.begin(), leaf_prims.end()), leaf_prims.end());
+      }
+      bvh.nodes[final_index].index = uint32_t(bvh.prim_refs.size());
+      bvh.nodes[final_index].count = uint32_t(leaf_prims.size());
+      bvh.prim_refs.insert(bvh.prim_refs.end(), leaf_prims.begin(), leaf_prims.end());
+      continue;
+    }
+    const uint32_t first_child = uint32_t(bvh.nodes.size());
+    bvh.nodes[final_index].index = first_child;
+    bvh.nodes[final_index].count = 0;
+    bvh.nodes.push_back(BvhNode{nodes_[t.left].box, 0, 0});
+    bvh.nodes.push_back(BvhNode{nodes_[t.right].box, 0, 0});
+    stack.push_back({t.right, first_child + 1});
+    stack.push_back({t.left, first_child});
+  }
+  if (stats) {
+    stats->references = bvh.prim_refs.size();
+    stats->spatial_splits = spatial_splits_.load();
+    stats->forced_splits = forced_splits_.load();
+    stats->median_splits = median_splits_.load();
+    stats->working_bytes = refs_.capacity() * sizeof(Ref) + nodes_.size() * sizeof(TempNode) +
+                           bvh.nodes.capacity() * sizeof(BvhNode) +
+                           bvh.prim_refs.capacity() * sizeof(uint32_t);
+  }
+  return bvh;
+}
+
+}  // namespace
+
+Bvh build_weighted_sah(const Scene& scene, const CoreConfig& config, CoreStats* stats) {
+  Builder builder(scene, config);
+  if (config.threads == 0) return builder.run(stats);
+  tbb::task_arena arena{int(config.threads)};
+  Bvh result;
+  arena.execute([&] { result = builder.run(stats); });
+  return result;
+}
+
+}  // namespace rtsim::detail

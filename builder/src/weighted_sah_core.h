@@ -1,0 +1,57 @@
+#pragma once
+// The one top-down weighted-SAH builder. SAH, OSAH, AO-BVH and SBVH are policies
+// over it (see build.cpp):
+//   - per-primitive weight w_i: the "triangle count" of a node is the sum of its
+//     weights (SAH: all 1; AO-BVH: occlusion-derived weights, normalised to mean 1);
+//   - child-probability rule: P_i = A_i / A (surface area), or in OSAH's mixed nodes
+//     (both visible and hidden triangles) P_i = w * V_i / V + (1 - w) * A_i / A;
+//   - optional spatial splits (SBVH) with reference unsplitting and a reference budget.
+// Split cost: 2*T1 + T2 * (P_L * W_L + P_R * W_R); leaf cost: T2 * W.
+//
+// Determinism: every reduction runs over fixed chunks in a fixed order, partitions
+// are sequential per node, and node indices are assigned by a depth-first flatten
+// after the (parallel) recursion. The tree is therefore bit-identical for any
+// thread count.
+#include <rtsim/builder/bvh.h>
+#include <rtsim/workloads/scene.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace rtsim::detail {
+
+struct CoreConfig {
+  float t1 = 1.0f;
+  float t2 = 1.0f;
+  uint32_t max_leaf_size = 4;
+  uint32_t max_depth = 64;
+  uint32_t bins = 32;  // 0 = full sweep over sorted centroids
+  uint32_t threads = 0;
+  // Policy: per-triangle weights (sanitised, > 0 and finite), nullptr = all 1.
+  const std::vector<float>* weights = nullptr;
+  // Policy: per-triangle visibility (OSAH), nullptr = no visibility rule.
+  const std::vector<uint8_t>* visible = nullptr;
+  float osah_w = 0.9f;
+  // Policy: spatial splits (SBVH).
+  bool spatial_splits = false;
+  float sbvh_alpha = 1e-5f;
+  float reference_budget = 1.3f;     // total references <= budget * N
+  uint32_t split_limit = 7;          // times one reference may be split again (max 7)
+};
+
+struct CoreStats {
+  uint64_t references = 0;      // prim_refs in the final tree
+  uint64_t spatial_splits = 0;  // nodes split spatially
+  uint64_t forced_splits = 0;   // nodes over max_leaf_size split although a leaf was cheaper
+  uint64_t median_splits = 0;   // object/index-median fallbacks (no usable SAH split or depth limit)
+  uint64_t working_bytes = 0;   // peak bytes of the builder's own arrays
+};
+
+// Throws InputError for an empty scene or parameters that cannot be met.
+Bvh build_weighted_sah(const Scene& scene, const CoreConfig& config, CoreStats* stats = nullptr);
+
+// Depth levels needed below a node of n references so that leaves hold at most
+// max_leaf references (balanced splits).
+uint32_t levels_needed(uint64_t n, uint32_t max_leaf);
+
+}  // namespace rtsim::detail
