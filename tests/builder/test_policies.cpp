@@ -1,0 +1,189 @@
+// The policies over the weighted-SAH core (osah, aobvh, sbvh) and the separate
+// builders (median, embree, embree-sbvh): validity, equal-weights equivalence,
+// thread-count determinism and the hard cases.
+#include <rtsim/builder/build.h>
+#include <rtsim/builder/occlusion.h>
+#include <rtsim/builder/validate_bvh.h>
+#include <rtsim/workloads/procedural.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "builder/scene_fixtures.h"
+
+namespace rtsim {
+namespace {
+
+using test::same_tree;
+
+void expect_valid(const Bvh& bvh, const Scene& scene, const BuildParams& params) {
+  const BvhValidation v = validate_bvh(bvh, scene, limits_for(params));
+  EXPECT_TRUE(v.ok()) << params.builder << " on " << scene.name << ":\n" << v.summary();
+}
+
+Bvh build(const Scene& scene, const std::string& builder, BuildReport* report = nullptr) {
+  BuildParams p;
+  p.builder = builder;
+  return build_bvh(scene, p, report);
+}
+
+TEST(Policies, EveryBuilderGivesValidTreesOnCornellAndSoup) {
+  const Scene scenes[] = {make_procedural_scene("cornell"), test::triangle_soup(5000, 3, 0.2f)};
+  for (const Scene& scene : scenes)
+    for (const std::string& builder : builder_names()) {
+      BuildParams p;
+      p.builder = builder;
+      BuildReport report;
+      const Bvh bvh = build_bvh(scene, p, &report);
+      expect_valid(bvh, scene, p);
+      EXPECT_EQ(report.builder, builder);
+      EXPECT_GE(report.references, scene.triangle_count()) << builder;
+    }
+}
+
+TEST(Policies, HardCasesGiveValidTreesForEveryBuilder) {
+  const Scene scenes[] = {test::one_centroid_scene(64), test::coplanar_scene(300),
+                          test::one_point_scene(37), test::zero_area_scene(300),
+                          test::triangle_soup(1)};
+  for (const Scene& scene : scenes)
+    for (const std::string& builder : builder_names()) {
+      BuildParams p;
+      p.builder = builder;
+      expect_valid(build_bvh(scene, p), scene, p);
+    }
+}
+
+TEST(Policies, EqualOcclusionValuesGiveExactlyTheSahTree) {
+  const Scene scene = test::triangle_soup(20000, 9, 0.1f);
+  const Bvh sah = build(scene, "sah");
+  const size_t n = scene.triangle_count();
+  // All equal (any value, including all 0 and all 1), and all NaN (sanitised to 1).
+  for (float value : {0.0f, 0.37f, 1.0f, std::numeric_limits<float>::quiet_NaN()}) {
+    for (float floor : {0.0f, 0.05f}) {
+      BuildParams p;
+      p.builder = "aobvh";
+      p.ao_weight_floor = floor;
+      p.occlusion_values.assign(n, value);
+      BuildReport report;
+      const Bvh ao = build_bvh(scene, p, &report);
+      EXPECT_TRUE(same_tree(ao, sah)) << "value " << value << " floor " << floor;
+      EXPECT_EQ(report.sanitised_values, std::isnan(value) ? n : 0u);
+    }
+  }
+}
+
+TEST(Policies, UniformVisibilityGivesExactlyTheSahTree) {
+  const Scene scene = test::triangle_soup(20000, 9, 0.1f);
+  const Bvh sah = build(scene, "sah");
+  for (uint8_t v : {uint8_t(0), uint8_t(1)}) {
+    BuildParams p;
+    p.builder = "osah";
+    p.visibility.assign(scene.triangle_count(), v);
+    EXPECT_TRUE(same_tree(build_bvh(scene, p), sah)) << "visibility " << int(v);
+  }
+}
+
+TEST(Policies, UnequalWeightsChangeTheTree) {
+  const Scene scene = test::triangle_soup(5000, 9, 0.1f);
+  BuildParams p;
+  p.builder = "aobvh";
+  p.occlusion_values.resize(scene.triangle_count());
+  for (size_t i = 0; i < p.occlusion_values.size(); ++i)
+    p.occlusion_values[i] = scene.triangle_bounds(uint32_t(i)).centre().x < 0.3f ? 0.0f : 1.0f;
+  const Bvh ao = build_bvh(scene, p);
+  expect_valid(ao, scene, p);
+  EXPECT_FALSE(same_tree(ao, build(scene, "sah")));
+}
+
+TEST(Policies, ZeroFloorWithOccludedHalfStaysWithinLimits) {
+  // Weight 0 regions cost nothing: without a floor the builder must still end.
+  const Scene scene = test::triangle_soup(4000, 4, 0.1f);
+  BuildParams p;
+  p.builder = "aobvh";
+  p.ao_weight_floor = 0.0f;
+  p.occlusion_values.assign(scene.triangle_count(), 0.0f);
+  for (size_t i = 0; i < p.occlusion_values.size(); i += 2) p.occlusion_values[i] = 1.0f;
+  expect_valid(build_bvh(scene, p), scene, p);
+}
+
+TEST(Policies, EstimatedOcclusionAndVisibilityOnCornell) {
+  const Scene scene = make_procedural_scene("cornell");
+  BuildReport ao_report, osah_report;
+  BuildParams p;
+  p.builder = "aobvh";
+  expect_valid(build_bvh(scene, p, &ao_report), scene, p);
+  EXPECT_GT(ao_report.mean_occlusion, 0.0);
+  EXPECT_LT(ao_report.mean_occlusion, 1.0);
+  EXPECT_EQ(ao_report.ao_rays, scene.triangle_count() * p.ao_rays);
+  ASSERT_EQ(ao_report.weights.size(), scene.triangle_count());
+  p.builder = "osah";
+  p.camera = scene.cameras.front().name;
+  expect_valid(build_bvh(scene, p, &osah_report), scene, p);
+  EXPECT_GT(osah_report.visible_triangles, 0u);
+  EXPECT_LE(osah_report.visible_triangles, scene.triangle_count());
+}
+
+TEST(Policies, OcclusionValuesAreDeterministicAndMeaningful) {
+  // A floor with a low ceiling above one half: triangles of the floor under the
+  // ceiling are occluded, the ceiling's top side is open.
+  Scene scene = test::empty_scene("sandwich");
+  for (int i = 0; i < 20; ++i) {
+    const float x = float(i) / 20.0f;
+    test::add_triangle(scene, vec3(x, 0, 0), vec3(x + 0.05f, 0, 0), vec3(x, 0, 0.05f) + vec3(0, 0, 0));
+  }
+  // Floor triangles face -y with this winding; flip so they face +y (towards the ceiling).
+  for (auto& t : scene.triangles) std::swap(t.y, t.z);
+  test::add_triangle(scene, vec3(-1, 0.01f, -1), vec3(0.5f, 0.01f, 2), vec3(0.5f, 0.01f, -1));
+  EmbreeScene embree(scene);
+  OcclusionParams params;
+  params.cutoff = 0.5f;
+  params.rays = 16;
+  const std::vector<float> a = estimate_occlusion(scene, embree, params);
+  const std::vector<float> b = estimate_occlusion(scene, embree, params);
+  EXPECT_EQ(a, b);
+  EXPECT_LT(a[0], 0.2f);   // under the ceiling at x ~ 0
+  EXPECT_GT(a[19], 0.9f);  // x ~ 0.95: open sky
+}
+
+TEST(Policies, CoreBuildersAreBitIdenticalForAnyThreadCount) {
+  const Scene scene = test::triangle_soup(40000, 5, 0.08f);
+  for (const char* builder : {"sbvh", "osah", "aobvh"}) {
+    BuildParams p;
+    p.builder = builder;
+    p.ao_rays = 4;
+    p.threads = 1;
+    const Bvh one = build_bvh(scene, p);
+    p.threads = 2;
+    const Bvh two = build_bvh(scene, p);
+    EXPECT_TRUE(same_tree(one, two)) << builder;
+  }
+}
+
+TEST(Policies, SbvhSplitsReferencesWithinTheBudget) {
+  // Long thin diagonal triangles overlap a lot: spatial splits pay off.
+  Scene scene = test::empty_scene("slivers");
+  for (uint32_t i = 0; i < 2000; ++i) {
+    KeyedRng rng(2, {i});
+    const vec3 a(rng.next_float(), rng.next_float(), rng.next_float());
+    const vec3 b(rng.next_float(), rng.next_float(), rng.next_float());
+    test::add_triangle(scene, a, b, a + vec3(0.01f, 0.0f, 0.0f));
+  }
+  BuildParams p;
+  p.builder = "sbvh";
+  BuildReport report;
+  const Bvh bvh = build_bvh(scene, p, &report);
+  expect_valid(bvh, scene, p);
+  EXPECT_GT(report.spatial_splits, 0u);
+  EXPECT_GT(bvh.prim_refs.size(), scene.triangle_count());
+  EXPECT_LE(double(bvh.prim_refs.size()), 1.3 * double(scene.triangle_count()));
+  // With budget 1 there is no room for any split reference.
+  p.sbvh_reference_budget = 1.0f;
+  const Bvh tight = build_bvh(scene, p);
+  expect_valid(tight, scene, p);
+  EXPECT_EQ(tight.prim_refs.size(), scene.triangle_count());
+}
+
+}  // namespace
+}  // namespace rtsim
