@@ -1,0 +1,35 @@
+#pragma once
+// Checks the functional core against Embree, ray by ray.
+#include <rtsim/model/core/functional_tracer.h>
+#include <rtsim/workloads/embree_scene.h>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rtsim {
+
+// Agreement rule. Closest-hit rays: both hit or both miss; when both hit, the
+// distances agree within `relative_bound` x max(t_core, t_embree) (plus
+// `absolute_bound` for hits at t ~ 0), and the primitive is the same unless the
+// two distances tie within that bound (two triangles meeting where the ray
+// lands). Any-hit rays: both occluded or both open.
+struct ValidationRule {
+  float relative_bound = 1e-4f;
+  float absolute_bound = 0.0f;  // world units; callers pass ~1e-6 x the scene diagonal
+};
+
+struct ValidationResult {
+  uint64_t rays = 0;
+  uint64_t disagreements = 0;
+  uint64_t hit_miss = 0, distance = 0, prim_tied = 0;  // prim_tied: different prim, distances tie (allowed)
+  std::array<uint64_t, kRayTypeCount> disagreements_by_type{};
+  std::vector<std::string> examples;  // the first few disagreements, one line each
+};
+
+ValidationResult validate_against_embree(const EmbreeScene& embree, const std::vector<Ray>& rays,
+                                         const std::vector<TraceResult>& results,
+                                         const ValidationRule& rule = {}, uint32_t threads = 0);
+
+}  // namespace rtsim

@@ -1,0 +1,78 @@
+#include <rtsim/model/core/validate.h>
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace rtsim {
+
+namespace {
+enum class Verdict : uint8_t { Agree, PrimTied, HitMiss, Distance };
+}
+
+ValidationResult validate_against_embree(const EmbreeScene& embree, const std::vector<Ray>& rays,
+                                         const std::vector<TraceResult>& results,
+                                         const ValidationRule& rule, uint32_t threads) {
+  std::vector<Verdict> verdict(rays.size(), Verdict::Agree);
+  std::vector<EmbreeHit> reference(rays.size());
+  auto body = [&] {
+    tbb::parallel_for(size_t(0), rays.size(), [&](size_t i) {
+      const Ray& r = rays[i];
+      const HitRecord& mine = results[i].hit;
+      if (traversal_mode_for(r.type) == TraversalMode::AnyHit) {
+        const bool occluded = embree.occluded(r.origin, r.direction, r.tmin, r.tmax);
+        reference[i].hit = occluded;
+        if (occluded != mine.hit()) verdict[i] = Verdict::HitMiss;
+        return;
+      }
+      const EmbreeHit e = embree.intersect(r.origin, r.direction, r.tmin, r.tmax);
+      reference[i] = e;
+      if (e.hit != mine.hit()) {
+        verdict[i] = Verdict::HitMiss;
+      } else if (e.hit) {
+        const float bound = rule.relative_bound * std::max(e.t, mine.t) + rule.absolute_bound;
+        if (!(std::fabs(e.t - mine.t) <= bound))
+          verdict[i] = Verdict::Distance;
+        else if (e.prim != mine.prim)
+          verdict[i] = Verdict::PrimTied;
+      }
+    });
+  };
+  if (threads) {
+    tbb::task_arena arena{int(threads)};
+    arena.execute(body);
+  } else {
+    body();
+  }
+  ValidationResult out;
+  out.rays = rays.size();
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const Verdict v = verdict[i];
+    if (v == Verdict::Agree) continue;
+    if (v == Verdict::PrimTied) {
+      ++out.prim_tied;
+      continue;
+    }
+    ++out.disagreements;
+    ++out.disagreements_by_type[ray_type_index(rays[i].type)];
+    (v == Verdict::HitMiss ? out.hit_miss : out.distance) += 1;
+    if (out.examples.size() < 10) {
+      const Ray& r = rays[i];
+      char line[400];
+      std::snprintf(line, sizeof line,
+                    "ray %zu (%s, pixel %u): core %s t=%.9g prim=%d, embree %s t=%.9g prim=%d; "
+                    "o=(%.9g %.9g %.9g) d=(%.9g %.9g %.9g) tmin=%g tmax=%g",
+                    i, ray_type_name(r.type), r.pixel, results[i].hit.hit() ? "hit" : "miss",
+                    results[i].hit.t, int(results[i].hit.prim), reference[i].hit ? "hit" : "miss",
+                    reference[i].t, int(reference[i].prim), r.origin.x, r.origin.y, r.origin.z,
+                    r.direction.x, r.direction.y, r.direction.z, r.tmin, r.tmax);
+      out.examples.push_back(line);
+    }
+  }
+  return out;
+}
+
+}  // namespace rtsim

@@ -1,0 +1,290 @@
+// Functional core: robust box test, watertight triangle test, traversal state
+// machine and its counters.
+#include "model/core_test_support.h"
+
+#include <rtsim/builder/memory_image.h>
+#include <rtsim/model/core/functional_tracer.h>
+#include <rtsim/model/core/traversal.h>
+#include <rtsim/workloads/procedural.h>
+#include <rtsim/workloads/error.h>
+#include <rtsim/workloads/random.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+using namespace rtsim;
+
+namespace {
+const float kInf = std::numeric_limits<float>::infinity();
+const float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+bool box_hit(vec3 o, vec3 d, const Aabb& box, float tmin = 0.0f, float tmax = kInf) {
+  float t;
+  return intersect_box(RayBoxPrecompute(o, d), box, tmin, tmax, &t);
+}
+}  // namespace
+
+TEST(CoreBox, ZeroDirectionComponentsInsideAndOutsideTheSlab) {
+  const Aabb box{vec3(0.0f), vec3(1.0f)};
+  EXPECT_TRUE(box_hit({0.5f, 0.5f, -1.0f}, {0.0f, 0.0f, 1.0f}, box));
+  EXPECT_TRUE(box_hit({0.5f, 0.5f, -1.0f}, {-0.0f, -0.0f, 1.0f}, box));
+  EXPECT_FALSE(box_hit({1.5f, 0.5f, -1.0f}, {0.0f, 0.0f, 1.0f}, box));
+  EXPECT_FALSE(box_hit({-0.5f, 0.5f, -1.0f}, {-0.0f, 0.0f, 1.0f}, box));
+}
+
+TEST(CoreBox, OriginOnAFacePlaneWithParallelDirectionHits) {
+  const Aabb box{vec3(0.0f), vec3(1.0f)};
+  // Origin x exactly on the lo / hi face, ray parallel to that face: 0 * inf.
+  for (float x : {0.0f, 1.0f})
+    for (float dx : {0.0f, -0.0f}) {
+      EXPECT_TRUE(box_hit({x, 0.5f, -1.0f}, {dx, 0.0f, 1.0f}, box)) << x << " " << dx;
+      EXPECT_TRUE(box_hit({x, 0.5f, 2.0f}, {dx, 0.0f, -1.0f}, box)) << x << " " << dx;
+    }
+  // A flat box (a wall) with the ray running inside its plane.
+  const Aabb wall{vec3(0.0f, 0.0f, 3.0f), vec3(1.0f, 1.0f, 3.0f)};
+  EXPECT_TRUE(box_hit({0.5f, -1.0f, 3.0f}, {0.0f, 1.0f, 0.0f}, wall));
+  // Origin on a face, pointing away / into the box.
+  EXPECT_TRUE(box_hit({0.0f, 0.5f, 0.5f}, {1.0f, 0.0f, 0.0f}, box));
+  EXPECT_TRUE(box_hit({0.0f, 0.5f, 0.5f}, {-1.0f, 0.0f, 0.0f}, box));  // t = 0 at the face
+  EXPECT_FALSE(box_hit({0.0f, 0.5f, 0.5f}, {-1.0f, 0.0f, 0.0f}, box, 1e-3f));
+}
+
+TEST(CoreBox, TightBoxAroundAFarAwayTriangleIsNeverMissed) {
+  // Rays that hit a triangle must hit its bounding box, however far out (Ize 2013).
+  const vec3 c(148376.0f, 1234.0f, -223423.0f);
+  uint64_t misses = 0;
+  for (uint32_t i = 0; i < 20000; ++i) {
+    KeyedRng rng(7, {i});
+    const vec3 a = c + vec3(rng.next_float(), rng.next_float(), rng.next_float()) * 3.0f;
+    const vec3 b = a + vec3(rng.next_float(), rng.next_float(), 0.0f);
+    const vec3 d = a + vec3(0.0f, rng.next_float(), rng.next_float());
+    const vec3 o = c + vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f) * 400.0f;
+    const float w1 = rng.next_float(), w2 = rng.next_float() * (1.0f - w1);
+    const vec3 target = a + w1 * (b - a) + w2 * (d - a);
+    TriangleHit th;
+    if (!intersect_triangle(RayTrianglePrecompute(o, target - o), a, b, d, 0.0f, kInf, &th)) continue;
+    if (!box_hit(o, target - o, Aabb::of_triangle(a, b, d))) ++misses;
+  }
+  EXPECT_EQ(misses, 0u);
+}
+
+TEST(CoreTriangle, FanSharedVertexAndEdgesHitAtLeastOnce) {
+  // A fan of triangles around a centre vertex, in the plane z = 0 and tilted.
+  for (int tilt = 0; tilt < 2; ++tilt) {
+    const vec3 centre(tilt ? 3.25f : 0.0f, tilt ? -1.5f : 0.0f, tilt ? 7.0f : 0.0f);
+    const int n = 12;
+    std::vector<vec3> rim;
+    for (int k = 0; k < n; ++k) {
+      const float a = 6.2831853f * float(k) / float(n);
+      rim.push_back(centre + vec3(std::cos(a), std::sin(a), tilt ? 0.37f * std::cos(3.0f * a) : 0.0f));
+    }
+    std::vector<vec3> targets{centre};
+    for (int k = 0; k < n; ++k) targets.push_back(centre + 0.5f * (rim[k] - centre));
+    for (int k = 0; k < n; ++k) targets.push_back(centre + 0.25f * (rim[k] - centre));
+    for (const vec3& target : targets) {
+      for (uint32_t j = 0; j < 64; ++j) {
+        KeyedRng rng(3, {j});
+        vec3 o = target + vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, 1.0f) * 4.0f;
+        if (j == 0) o = target + vec3(0.0f, 0.0f, 2.0f);  // axis-aligned: edge functions exactly 0
+        if (j == 1) o = target - vec3(0.0f, 0.0f, 2.0f);  // from below
+        const RayTrianglePrecompute pre(o, target - o);
+        int hits = 0;
+        for (int k = 0; k < n; ++k) {
+          TriangleHit th;
+          hits += intersect_triangle(pre, centre, rim[k], rim[(k + 1) % n], 0.0f, kInf, &th) ? 1 : 0;
+        }
+        EXPECT_GE(hits, 1) << "tilt " << tilt << " target " << target.x << "," << target.y << " ray " << j;
+      }
+    }
+  }
+}
+
+TEST(CoreTriangle, DegenerateAndBehindAndNonFiniteNeverHit) {
+  TriangleHit th;
+  const vec3 o(0.2f, 0.2f, 1.0f), d(0.0f, 0.0f, -1.0f);
+  EXPECT_TRUE(intersect_triangle(RayTrianglePrecompute(o, d), vec3(0, 0, 0), vec3(1, 0, 0), vec3(0, 1, 0), 0.0f, kInf, &th));
+  EXPECT_FLOAT_EQ(th.t, 1.0f);
+  EXPECT_FLOAT_EQ(th.u, 0.2f);
+  EXPECT_FLOAT_EQ(th.v, 0.2f);
+  EXPECT_FALSE(intersect_triangle(RayTrianglePrecompute(o, -d), vec3(0, 0, 0), vec3(1, 0, 0), vec3(0, 1, 0), 0.0f, kInf, &th));
+  EXPECT_FALSE(intersect_triangle(RayTrianglePrecompute(o, d), vec3(0, 0, 0), vec3(1, 0, 0), vec3(2, 0, 0), 0.0f, kInf, &th));
+  EXPECT_FALSE(intersect_triangle(RayTrianglePrecompute(o, d), vec3(0, 0, 0), vec3(1, 0, 0), vec3(0, 1, 0), 0.0f, 0.5f, &th));
+}
+
+namespace {
+struct SphereScene {
+  Scene scene;
+  Bvh bvh;
+  std::unique_ptr<MemoryImage> image;
+  std::unique_ptr<TraversalContext> context;
+  vec3 centre{148376.0f, 1234.0f, -223423.0f};
+  float radius = 50.0f;
+  explicit SphereScene(const MemoryLayoutConfig& layout = {}) {
+    test::add_material(scene, "grey", vec3(0.5f));
+    MeshBuilder mb{scene};
+    mb.sphere(centre, radius, 96, 192);
+    bvh = test::median_bvh(scene);
+    image = std::make_unique<MemoryImage>(bvh, scene.triangle_count(), layout);
+    context = std::make_unique<TraversalContext>(scene, bvh, *image);
+  }
+  std::vector<Ray> inside_rays(size_t count) const {
+    std::vector<Ray> rays(count);
+    for (size_t i = 0; i < count; ++i) {
+      KeyedRng rng(11, {i});
+      const vec3 jitter(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f);
+      rays[i].origin = centre + jitter * radius;  // anywhere well inside
+      vec3 d(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f);
+      if (i % 7 == 0) d[i % 3] = 0.0f;      // zero components
+      if (i % 11 == 0) d = vec3(0.0f, -0.0f, 1.0f);
+      rays[i].direction = d;
+      rays[i].pixel = uint32_t(i);
+    }
+    return rays;
+  }
+};
+}  // namespace
+
+TEST(CoreWatertight, ClosedSphereFarFromOriginShotFromInsideNeverMisses) {
+  SphereScene s;
+  ASSERT_GT(s.scene.triangle_count(), 30000u);
+  const std::vector<Ray> rays = s.inside_rays(1'000'000);
+  std::vector<TraceResult> results;
+  trace_rays(*s.context, rays, results);
+  uint64_t misses = 0;
+  for (const TraceResult& r : results) misses += r.hit.hit() ? 0 : 1;
+  EXPECT_EQ(misses, 0u);
+}
+
+TEST(CoreTraversal, SingleBoxLayoutFindsTheSameHits) {
+  MemoryLayoutConfig single;
+  single.node_layout = NodeLayout::SingleBox32;
+  SphereScene wide, narrow(single);
+  const std::vector<Ray> rays = wide.inside_rays(20000);
+  std::vector<TraceResult> a, b;
+  trace_rays(*wide.context, rays, a);
+  trace_rays(*narrow.context, rays, b);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_EQ(a[i].hit.prim, b[i].hit.prim) << i;
+    ASSERT_EQ(a[i].hit.t, b[i].hit.t) << i;
+    EXPECT_EQ(b[i].counters.node_bytes, b[i].counters.node_fetches * 32u);
+    EXPECT_EQ(a[i].counters.node_bytes, a[i].counters.node_fetches * 64u);
+  }
+}
+
+TEST(CoreTraversal, NonFiniteRaysFinishAtOnceWithoutAHit) {
+  SphereScene s;
+  RayTraversal trv(*s.context);
+  Ray ray;
+  ray.origin = s.centre;
+  for (vec3 d : {vec3(kNaN, 0, 1), vec3(kInf, 0, 1), vec3(0.0f), vec3(0, 0, 1)}) {
+    ray.direction = d;
+    for (float tmax : {kInf, kNaN, -1.0f}) {
+      ray.tmax = tmax;
+      const HitRecord& hit = trace_ray(trv, ray);
+      const bool usable = d == vec3(0, 0, 1) && tmax == kInf;
+      EXPECT_EQ(hit.hit(), usable);
+      if (!usable) EXPECT_EQ(trv.counters().ops(), 0u);
+    }
+  }
+  ray.direction = vec3(0, 0, 1);
+  ray.tmax = kInf;
+  ray.origin = vec3(kNaN, 0, 0);
+  EXPECT_FALSE(trace_ray(trv, ray).hit());
+}
+
+namespace {
+struct CountingSink : FetchSink {
+  uint64_t fetches[kFetchKindCount] = {0, 0, 0};
+  uint64_t bytes[kFetchKindCount] = {0, 0, 0};
+  bool addresses_in_image = true;
+  const MemoryImage* image = nullptr;
+  void on_fetch(const Fetch& f) override {
+    ++fetches[int(f.kind)];
+    bytes[int(f.kind)] += f.bytes;
+    if (f.address < image->nodes_base() || f.address + f.bytes > image->end_address())
+      addresses_in_image = false;
+  }
+};
+}  // namespace
+
+TEST(CoreTraversal, StepwiseDriveMatchesTightLoopAndCountsAgreeWithTheSink) {
+  SphereScene s;
+  const std::vector<Ray> rays = s.inside_rays(2000);
+  RayTraversal loop(*s.context), stepper(*s.context);
+  CountingSink sink;
+  sink.image = s.image.get();
+  uint32_t deepest = 0;
+  uint64_t trv = 0, nodes = 0, prim_refs = 0, tris = 0, node_bytes = 0, tri_bytes = 0;
+  for (const Ray& ray : rays) {
+    const HitRecord expected = trace_ray(loop, ray, &sink);
+    // A unit driving the state machine one step at a time, as the SystemC TRV/IST do.
+    stepper.reset(ray);
+    while (!stepper.done()) {
+      if (stepper.action() == TraversalAction::FetchNode) {
+        stepper.process_node();
+      } else {
+        EXPECT_LT(stepper.leaf_cursor(), stepper.leaf_size());
+        stepper.process_triangle();
+      }
+    }
+    EXPECT_EQ(stepper.hit().prim, expected.prim);
+    EXPECT_EQ(stepper.hit().t, expected.t);
+    const RayCounters& c = loop.counters();
+    EXPECT_EQ(c.trv_ops, stepper.counters().trv_ops);
+    EXPECT_EQ(c.ist_ops, stepper.counters().ist_ops);
+    EXPECT_EQ(c.trv_ops, c.node_fetches);
+    EXPECT_EQ(c.ist_ops, c.triangle_fetches);
+    EXPECT_EQ(c.box_tests, 2 * c.trv_ops);  // wide layout: two child boxes per node
+    deepest = std::max(deepest, c.max_stack_depth);
+    EXPECT_EQ(c.stack_overflows, 0u);
+    trv += c.trv_ops, nodes += c.node_fetches, prim_refs += c.prim_ref_fetches, tris += c.triangle_fetches;
+    node_bytes += c.node_bytes, tri_bytes += c.triangle_bytes;
+  }
+  EXPECT_EQ(sink.fetches[int(FetchKind::Node)], nodes);
+  EXPECT_EQ(sink.fetches[int(FetchKind::PrimRef)], prim_refs);
+  EXPECT_EQ(sink.fetches[int(FetchKind::Triangle)], tris);
+  EXPECT_EQ(sink.bytes[int(FetchKind::Node)], node_bytes);
+  EXPECT_EQ(sink.bytes[int(FetchKind::Triangle)], tri_bytes);
+  EXPECT_TRUE(sink.addresses_in_image);
+  EXPECT_GT(deepest, 1u);
+  EXPECT_GT(trv, rays.size());
+}
+
+TEST(CoreTraversal, ShortStackOverflowIsCountedAndSpillingKeepsResultsExact) {
+  SphereScene deep;
+  TraversalConfig shallow;
+  shallow.stack_limit = 2;
+  TraversalContext spill(deep.scene, deep.bvh, *deep.image, shallow);
+  shallow.overflow_policy = StackOverflowPolicy::DropOldest;
+  TraversalContext drop(deep.scene, deep.bvh, *deep.image, shallow);
+  const std::vector<Ray> rays = deep.inside_rays(5000);
+  std::vector<TraceResult> exact, spilled, dropped;
+  trace_rays(*deep.context, rays, exact);
+  trace_rays(spill, rays, spilled);
+  trace_rays(drop, rays, dropped);
+  uint64_t overflows = 0, refills = 0, dropped_misses = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    EXPECT_EQ(exact[i].hit.prim, spilled[i].hit.prim);
+    EXPECT_EQ(exact[i].counters.ops(), spilled[i].counters.ops());
+    overflows += spilled[i].counters.stack_overflows;
+    refills += spilled[i].counters.stack_refills;
+    EXPECT_EQ(dropped[i].counters.stack_overflows > 0 || dropped[i].hit.prim == exact[i].hit.prim, true);
+    dropped_misses += dropped[i].hit.hit() ? 0 : 1;
+  }
+  EXPECT_GT(overflows, 0u);
+  EXPECT_GT(refills, 0u);
+  EXPECT_LE(refills, overflows);
+  (void)dropped_misses;
+}
+
+TEST(CoreTraversal, BadBvhIsRefused) {
+  SphereScene s;
+  Bvh bad = s.bvh;
+  bad.nodes[0].index = 0;  // root's children would be the root itself: a cycle
+  EXPECT_THROW(TraversalContext(s.scene, bad, *s.image), InputError);
+  Bvh bad_ref = s.bvh;
+  bad_ref.prim_refs[3] = uint32_t(s.scene.triangle_count());
+  EXPECT_THROW(TraversalContext(s.scene, bad_ref, *s.image), InputError);
+}
