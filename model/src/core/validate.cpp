@@ -10,7 +10,17 @@
 namespace rtsim {
 
 namespace {
-enum class Verdict : uint8_t { Agree, PrimTied, HitMiss, Distance };
+enum class Verdict : uint8_t { Agree, PrimTied, EndpointTie, HitMiss, Distance };
+
+// A hit that only one side sees, at a distance within the bound of the ray's
+// tmin or tmax: the ray touches a surface exactly where its interval starts or
+// ends (e.g. an AO ray leaving a corner in the plane of the adjacent wall).
+bool at_endpoint(const Ray& r, float t, const ValidationRule& rule) {
+  const float bound_min = rule.relative_bound * std::fabs(r.tmin) + rule.absolute_bound;
+  if (std::fabs(t - r.tmin) <= bound_min) return true;
+  if (!std::isfinite(r.tmax)) return false;
+  return std::fabs(r.tmax - t) <= rule.relative_bound * r.tmax + rule.absolute_bound;
+}
 }
 
 ValidationResult validate_against_embree(const EmbreeScene& embree, const std::vector<Ray>& rays,
@@ -25,13 +35,19 @@ ValidationResult validate_against_embree(const EmbreeScene& embree, const std::v
       if (traversal_mode_for(r.type) == TraversalMode::AnyHit) {
         const bool occluded = embree.occluded(r.origin, r.direction, r.tmin, r.tmax);
         reference[i].hit = occluded;
-        if (occluded != mine.hit()) verdict[i] = Verdict::HitMiss;
+        if (occluded != mine.hit()) {
+          // Where is the hit the other side missed? (Embree's closest one if it is Embree's.)
+          if (occluded) reference[i] = embree.intersect(r.origin, r.direction, r.tmin, r.tmax);
+          const float t = occluded ? reference[i].t : mine.t;
+          verdict[i] = (!reference[i].hit && occluded) || !at_endpoint(r, t, rule)
+                           ? Verdict::HitMiss : Verdict::EndpointTie;
+        }
         return;
       }
       const EmbreeHit e = embree.intersect(r.origin, r.direction, r.tmin, r.tmax);
       reference[i] = e;
       if (e.hit != mine.hit()) {
-        verdict[i] = Verdict::HitMiss;
+        verdict[i] = at_endpoint(r, e.hit ? e.t : mine.t, rule) ? Verdict::EndpointTie : Verdict::HitMiss;
       } else if (e.hit) {
         const float bound = rule.relative_bound * std::max(e.t, mine.t) + rule.absolute_bound;
         if (!(std::fabs(e.t - mine.t) <= bound))
@@ -54,6 +70,10 @@ ValidationResult validate_against_embree(const EmbreeScene& embree, const std::v
     if (v == Verdict::Agree) continue;
     if (v == Verdict::PrimTied) {
       ++out.prim_tied;
+      continue;
+    }
+    if (v == Verdict::EndpointTie) {
+      ++out.endpoint_ties;
       continue;
     }
     ++out.disagreements;

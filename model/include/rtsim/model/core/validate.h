@@ -14,7 +14,9 @@ namespace rtsim {
 // distances agree within `relative_bound` x max(t_core, t_embree) (plus
 // `absolute_bound` for hits at t ~ 0), and the primitive is the same unless the
 // two distances tie within that bound (two triangles meeting where the ray
-// lands). Any-hit rays: both occluded or both open.
+// lands). Any-hit rays: both occluded or both open. A hit seen by one side only
+// is a tie, not a disagreement, when it lies within the bound of the ray's tmin
+// or tmax (the ray touches a surface exactly where its interval starts or ends).
 struct ValidationRule {
   float relative_bound = 1e-4f;
   float absolute_bound = 0.0f;  // world units; callers pass ~1e-6 x the scene diagonal
@@ -23,7 +25,9 @@ struct ValidationRule {
 struct ValidationResult {
   uint64_t rays = 0;
   uint64_t disagreements = 0;
-  uint64_t hit_miss = 0, distance = 0, prim_tied = 0;  // prim_tied: different prim, distances tie (allowed)
+  uint64_t hit_miss = 0, distance = 0;
+  uint64_t prim_tied = 0;      // allowed: different prim, distances tie
+  uint64_t endpoint_ties = 0;  // allowed: one-sided hit at tmin or tmax
   std::array<uint64_t, kRayTypeCount> disagreements_by_type{};
   std::vector<std::string> examples;  // the first few disagreements, one line each
 };
