@@ -1,0 +1,54 @@
+#pragma once
+// Quality of a built tree, as the `rtsim build` report shows it.
+//
+// SAH cost (normalised by the root box area): the expected cost of a ray that hits
+// the root box, cost(leaf) = T2 * count, cost(inner) = 2*T1 + sum_i P_i cost(child_i),
+// P_i = A(child_i) / A(node). Unrolled, this is
+//   (sum_inner 2*T1*A(n) + sum_leaf T2*count(l)*A(l)) / A(root).
+// (A node of zero area - all geometry on a line or point - counts P_i = 1, as in
+// the builders.)
+// Weighted cost: the same recursion with the builder's weights and probability
+// rule (AO-BVH: weight sums; OSAH: visibility mix in mixed nodes) - the quantity
+// that builder minimised. Equals the SAH cost for sah, median and Embree.
+// EPO (end-point overlap, Aila, Karras, Laine 2013): for every node n the area of
+// the triangles NOT referenced below n that lie inside n's box, weighted by the
+// node's cost c(n) (2*T1 for inner nodes, T2*count for leaves), summed and divided
+// by the total triangle area. Triangles are clipped exactly against the box
+// (Sutherland-Hodgman).
+#include <rtsim/builder/build.h>
+#include <rtsim/builder/bvh.h>
+#include <rtsim/workloads/scene.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rtsim {
+
+struct BvhMetrics {
+  std::string builder;
+  double sah_cost = 0;
+  double weighted_cost = 0;
+  double epo = -1;  // < 0: not computed
+  uint64_t nodes = 0, inner_nodes = 0, leaves = 0;
+  uint64_t references = 0, triangles = 0;
+  std::vector<uint64_t> leaf_size_histogram;  // [k] = leaves holding k references
+  uint32_t max_depth = 0;
+  double average_leaf_depth = 0;
+  double estimate_seconds = 0, build_seconds = 0, metrics_seconds = 0;
+  uint64_t peak_memory_bytes = 0;
+  uint64_t spatial_splits = 0, forced_splits = 0, median_splits = 0, sanitised_values = 0;
+};
+
+// weights/visibility empty = all 1 / no visibility rule.
+double sah_cost(const Bvh& bvh, float t1, float t2, const std::vector<float>& weights = {},
+                const std::vector<uint8_t>& visibility = {}, float osah_w = 0.9f);
+double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2);
+
+BvhMetrics compute_metrics(const Bvh& bvh, const Scene& scene, const BuildParams& params,
+                           const BuildReport& report, bool with_epo = true);
+
+// One JSON object (field names as in BvhMetrics, units in the names).
+std::string metrics_json(const BvhMetrics& m);
+
+}  // namespace rtsim

@@ -1,0 +1,226 @@
+#include <rtsim/builder/bvh_file.h>
+#include <rtsim/builder/validate_bvh.h>
+#include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
+#include <rtsim/workloads/random.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+namespace rtsim {
+
+namespace {
+constexpr char kMagic[8] = {'R', 'T', 'S', 'I', 'M', 'B', 'V', 'H'};
+constexpr size_t kNodeBytes = 32;
+constexpr uint32_t kMaxTextBytes = 1u << 20;
+
+uint64_t checksum(const char* data, size_t size) {
+  uint64_t h = 0x4256'4846'494C'4531ull;
+  size_t i = 0;
+  for (; i + 8 <= size; i += 8) {
+    uint64_t w;
+    std::memcpy(&w, data + i, 8);
+    h = mix64(h ^ w);
+  }
+  uint64_t tail = 0;
+  std::memcpy(&tail, data + i, size - i);
+  return mix64(h ^ tail ^ (uint64_t(size) << 40));
+}
+
+template <class T>
+void put(std::string& out, const T& value) {
+  out.append(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+void put_text(std::string& out, const std::string& text) {
+  put(out, uint32_t(text.size()));
+  out += text;
+}
+
+// Reads fields from a byte buffer, naming the field in every error.
+class Reader {
+ public:
+  Reader(const std::string& file, const std::string& data) : file_(file), data_(data) {}
+  template <class T>
+  T get(const std::string& field) {
+    need(sizeof(T), field);
+    T value;
+    std::memcpy(&value, data_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return value;
+  }
+  std::string text(const std::string& field) {
+    const uint32_t size = get<uint32_t>(field + ".length");
+    if (size > kMaxTextBytes) fail(field + ".length", "implausible length " + std::to_string(size));
+    need(size, field);
+    std::string s = data_.substr(pos_, size);
+    pos_ += size;
+    return s;
+  }
+  void need(uint64_t bytes, const std::string& field) const {
+    if (bytes > data_.size() - pos_)
+      fail(field, "file truncated (needs " + std::to_string(bytes) + " more bytes, " +
+                      std::to_string(data_.size() - pos_) + " left)");
+  }
+  [[noreturn]] void fail(const std::string& field, const std::string& reason) const {
+    throw InputError(file_ + ": " + field, reason);
+  }
+  size_t pos() const { return pos_; }
+  size_t left() const { return data_.size() - pos_; }
+  const char* here() const { return data_.data() + pos_; }
+  void skip(size_t bytes) { pos_ += bytes; }
+
+ private:
+  std::string file_;
+  const std::string& data_;
+  size_t pos_ = 0;
+};
+}  // namespace
+
+std::string build_params_json(const BuildParams& p) {
+  nlohmann::json j;
+  j["builder"] = p.builder;
+  j["t1"] = p.t1;
+  j["t2"] = p.t2;
+  j["max_leaf_size"] = p.max_leaf_size;
+  j["max_depth"] = p.max_depth;
+  j["bins"] = p.bins;
+  j["seed"] = p.seed;
+  if (p.builder == "sbvh") {
+    j["sbvh_alpha"] = p.sbvh_alpha;
+    j["sbvh_reference_budget"] = p.sbvh_reference_budget;
+    j["sbvh_split_limit"] = p.sbvh_split_limit;
+  }
+  if (p.builder == "osah") {
+    j["camera"] = p.camera;
+    j["osah_w"] = p.osah_w;
+    j["osah_width"] = p.osah_width;
+    j["osah_height"] = p.osah_height;
+  }
+  if (p.builder == "aobvh") {
+    j["ao_rays"] = p.ao_rays;
+    j["ao_cutoff_relative"] = p.ao_cutoff_relative;
+    j["ao_weight_floor"] = p.ao_weight_floor;
+    j["ao_both_sides"] = p.ao_both_sides;
+    j["occlusion_values_supplied"] = !p.occlusion_values.empty();
+  }
+  return j.dump();
+}
+
+void save_bvh(const std::filesystem::path& path, const Bvh& bvh, const Scene& scene,
+              const BuildParams& params) {
+  BvhFileHeader header;
+  header.scene_hash = scene.content_hash();
+  header.triangle_count = scene.triangle_count();
+  header.builder = params.builder;
+  header.params_json = build_params_json(params);
+  save_bvh(path, bvh, header);
+}
+
+void save_bvh(const std::filesystem::path& path, const Bvh& bvh, const BvhFileHeader& header) {
+  std::string out;
+  out.reserve(128 + header.params_json.size() + bvh.nodes.size() * kNodeBytes +
+              bvh.prim_refs.size() * 4);
+  out.append(kMagic, sizeof kMagic);
+  put(out, kBvhFileVersion);
+  put(out, header.scene_hash);
+  put(out, header.triangle_count);
+  put_text(out, header.builder);
+  put_text(out, header.params_json);
+  put(out, uint64_t(bvh.nodes.size()));
+  put(out, uint64_t(bvh.prim_refs.size()));
+  for (const BvhNode& n : bvh.nodes) {
+    const float box[6] = {n.bounds.lo.x, n.bounds.lo.y, n.bounds.lo.z,
+                          n.bounds.hi.x, n.bounds.hi.y, n.bounds.hi.z};
+    out.append(reinterpret_cast<const char*>(box), sizeof box);
+    put(out, n.index);
+    put(out, n.count);
+  }
+  out.append(reinterpret_cast<const char*>(bvh.prim_refs.data()), bvh.prim_refs.size() * 4);
+  put(out, checksum(out.data(), out.size()));
+  write_file_atomic(path, out);
+}
+
+Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeader* header_out) {
+  const std::string file = path.string();
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(file, "cannot open the BVH file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string data = buffer.str();
+  Reader r(file, data);
+
+  r.need(sizeof kMagic, "header.magic");
+  if (std::memcmp(data.data(), kMagic, sizeof kMagic) != 0)
+    r.fail("header.magic", "not an rtsim BVH file");
+  r.skip(sizeof kMagic);
+  BvhFileHeader h;
+  h.version = r.get<uint32_t>("header.version");
+  if (h.version != kBvhFileVersion)
+    r.fail("header.version", "version " + std::to_string(h.version) + " is not supported (this rtsim reads " +
+                                 std::to_string(kBvhFileVersion) + ")");
+  h.scene_hash = r.get<uint64_t>("header.scene_hash");
+  h.triangle_count = r.get<uint64_t>("header.triangle_count");
+  h.builder = r.text("header.builder");
+  h.params_json = r.text("header.parameters");
+  const uint64_t node_count = r.get<uint64_t>("header.node_count");
+  const uint64_t ref_count = r.get<uint64_t>("header.reference_count");
+  // Sizes must match exactly: nodes, refs and the 8-byte checksum.
+  if (node_count == 0 || node_count > r.left() / kNodeBytes)
+    r.fail("header.node_count", "implausible node count " + std::to_string(node_count));
+  if (ref_count > r.left() / 4)
+    r.fail("header.reference_count", "implausible reference count " + std::to_string(ref_count));
+  const uint64_t body = node_count * kNodeBytes + ref_count * 4 + 8;
+  if (r.left() != body)
+    r.fail(r.left() < body ? "nodes" : "trailer",
+           r.left() < body ? "file truncated" : "unexpected bytes after the checksum");
+  const size_t checked = data.size() - 8;
+  uint64_t stored;
+  std::memcpy(&stored, data.data() + checked, 8);
+  if (stored != checksum(data.data(), checked))
+    r.fail("checksum", "file is corrupt (checksum mismatch)");
+  if (scene) {
+    if (h.scene_hash != scene->content_hash())
+      r.fail("header.scene_hash", "the file was built for another scene than '" + scene->name + "'");
+    if (h.triangle_count != scene->triangle_count())
+      r.fail("header.triangle_count", "file has " + std::to_string(h.triangle_count) +
+                                          " triangles, scene has " +
+                                          std::to_string(scene->triangle_count()));
+  }
+  Bvh bvh;
+  bvh.nodes.resize(node_count);
+  for (uint64_t i = 0; i < node_count; ++i) {
+    float box[6];
+    std::memcpy(box, r.here(), sizeof box);
+    r.skip(sizeof box);
+    BvhNode& n = bvh.nodes[i];
+    n.bounds = Aabb{vec3(box[0], box[1], box[2]), vec3(box[3], box[4], box[5])};
+    n.index = r.get<uint32_t>("nodes[" + std::to_string(i) + "].index");
+    n.count = r.get<uint32_t>("nodes[" + std::to_string(i) + "].count");
+    const std::string where = "nodes[" + std::to_string(i) + "]";
+    if (n.is_leaf() ? uint64_t(n.index) + n.count > ref_count
+                    : (uint64_t(n.index) + 1 >= node_count || n.index <= i))
+      r.fail(where, "index " + std::to_string(n.index) + " out of range");
+  }
+  bvh.prim_refs.resize(ref_count);
+  std::memcpy(bvh.prim_refs.data(), r.here(), ref_count * 4);
+  for (uint64_t k = 0; k < ref_count; ++k)
+    if (bvh.prim_refs[k] >= h.triangle_count)
+      r.fail("references[" + std::to_string(k) + "]",
+             "triangle " + std::to_string(bvh.prim_refs[k]) + " does not exist");
+  if (scene) {
+    BvhLimits loose;
+    loose.max_leaf_size = ~0u;
+    loose.max_depth = ~0u;
+    loose.split_references = true;
+    loose.reference_budget = double(ref_count) / double(std::max<uint64_t>(1, h.triangle_count)) + 1;
+    const BvhValidation v = validate_bvh(bvh, *scene, loose);
+    if (!v.ok()) r.fail("nodes", "the tree is not valid for the scene: " + v.problems.front());
+  }
+  if (header_out) *header_out = h;
+  return bvh;
+}
+
+}  // namespace rtsim

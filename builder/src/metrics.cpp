@@ -1,0 +1,238 @@
+#include <rtsim/builder/metrics.h>
+
+#include <nlohmann/json.hpp>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <cmath>
+
+namespace rtsim {
+
+namespace {
+
+// Area of the part of triangle (a, b, c) inside the box (Sutherland-Hodgman).
+double clipped_area(const vec3& a, const vec3& b, const vec3& c, const Aabb& box) {
+  // A triangle clipped by 6 planes has at most 9 vertices.
+  dvec3 poly[16], next[16];
+  int count = 3;
+  poly[0] = dvec3(a), poly[1] = dvec3(b), poly[2] = dvec3(c);
+  for (int plane = 0; plane < 6 && count > 0; ++plane) {
+    const int axis = plane % 3;
+    const bool keep_above = plane < 3;  // lo planes keep x >= lo; hi planes keep x <= hi
+    const double bound = keep_above ? double(box.lo[axis]) : double(box.hi[axis]);
+    auto inside = [&](const dvec3& p) { return keep_above ? p[axis] >= bound : p[axis] <= bound; };
+    int out = 0;
+    for (int i = 0; i < count; ++i) {
+      const dvec3& p = poly[i];
+      const dvec3& q = poly[(i + 1) % count];
+      const bool pin = inside(p), qin = inside(q);
+      if (pin) next[out++] = p;
+      if (pin != qin) {
+        const double t = (bound - p[axis]) / (q[axis] - p[axis]);
+        dvec3 x = p + t * (q - p);
+        x[axis] = bound;
+        next[out++] = x;
+      }
+    }
+    count = out;
+    for (int i = 0; i < count; ++i) poly[i] = next[i];
+  }
+  if (count < 3) return 0.0;
+  dvec3 sum(0.0);
+  for (int i = 1; i + 1 < count; ++i) sum += glm::cross(poly[i] - poly[0], poly[i + 1] - poly[0]);
+  return 0.5 * glm::length(sum);
+}
+
+bool overlaps(const Aabb& a, const Aabb& b) {
+  return a.lo.x <= b.hi.x && b.lo.x <= a.hi.x && a.lo.y <= b.hi.y && b.lo.y <= a.hi.y &&
+         a.lo.z <= b.hi.z && b.lo.z <= a.hi.z;
+}
+
+}  // namespace
+
+double sah_cost(const Bvh& bvh, float t1, float t2, const std::vector<float>& weights,
+                const std::vector<uint8_t>& visibility, float osah_w) {
+  if (bvh.nodes.empty()) return 0;
+  const size_t count = bvh.nodes.size();
+  std::vector<double> cost(count), weight(count);
+  std::vector<uint64_t> refs(count), visible(count);
+  // Children always have larger indices than their parent (validated): one
+  // backward pass evaluates the recursion bottom-up.
+  for (size_t i = count; i-- > 0;) {
+    const BvhNode& n = bvh.nodes[i];
+    if (n.is_leaf()) {
+      double w = 0;
+      uint64_t v = 0;
+      for (uint32_t k = n.index; k < n.index + n.count; ++k) {
+        const uint32_t tri = bvh.prim_refs[k];
+        w += weights.empty() ? 1.0 : double(weights[tri]);
+        v += visibility.empty() ? 0 : visibility[tri];
+      }
+      weight[i] = w;
+      visible[i] = v;
+      refs[i] = n.count;
+      cost[i] = double(t2) * w;
+      continue;
+    }
+    const uint32_t l = n.index, r = n.index + 1;
+    weight[i] = weight[l] + weight[r];
+    visible[i] = visible[l] + visible[r];
+    refs[i] = refs[l] + refs[r];
+    const double area = n.bounds.area();
+    double pl = 1, pr = 1;
+    if (area > 0) {
+      pl = bvh.nodes[l].bounds.area() / area;
+      pr = bvh.nodes[r].bounds.area() / area;
+    }
+    if (!visibility.empty() && visible[i] > 0 && visible[i] < refs[i]) {
+      pl = osah_w * double(visible[l]) / double(visible[i]) + (1 - osah_w) * pl;
+      pr = osah_w * double(visible[r]) / double(visible[i]) + (1 - osah_w) * pr;
+    }
+    cost[i] = 2.0 * t1 + pl * cost[l] + pr * cost[r];
+  }
+  return cost[0];
+}
+
+double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2) {
+  const size_t n = scene.triangle_count(), count = bvh.nodes.size();
+  if (count == 0 || n == 0) return 0;
+  // Reference range below every node (depth-first layouts keep it contiguous).
+  std::vector<uint32_t> ref_begin(count), ref_end(count);
+  for (size_t i = count; i-- > 0;) {
+    const BvhNode& node = bvh.nodes[i];
+    if (node.is_leaf()) {
+      ref_begin[i] = node.index;
+      ref_end[i] = node.index + node.count;
+    } else {
+      ref_begin[i] = std::min(ref_begin[node.index], ref_begin[node.index + 1]);
+      ref_end[i] = std::max(ref_end[node.index], ref_end[node.index + 1]);
+    }
+  }
+  // Where each triangle is referenced (several places only with split references).
+  std::vector<uint32_t> first(n + 1, 0), positions(bvh.prim_refs.size());
+  for (uint32_t t : bvh.prim_refs) ++first[t + 1];
+  for (size_t t = 0; t < n; ++t) first[t + 1] += first[t];
+  {
+    std::vector<uint32_t> fill(first.begin(), first.end() - 1);
+    for (uint32_t k = 0; k < bvh.prim_refs.size(); ++k) positions[fill[bvh.prim_refs[k]]++] = k;
+  }
+  double total_area = 0;
+  for (size_t t = 0; t < n; ++t)
+    total_area += 0.5 * glm::length(glm::cross(dvec3(scene.vertex(uint32_t(t), 1) - scene.vertex(uint32_t(t), 0)),
+                                               dvec3(scene.vertex(uint32_t(t), 2) - scene.vertex(uint32_t(t), 0))));
+  if (!(total_area > 0)) return 0;
+
+  struct Scratch {
+    std::vector<uint32_t> stamp;
+    std::vector<uint32_t> stack;
+  };
+  tbb::enumerable_thread_specific<Scratch> scratch([n] { return Scratch{std::vector<uint32_t>(n, ~0u), {}}; });
+  std::vector<double> contribution(count, 0.0);
+  tbb::parallel_for(size_t(1), count, [&](size_t node) {
+    Scratch& s = scratch.local();
+    const Aabb box = bvh.nodes[node].bounds;
+    const uint32_t rb = ref_begin[node], re = ref_end[node];
+    double area = 0;
+    s.stack.clear();
+    s.stack.push_back(0);
+    while (!s.stack.empty()) {
+      const uint32_t m = s.stack.back();
+      s.stack.pop_back();
+      if (m == node) continue;  // the node's own subtree
+      const BvhNode& other = bvh.nodes[m];
+      if (!overlaps(other.bounds, box)) continue;
+      if (!other.is_leaf()) {
+        s.stack.push_back(other.index);
+        s.stack.push_back(other.index + 1);
+        continue;
+      }
+      for (uint32_t k = other.index; k < other.index + other.count; ++k) {
+        const uint32_t t = bvh.prim_refs[k];
+        if (s.stamp[t] == uint32_t(node)) continue;
+        s.stamp[t] = uint32_t(node);
+        bool below = false;
+        for (uint32_t p = first[t]; p < first[t + 1] && !below; ++p)
+          below = positions[p] >= rb && positions[p] < re;
+        if (below) continue;
+        area += clipped_area(scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2), box);
+      }
+    }
+    const BvhNode& self = bvh.nodes[node];
+    const double c = self.is_leaf() ? double(t2) * self.count : 2.0 * double(t1);
+    contribution[node] = c * area;
+  });
+  double sum = 0;
+  for (double c : contribution) sum += c;  // fixed order: deterministic
+  return sum / total_area;
+}
+
+BvhMetrics compute_metrics(const Bvh& bvh, const Scene& scene, const BuildParams& params,
+                           const BuildReport& report, bool with_epo) {
+  const auto start = std::chrono::steady_clock::now();
+  BvhMetrics m;
+  m.builder = report.builder.empty() ? params.builder : report.builder;
+  m.triangles = scene.triangle_count();
+  m.references = bvh.prim_refs.size();
+  m.nodes = bvh.nodes.size();
+  m.sah_cost = sah_cost(bvh, params.t1, params.t2);
+  m.weighted_cost = sah_cost(bvh, params.t1, params.t2, report.weights, report.visibility,
+                             params.osah_w);
+  if (with_epo) m.epo = end_point_overlap(bvh, scene, params.t1, params.t2);
+  // Depths: a forward pass, parents come before children.
+  std::vector<uint32_t> depth(bvh.nodes.size(), 0);
+  double depth_sum = 0;
+  for (size_t i = 0; i < bvh.nodes.size(); ++i) {
+    const BvhNode& n = bvh.nodes[i];
+    if (n.is_leaf()) {
+      ++m.leaves;
+      if (m.leaf_size_histogram.size() <= n.count) m.leaf_size_histogram.resize(n.count + 1, 0);
+      ++m.leaf_size_histogram[n.count];
+      m.max_depth = std::max(m.max_depth, depth[i]);
+      depth_sum += depth[i];
+    } else {
+      ++m.inner_nodes;
+      depth[n.index] = depth[n.index + 1] = depth[i] + 1;
+    }
+  }
+  m.average_leaf_depth = m.leaves ? depth_sum / double(m.leaves) : 0;
+  m.estimate_seconds = report.estimate_seconds;
+  m.build_seconds = report.build_seconds;
+  m.peak_memory_bytes = report.peak_memory_bytes;
+  m.spatial_splits = report.spatial_splits;
+  m.forced_splits = report.forced_splits;
+  m.median_splits = report.median_splits;
+  m.sanitised_values = report.sanitised_values;
+  m.metrics_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return m;
+}
+
+std::string metrics_json(const BvhMetrics& m) {
+  nlohmann::json j;
+  j["builder"] = m.builder;
+  j["sah_cost"] = m.sah_cost;
+  j["weighted_cost"] = m.weighted_cost;
+  if (m.epo >= 0) j["epo"] = m.epo;
+  j["nodes"] = m.nodes;
+  j["inner_nodes"] = m.inner_nodes;
+  j["leaves"] = m.leaves;
+  j["references"] = m.references;
+  j["triangles"] = m.triangles;
+  j["leaf_size_histogram"] = m.leaf_size_histogram;
+  j["max_depth"] = m.max_depth;
+  j["average_leaf_depth"] = m.average_leaf_depth;
+  j["estimate_seconds"] = m.estimate_seconds;
+  j["build_seconds"] = m.build_seconds;
+  j["metrics_seconds"] = m.metrics_seconds;
+  j["peak_memory_bytes"] = m.peak_memory_bytes;
+  j["peak_memory_bytes_per_triangle"] =
+      m.triangles ? double(m.peak_memory_bytes) / double(m.triangles) : 0.0;
+  j["spatial_splits"] = m.spatial_splits;
+  j["forced_splits"] = m.forced_splits;
+  j["median_splits"] = m.median_splits;
+  j["sanitised_values"] = m.sanitised_values;
+  return j.dump();
+}
+
+}  // namespace rtsim
