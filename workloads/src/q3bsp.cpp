@@ -24,6 +24,7 @@ const char* const kLumpNames[kLumpCount] = {
     "leafbrushes", "models", "brushes", "brushsides", "vertexes", "meshverts",
     "effects",  "faces",    "lightmaps", "lightvols", "visdata"};
 enum Lump { kEntities = 0, kTextures = 1, kVertexes = 10, kMeshverts = 11, kFaces = 13 };
+// Vertex: position[3] at 0, texcoord[2][2] at 12, normal[3] at 28, colour[4] at 40.
 constexpr uint32_t kTextureSize = 72, kVertexSize = 44, kFaceSize = 104;
 constexpr int32_t kSurfaceSky = 0x4;
 constexpr float kSpawnEyeHeight = 40.0f;  // Quake units above a spawn origin
@@ -233,7 +234,7 @@ Mesh parse_q3bsp(const std::vector<uint8_t>& bytes, const std::string& file_name
     const uint64_t at = vertex_lump.offset + v * kVertexSize;
     for (int k = 0; k < 3; ++k) {
       bsp_vertices[v].position[k] = in.at<float>(at + 4 * k, "vertex position");
-      bsp_vertices[v].normal[k] = in.at<float>(at + 32 + 4 * k, "vertex normal");
+      bsp_vertices[v].normal[k] = in.at<float>(at + 28 + 4 * k, "vertex normal");
     }
     if (!is_finite(bsp_vertices[v].position))
       in.fail(at, "lump 10 (vertexes): vertex " + std::to_string(v) + " has a non-finite coordinate");
