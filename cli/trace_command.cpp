@@ -1,0 +1,245 @@
+// rtsim trace: run primary rays (and the secondary rays the scene calls for)
+// through the functional ray core; print ops/ray, fetches, bytes, cache hit
+// rates and throughput; write pictures; optionally validate against Embree.
+#include "commands.h"
+
+#include <rtsim/builder/build.h>
+#include <rtsim/builder/memory_image.h>
+#include <rtsim/model/core/cache_tags.h>
+#include <rtsim/model/core/functional_tracer.h>
+#include <rtsim/model/core/ray_file.h>
+#include <rtsim/model/core/validate.h>
+#include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
+#include <rtsim/workloads/image.h>
+#include <rtsim/workloads/scene_registry.h>
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+namespace rtsim::cli {
+
+namespace {
+
+struct TraceOptions {
+  std::string scene, builder = "sah", camera, resolution = "256x256", out_dir, rays_in, rays_out;
+  std::string node_layout = "wide";
+  int ao = -1;
+  uint32_t spp = 1, threads = 0, max_depth = 2, stack_limit = 128;
+  uint64_t seed = 1;
+  float heat_max = 150.0f;
+  bool json = false, validate = false;
+};
+
+void parse_resolution(const std::string& text, uint32_t& w, uint32_t& h) {
+  unsigned a = 0, b = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%u%c%u%c", &a, &x, &b, &extra) != 3 || (x != 'x' && x != 'X') ||
+      a == 0 || b == 0 || a > 16384 || b > 16384)
+    throw InputError("--res", "expected WxH with 1..16384 each, got '" + text + "'");
+  w = a;
+  h = b;
+}
+
+nlohmann::json totals_json(const CounterTotals& t, uint64_t all_ops) {
+  return {{"rays", t.rays},
+          {"hits", t.hits},
+          {"ops_per_ray", t.per_ray(t.ops())},
+          {"trv_ops_per_ray", t.per_ray(t.trv_ops)},
+          {"ist_ops_per_ray", t.per_ray(t.ist_ops)},
+          {"box_tests_per_ray", t.per_ray(t.box_tests)},
+          {"node_fetches_per_ray", t.per_ray(t.node_fetches)},
+          {"prim_ref_fetches_per_ray", t.per_ray(t.prim_ref_fetches)},
+          {"triangle_fetches_per_ray", t.per_ray(t.triangle_fetches)},
+          {"bytes_per_ray", t.per_ray(t.bytes())},
+          {"ops", t.ops()},
+          {"share_of_ops", all_ops ? double(t.ops()) / double(all_ops) : 0.0},
+          {"max_stack_depth", t.max_stack_depth},
+          {"stack_overflows", t.stack_overflows}};
+}
+
+nlohmann::json cache_json(const CacheLevelStats& s, const CacheGeometry& g) {
+  return {{"size_bytes", g.size_bytes}, {"line_bytes", g.line_bytes}, {"ways", g.ways},
+          {"accesses", s.accesses},     {"hits", s.hits},             {"misses", s.misses},
+          {"hit_rate", s.hit_rate()},   {"bytes_requested", s.bytes_requested},
+          {"bytes_filled", s.bytes_filled}};
+}
+
+void run_trace(const TraceOptions& o) {
+  EffectSettings settings;
+  parse_resolution(o.resolution, settings.width, settings.height);
+  if (o.spp == 0 || o.spp > 1024) throw InputError("--spp", "must be 1..1024");
+  if (o.ao < -1 || o.ao > 1024) throw InputError("--ao", "must be 0..1024");
+  if (!(o.heat_max > 0.0f)) throw InputError("--heat-max", "must be > 0");
+  if (o.node_layout != "wide" && o.node_layout != "single")
+    throw InputError("--node-layout", "must be 'wide' (64 B BVH2) or 'single' (32 B)");
+  settings.spp = o.spp;
+  settings.seed = o.seed;
+  settings.ao_samples = o.ao;
+  settings.max_depth = o.max_depth;
+
+  const Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene);
+  if (scene.cameras.empty()) throw InputError("scene '" + scene.name + "'", "has no cameras");
+  const Camera& camera = o.camera.empty() ? scene.cameras.front() : scene.camera(o.camera);
+  BuildParams params;
+  params.builder = o.builder;
+  params.seed = o.seed;
+  params.camera = camera.name;
+  BuildReport build_report;
+  const Bvh bvh = build_bvh(scene, params, &build_report);
+  MemoryLayoutConfig layout;
+  layout.node_layout = o.node_layout == "wide" ? NodeLayout::Bvh2Wide64 : NodeLayout::SingleBox32;
+  const MemoryImage image(bvh, scene.triangle_count(), layout);
+  TraversalConfig traversal;
+  traversal.stack_limit = o.stack_limit;
+  const TraversalContext context(scene, bvh, image, traversal);
+
+  FunctionalCacheHierarchy caches;
+  FrameRun run;
+  if (!o.rays_in.empty()) {
+    RaySet set = read_ray_file(o.rays_in);
+    if (set.scene_hash != 0 && set.scene_hash != scene.content_hash())
+      throw InputError(o.rays_in, "scene hash: the rays were made for another scene");
+    run = run_rays(context, std::move(set.rays), settings.width, settings.height, &caches, o.threads);
+  } else {
+    run = run_frame(context, camera, settings, &caches, o.threads);
+  }
+  if (!o.rays_out.empty()) write_ray_file(o.rays_out, RaySet{run.rays, scene.content_hash()});
+
+  nlohmann::json j;
+  j["scene"] = scene.name;
+  j["triangles"] = scene.triangle_count();
+  j["builder"] = o.builder;
+  j["camera"] = camera.name;
+  j["resolution"] = {settings.width, settings.height};
+  j["spp"] = settings.spp;
+  j["seed"] = settings.seed;
+  j["node_layout"] = o.node_layout;
+  j["node_bytes"] = image.node_bytes();
+  j["triangle_bytes"] = image.triangle_bytes();
+  j["bvh_nodes"] = bvh.nodes.size();
+  j["build_seconds"] = build_report.build_seconds + build_report.estimate_seconds;
+  j["waves"] = run.waves;
+  j["trace_seconds"] = run.trace_seconds;
+  j["rays_per_second"] = run.trace_seconds > 0 ? double(run.total.rays) / run.trace_seconds : 0.0;
+  j["total"] = totals_json(run.total, run.total.ops());
+  for (RayType t : kAllRayTypes) {
+    const int k = ray_type_index(t);
+    j["effects"][ray_type_name(t)] = {{"on", run.plan.enabled[k]}, {"why", run.plan.reason[k]}};
+    if (run.per_type[k].rays) j["per_type"][ray_type_name(t)] = totals_json(run.per_type[k], run.total.ops());
+  }
+  j["caches"] = {{"l1_node", cache_json(caches.l1_node(), caches.config().l1_node)},
+                 {"l1_triangle", cache_json(caches.l1_triangle(), caches.config().l1_triangle)},
+                 {"l2", cache_json(caches.l2(), caches.config().l2)},
+                 {"dram_bytes", caches.dram_bytes()},
+                 {"dram_bytes_per_ray", run.total.per_ray(caches.dram_bytes())}};
+
+  if (!o.out_dir.empty()) {
+    const std::filesystem::path dir(o.out_dir);
+    std::filesystem::create_directories(dir);
+    write_png(dir / "ops_heatmap.png", heatmap(ops_per_pixel(run), run.width, run.height, o.heat_max));
+    if (run.per_type[ray_type_index(RayType::Ao)].rays) write_png(dir / "ao.png", ao_image(run));
+    write_png(dir / "shaded.png", shaded_image(scene, run));
+    j["pictures"] = {{"dir", dir.string()}, {"heat_max_ops", o.heat_max}};
+  }
+
+  uint64_t disagreements = 0;
+  if (o.validate) {
+    EmbreeScene embree(scene);
+    ValidationRule rule;
+    rule.absolute_bound = 1e-6f * scene.diagonal();
+    const ValidationResult v = validate_against_embree(embree, run.rays, run.results, rule, o.threads);
+    disagreements = v.disagreements;
+    j["validate"] = {{"rays", v.rays},
+                     {"disagreements", v.disagreements},
+                     {"hit_miss", v.hit_miss},
+                     {"distance", v.distance},
+                     {"prim_tied_allowed", v.prim_tied},
+                     {"endpoint_ties_allowed", v.endpoint_ties},
+                     {"relative_bound", rule.relative_bound},
+                     {"absolute_bound", rule.absolute_bound},
+                     {"examples", v.examples}};
+  }
+
+  if (o.json) {
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::printf("scene %s (%zu triangles), builder %s (%zu nodes), camera %s, %ux%u x %u spp, %s nodes (%u B)\n",
+                scene.name.c_str(), scene.triangle_count(), o.builder.c_str(), bvh.nodes.size(),
+                camera.name.c_str(), settings.width, settings.height, settings.spp,
+                o.node_layout.c_str(), image.node_bytes());
+    std::printf("\n%-11s %9s %9s %8s %8s %8s %9s %9s %9s %7s\n", "ray type", "rays", "ops/ray",
+                "TRV/ray", "IST/ray", "box/ray", "node f/r", "tri f/r", "bytes/r", "share");
+    auto row = [&](const char* name, const CounterTotals& t) {
+      std::printf("%-11s %9llu %9.2f %8.2f %8.2f %8.2f %9.2f %9.2f %9.1f %6.1f%%\n", name,
+                  (unsigned long long)t.rays, t.per_ray(t.ops()), t.per_ray(t.trv_ops),
+                  t.per_ray(t.ist_ops), t.per_ray(t.box_tests), t.per_ray(t.node_fetches),
+                  t.per_ray(t.triangle_fetches), t.per_ray(t.bytes()),
+                  run.total.ops() ? 100.0 * double(t.ops()) / double(run.total.ops()) : 0.0);
+    };
+    for (RayType t : kAllRayTypes)
+      if (run.per_type[ray_type_index(t)].rays) row(ray_type_name(t), run.per_type[ray_type_index(t)]);
+    row("total", run.total);
+    std::printf("\neffects:\n");
+    for (RayType t : kAllRayTypes)
+      std::printf("  %-11s %-4s %s\n", ray_type_name(t), run.plan.enabled[ray_type_index(t)] ? "on" : "off",
+                  run.plan.reason[ray_type_index(t)].c_str());
+    std::printf("\ncaches (functional, LRU):  L1 node %.1f%%  L1 triangle %.1f%%  L2 %.1f%%  DRAM %.1f B/ray\n",
+                100 * caches.l1_node().hit_rate(), 100 * caches.l1_triangle().hit_rate(),
+                100 * caches.l2().hit_rate(), run.total.per_ray(caches.dram_bytes()));
+    std::printf("max stack depth %u, stack overflows %llu\n", run.total.max_stack_depth,
+                (unsigned long long)run.total.stack_overflows);
+    std::printf("throughput: %.3f M rays/s (%.3f s for %llu rays in %u waves, with cache simulation)\n",
+                j["rays_per_second"].get<double>() * 1e-6, run.trace_seconds,
+                (unsigned long long)run.total.rays, run.waves);
+    if (!o.out_dir.empty())
+      std::printf("pictures in %s (heatmap scale 0..%g ops/pixel)\n", o.out_dir.c_str(), o.heat_max);
+    if (o.validate) {
+      const auto& v = j["validate"];
+      std::printf("validate vs Embree: %llu disagreements in %llu rays (|dt| <= %g x t + %g; "
+                  "allowed: %llu different prims at tied distance, %llu one-sided hits at tmin/tmax)\n",
+                  (unsigned long long)disagreements, (unsigned long long)run.rays.size(),
+                  v["relative_bound"].get<double>(), v["absolute_bound"].get<double>(),
+                  (unsigned long long)v["prim_tied_allowed"].get<uint64_t>(),
+                  (unsigned long long)v["endpoint_ties_allowed"].get<uint64_t>());
+      for (const auto& e : v["examples"]) std::printf("  %s\n", e.get<std::string>().c_str());
+    }
+  }
+  if (disagreements > 0)
+    throw ExitStatus(1, "validation: " + std::to_string(disagreements) + " disagreements with Embree");
+}
+
+}  // namespace
+
+void add_trace_command(CLI::App& root) {
+  auto options = std::make_shared<TraceOptions>();
+  CLI::App* cmd = root.add_subcommand(
+      "trace", "Trace primary rays and the secondary rays the scene calls for through the functional core");
+  cmd->add_option("--scene", options->scene, "scene name or file (default: the default scene)");
+  cmd->add_option("--builder", options->builder, "BVH builder")->capture_default_str();
+  cmd->add_option("--camera", options->camera, "camera name (default: the scene's first)");
+  cmd->add_option("--ao", options->ao, "AO rays per primary hit (0: off; default: the scene's)");
+  cmd->add_option("--res", options->resolution, "image resolution WxH")->capture_default_str();
+  cmd->add_option("--spp", options->spp, "samples per pixel")->capture_default_str();
+  cmd->add_option("--seed", options->seed, "random seed")->capture_default_str();
+  cmd->add_option("--max-depth", options->max_depth, "reflection/refraction bounces")->capture_default_str();
+  cmd->add_option("--threads", options->threads, "threads (0: all); results do not depend on it");
+  cmd->add_option("--node-layout", options->node_layout, "wide (64 B BVH2) | single (32 B)")->capture_default_str();
+  cmd->add_option("--stack-limit", options->stack_limit, "traversal stack entries before overflow")
+      ->capture_default_str();
+  cmd->add_option("--heat-max", options->heat_max, "ops/pixel at the top of the heatmap scale (fixed so builders compare)")
+      ->capture_default_str();
+  cmd->add_option("--out-dir", options->out_dir, "write ops_heatmap.png, ao.png, shaded.png here");
+  cmd->add_option("--rays-out", options->rays_out, "write every traced ray to this ray file");
+  cmd->add_option("--rays-in", options->rays_in, "replay the rays of this ray file instead of a camera");
+  cmd->add_flag("--json", options->json, "print JSON");
+  cmd->add_flag("--validate", options->validate, "trace every ray with Embree too; exit 1 on any disagreement");
+  cmd->callback([options] { run_trace(*options); });
+}
+
+}  // namespace rtsim::cli
