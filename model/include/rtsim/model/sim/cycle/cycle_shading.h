@@ -1,0 +1,38 @@
+#pragma once
+// Cycle level shading: takes finished rays, and after its latency (throughput
+// shading.rays_per_cycle) spawns the secondary rays the scene's effects call
+// for through the core's spawn_secondary_rays. Elaborated only when some effect
+// needs secondary rays.
+#include <rtsim/model/core/ray_generation.h>
+#include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/sc_time_util.h>
+
+namespace rtsim::sim {
+
+class CycleRayGen;
+struct Workload;
+
+class CycleShading : public sc_core::sc_module {
+ public:
+  CycleShading(sc_core::sc_module_name name, const HardwareConfig& config, const Workload& workload,
+               CycleRayGen& raygen);
+  void shade(uint32_t ray_index, const Ray& ray, const HitRecord& hit, uint64_t t);
+  uint64_t busy_ps = 0, shaded = 0, spawned = 0;
+  Occupancy occupancy;
+
+ private:
+  SC_HAS_PROCESS(CycleShading);
+  struct Item {
+    uint32_t ray_index;
+    Ray ray;
+    HitRecord hit;
+  };
+  void on_event();
+  const Workload& workload_;
+  CycleRayGen& raygen_;
+  uint64_t interval_ps_, latency_ps_, free_ps_ = 0;
+  TimedQueue<Item> queue_;
+  std::vector<Ray> out_;
+};
+
+}  // namespace rtsim::sim

@@ -1,0 +1,112 @@
+#pragma once
+// The memory hierarchy of the functional and loosely-timed levels: one L1 node
+// cache per TRV unit, one L1 triangle cache per IST unit, a shared L2 and DRAM.
+//  - FunctionalMemory: direct calls, tags and counts only, no time.
+//  - LtCache / LtDram: SystemC modules behind TLM-2.0 sockets (blocking transport),
+//    fixed latency per cache level, DRAM as latency plus a bandwidth cap. Any other
+//    TLM-2.0 LT target can stand in for LtDram (or for the whole hierarchy).
+// Both walk the same CacheModel objects in the same order, so their counts agree.
+#include <rtsim/model/sim/cache_model.h>
+#include <rtsim/model/sim/dram.h>
+#include <rtsim/model/sim/ray_engine.h>
+
+#include <systemc>
+#include <tlm>
+#include <tlm_utils/multi_passthrough_target_socket.h>
+#include <tlm_utils/simple_initiator_socket.h>
+#include <tlm_utils/tlm_quantumkeeper.h>
+
+#include <memory>
+#include <vector>
+
+namespace rtsim::sim {
+
+// Carried by every TLM-2.0 payload of the model: what the bytes are and for whom.
+struct AccessExtension : tlm::tlm_extension<AccessExtension> {
+  DataKind kind = DataKind::Node;
+  RayType ray_type = RayType::Primary;
+  uint64_t token = 0;  // the requester's id for the response (cycle level)
+  tlm::tlm_extension_base* clone() const override { return new AccessExtension(*this); }
+  void copy_from(const tlm::tlm_extension_base& other) override {
+    *this = static_cast<const AccessExtension&>(other);
+  }
+};
+
+// Reusable read payloads, each owning one AccessExtension.
+class PayloadPool {
+ public:
+  PayloadPool() = default;
+  PayloadPool(const PayloadPool&) = delete;
+  PayloadPool& operator=(const PayloadPool&) = delete;
+  ~PayloadPool();
+  tlm::tlm_generic_payload* get();
+  void put(tlm::tlm_generic_payload* p) { free_.push_back(p); }
+  static AccessExtension& extension(tlm::tlm_generic_payload& p) {
+    return *p.get_extension<AccessExtension>();
+  }
+
+ private:
+  std::vector<tlm::tlm_generic_payload*> free_, all_;
+};
+
+class FunctionalMemory : public MemoryPort {
+ public:
+  explicit FunctionalMemory(const HardwareConfig& config);
+  uint64_t read(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps) override;
+  uint32_t l1_line_bytes(Requester who) const override;
+
+  std::vector<std::unique_ptr<CacheModel>> l1_node, l1_triangle;
+  CacheModel l2;
+  DramModel dram;
+};
+
+class LtCache : public sc_core::sc_module {
+ public:
+  tlm_utils::multi_passthrough_target_socket<LtCache> target;
+  tlm_utils::simple_initiator_socket<LtCache> next;
+  LtCache(sc_core::sc_module_name name, const CacheConfig& config, uint64_t cycle_ps);
+  CacheModel model;
+
+ private:
+  void b_transport(int id, tlm::tlm_generic_payload& payload, sc_core::sc_time& delay);
+  sc_core::sc_time latency_;
+};
+
+class LtDram : public sc_core::sc_module {
+ public:
+  tlm_utils::multi_passthrough_target_socket<LtDram> target;
+  LtDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes);
+  DramModel model;
+
+ private:
+  void b_transport(int id, tlm::tlm_generic_payload& payload, sc_core::sc_time& delay);
+};
+
+// The loosely-timed top level: the ray engine in one SC_THREAD, its fetches sent
+// by blocking transport through per-unit initiator sockets, the quantum keeper
+// deciding when the thread yields to the kernel.
+class LtSystem : public sc_core::sc_module, public MemoryPort {
+ public:
+  LtSystem(sc_core::sc_module_name name, const HardwareConfig& config, const Workload& workload,
+           std::function<void(uint64_t)> progress);
+  uint64_t read(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps) override;
+  uint32_t l1_line_bytes(Requester who) const override;
+
+  RayEngine engine;
+  std::vector<std::unique_ptr<LtCache>> l1_node, l1_triangle;
+  std::unique_ptr<LtCache> l2;
+  std::unique_ptr<LtDram> dram;
+
+ private:
+  SC_HAS_PROCESS(LtSystem);
+  void thread();
+  HardwareConfig config_;
+  std::function<void(uint64_t)> progress_;
+  std::vector<std::unique_ptr<tlm_utils::simple_initiator_socket<LtSystem>>> trv_ports_, ist_ports_;
+  tlm_utils::tlm_quantumkeeper quantum_;
+  tlm::tlm_generic_payload payload_;  // owns its AccessExtension
+  AccessExtension* extension_;
+  uint8_t buffer_[4096] = {};
+};
+
+}  // namespace rtsim::sim

@@ -1,0 +1,40 @@
+#include <rtsim/model/sim/cycle/cycle_raygen.h>
+#include <rtsim/model/sim/cycle/cycle_shading.h>
+#include <rtsim/model/sim/ray_engine.h>
+
+#include <cmath>
+
+namespace rtsim::sim {
+
+CycleShading::CycleShading(sc_core::sc_module_name name, const HardwareConfig& config,
+                           const Workload& workload, CycleRayGen& raygen)
+    : sc_module(name), workload_(workload), raygen_(raygen) {
+  const double cycle_ps = config.clock_period_ps();
+  interval_ps_ = uint64_t(std::llround(cycle_ps / config.shading_rays_per_cycle));
+  latency_ps_ = uint64_t(config.shading_latency) * uint64_t(std::llround(cycle_ps));
+  SC_METHOD(on_event);
+  sensitive << queue_.event();
+  dont_initialize();
+}
+
+void CycleShading::shade(uint32_t ray_index, const Ray& ray, const HitRecord& hit, uint64_t t) {
+  const uint64_t start = std::max(t, free_ps_);
+  free_ps_ = start + interval_ps_;
+  busy_ps += interval_ps_;
+  occupancy.enter(t);
+  queue_.push(start + latency_ps_, Item{ray_index, ray, hit});
+}
+
+void CycleShading::on_event() {
+  queue_.drain([this](const Item& item) {
+    out_.clear();
+    spawn_secondary_rays(*workload_.scene, workload_.plan, workload_.settings, item.ray,
+                         item.ray_index, item.hit, out_);
+    ++shaded;
+    spawned += out_.size();
+    occupancy.leave(now_ps());
+    raygen_.add_rays(out_, now_ps());
+  });
+}
+
+}  // namespace rtsim::sim
