@@ -358,16 +358,27 @@ std::vector<Camera> interior_cameras(const Scene& scene) {
     ranked.emplace_back(view_score(embree, scene.cameras[i], 0.1f * diagonal), i);
   // Stable order for equal scores: the loader's order.
   std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-  Camera view1 = scene.cameras[ranked[0].second];
-  Camera view2 = scene.cameras[ranked.size() > 1 ? ranked[1].second : ranked[0].second];
-  for (size_t k = 1; k < ranked.size(); ++k) {  // the best view from a different place
-    const Camera& c = scene.cameras[ranked[k].second];
-    if (glm::length(c.position - view1.position) > 0.15f * diagonal) {
-      view2 = c;
-      break;
+  // view2: the best view from elsewhere, looking another way (maps are often
+  // symmetric, and a mirror image of view1 would add little); failing that,
+  // the best view from elsewhere; failing that, the runner-up.
+  const size_t first = ranked[0].second;
+  const Camera& best = scene.cameras[first];
+  const vec3 best_forward = glm::normalize(best.target - best.position);
+  size_t second = ranked.size() > 1 ? ranked[1].second : first;
+  for (int strict = 1; strict >= 0; --strict) {
+    bool found = false;
+    for (size_t k = 1; k < ranked.size() && !found; ++k) {
+      const Camera& c = scene.cameras[ranked[k].second];
+      const bool elsewhere = glm::length(c.position - best.position) > 0.15f * diagonal;
+      const bool other_way = glm::dot(glm::normalize(c.target - c.position), best_forward) < 0.5f;
+      if (elsewhere && (other_way || !strict)) second = ranked[k].second, found = true;
     }
+    if (found) break;
   }
-  say("camera scores: view1 " + view1.name + " " + std::to_string(ranked[0].first) + ", view2 " + view2.name);
+  Camera view1 = best, view2 = scene.cameras[second];
+  say("cameras: view1 = suggested camera " + std::to_string(first) + " " + view1.name + " (score " +
+      std::to_string(ranked[0].first) + "), view2 = suggested camera " + std::to_string(second) + " " +
+      view2.name);
   view1.name = "view1";
   view2.name = "view2";
   return {view1, view2};
