@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", RTSIM_VERSION " (" RTSIM_GIT_REVISION ")");
   rtsim::cli::add_scenes_command(app);
   rtsim::cli::add_build_command(app);
+  rtsim::cli::add_campaign_command(app);
   rtsim::cli::add_trace_command(app);
   try {
     app.parse(argc, argv);

@@ -1,0 +1,263 @@
+// rtsim campaign run|status|list|export|emit|collect|job
+#include "commands.h"
+
+#include <rtsim/reports/campaign.h>
+#include <rtsim/reports/campaign_runner.h>
+#include <rtsim/reports/results_store.h>
+#include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
+#include <rtsim/workloads/progress.h>
+
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+namespace rtsim::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// Options every campaign subcommand shares.
+struct CampaignArgs {
+  std::string file;
+  std::string dir;
+  std::string database;
+  std::string binary;
+};
+
+void add_common(CLI::App* cmd, CampaignArgs& a) {
+  cmd->add_option("file", a.file, "campaign file (.toml or .json)")->required();
+  cmd->add_option("--dir", a.dir,
+                  "work folder for job outputs and result files "
+                  "(default: ./rtsim-campaigns/<campaign name>)");
+  cmd->add_option("--db", a.database, "results database (default: <dir>/results.sqlite)");
+  cmd->add_option("--rtsim", a.binary,
+                  "the rtsim binary that runs each job's `simulate` (default: this one)");
+}
+
+fs::path job_binary(const CampaignArgs& a) {
+  return a.binary.empty() ? self_executable() : fs::absolute(a.binary);
+}
+
+Campaign load(const CampaignArgs& a) {
+  // This binary knows its revision; another one is asked (`--version`).
+  const std::string revision = a.binary.empty() ? std::string(RTSIM_GIT_REVISION)
+                                                : binary_revision(job_binary(a));
+  return load_campaign(a.file, revision);
+}
+
+CampaignPaths paths_of(const Campaign& c, const CampaignArgs& a) {
+  return campaign_paths(c, a.dir, a.database);
+}
+
+void print_collect(const CollectSummary& s, bool verbose) {
+  std::printf("collected %zu result files: %zu new, %zu replaced, %zu unchanged, %zu kept "
+              "(an ok run is not replaced by a failure), %zu stale, %zu unreadable\n",
+              s.files, s.inserted, s.replaced, s.unchanged, s.kept_ok, s.stale, s.bad);
+  if (verbose)
+    for (const std::string& p : s.problems) std::fprintf(stderr, "  %s\n", p.c_str());
+}
+
+}  // namespace
+
+void add_campaign_command(CLI::App& root) {
+  CLI::App* campaign = root.add_subcommand(
+      "campaign", "declarative sweeps of simulations: run, status, export, Slurm/GNU parallel");
+  campaign->require_subcommand(1);
+
+  // ---- run
+  {
+    auto a = std::make_shared<CampaignArgs>();
+    auto parallel = std::make_shared<int>(1);
+    auto retry_failed = std::make_shared<bool>(false);
+    auto force = std::make_shared<bool>(false);
+    auto timeout = std::make_shared<double>(0);
+    CLI::App* cmd = campaign->add_subcommand(
+        "run", "run the campaign's missing jobs, one process each; resumable at any moment");
+    add_common(cmd, *a);
+    cmd->add_option("-j,--jobs", *parallel, "jobs at once")->check(CLI::Range(1, 1024));
+    cmd->add_flag("--retry-failed", *retry_failed, "rerun jobs recorded as failed");
+    cmd->add_flag("--force", *force, "rerun every job, even finished ones");
+    cmd->add_option("--timeout", *timeout, "seconds per job before it is killed (0: none)")
+        ->check(CLI::NonNegativeNumber);
+    cmd->callback([=] {
+      const Campaign c = load(*a);
+      const CampaignPaths paths = paths_of(c, *a);
+      RunOptions o;
+      o.parallel = *parallel;
+      o.retry_failed = *retry_failed;
+      o.force = *force;
+      o.binary = job_binary(*a);
+      o.timeout_seconds = *timeout;
+      o.progress = Progress::enabled();
+      const RunSummary s = run_campaign(c, paths, o);
+      ResultsStore store(paths.database);
+      const CampaignStatus st = campaign_status(c, paths, store);
+      std::printf("campaign %s: %zu jobs; ran %zu (%zu ok, %zu failed) in %.1f s; "
+                  "%zu ok, %zu failed, %zu missing; results in %s\n",
+                  c.name.c_str(), s.total, s.ran, s.ok, s.failed, s.wall_seconds, st.ok,
+                  st.failed, st.missing, paths.database.string().c_str());
+      if (s.skipped_failed)
+        std::printf("%zu failed jobs were not rerun (use --retry-failed)\n", s.skipped_failed);
+      if (s.interrupted) throw ExitStatus(130, "interrupted; run again to resume");
+      if (st.failed) throw ExitStatus(1, "");
+    });
+  }
+
+  // ---- status
+  {
+    auto a = std::make_shared<CampaignArgs>();
+    CLI::App* cmd = campaign->add_subcommand("status", "jobs done, failed, running and missing");
+    add_common(cmd, *a);
+    cmd->callback([=] {
+      const Campaign c = load(*a);
+      const CampaignPaths paths = paths_of(c, *a);
+      ResultsStore store(paths.database);
+      const CampaignStatus s = campaign_status(c, paths, store);
+      std::printf("campaign %s (revision %s): %zu jobs: %zu ok, %zu failed, %zu missing\n",
+                  c.name.c_str(), c.revision.c_str(), s.total, s.ok, s.failed, s.missing);
+      for (const auto& [label, error] : s.failures)
+        std::printf("  failed %s: %s\n", label.c_str(), error.substr(0, error.find('\n')).c_str());
+    });
+  }
+
+  // ---- list
+  {
+    auto a = std::make_shared<CampaignArgs>();
+    auto json_out = std::make_shared<bool>(false);
+    CLI::App* cmd = campaign->add_subcommand("list", "the expanded jobs: key, group, label");
+    add_common(cmd, *a);
+    cmd->add_flag("--json", *json_out, "the resolved job descriptions as JSON");
+    cmd->callback([=] {
+      const Campaign c = load(*a);
+      if (*json_out) {
+        nlohmann::json all = nlohmann::json::array();
+        for (const CampaignJob& j : c.jobs)
+          all.push_back({{"key", j.key}, {"config_hash", j.config_hash}, {"group", j.group},
+                         {"label", j.label}, {"resolved", j.resolved},
+                         {"arguments", j.simulate_arguments("DIR")}});
+        std::cout << all.dump(2) << "\n";
+        return;
+      }
+      for (const CampaignJob& j : c.jobs)
+        std::printf("%s  %-12s %s\n", j.key.c_str(), j.group.c_str(), j.label.c_str());
+    });
+  }
+
+  // ---- export
+  {
+    auto a = std::make_shared<CampaignArgs>();
+    auto csv = std::make_shared<bool>(false);
+    auto out = std::make_shared<std::string>();
+    CLI::App* cmd = campaign->add_subcommand("export", "the results as CSV");
+    add_common(cmd, *a);
+    cmd->add_flag("--csv", *csv, "comma-separated values (the one format so far)")->required();
+    cmd->add_option("-o,--output", *out, "file to write (default: standard output)");
+    cmd->callback([=] {
+      const Campaign c = load(*a);
+      ResultsStore store(paths_of(c, *a).database);
+      std::ostringstream text;
+      write_campaign_csv(c, store, text);
+      if (out->empty()) std::cout << text.str();
+      else write_file_atomic(*out, text.str());
+    });
+  }
+
+  // ---- emit
+  {
+    auto a = std::make_shared<CampaignArgs>();
+    auto slurm = std::make_shared<bool>(false);
+    auto parallel = std::make_shared<bool>(false);
+    auto o = std::make_shared<EmitOptions>();
+    CLI::App* cmd = campaign->add_subcommand(
+        "emit", "write a Slurm job array or a GNU parallel job list for the missing jobs");
+    add_common(cmd, *a);
+    auto* s = cmd->add_flag("--slurm", *slurm, "an sbatch job-array script");
+    auto* p = cmd->add_flag("--parallel", *parallel, "a GNU parallel job list");
+    s->excludes(p);
+    cmd->add_option("--throttle", o->throttle, "Slurm array tasks running at once")
+        ->check(CLI::Range(1, 100000));
+    cmd->add_option("--sbatch-option", o->sbatch_options,
+                    "extra #SBATCH line, e.g. --sbatch-option=--partition=short (repeatable)")
+        ->allow_extra_args(false);
+    cmd->add_option("--runner", o->runner,
+                    "the rtsim that runs `campaign job` on the compute nodes (default: this one)");
+    cmd->add_flag("--retry-failed", o->retry_failed, "also list jobs recorded as failed");
+    cmd->add_flag("--all", o->all, "list every job, finished or not");
+    cmd->add_option("--timeout", o->timeout_seconds, "seconds per job (0: none)")
+        ->check(CLI::NonNegativeNumber);
+    cmd->callback([=] {
+      if (!*slurm && !*parallel) throw InputError("campaign emit", "choose --slurm or --parallel");
+      const Campaign c = load(*a);
+      const CampaignPaths paths = paths_of(c, *a);
+      ResultsStore store(paths.database);
+      if (!a->binary.empty()) o->binary = job_binary(*a);
+      const fs::path runner = o->runner.empty() ? self_executable() : o->runner;
+      size_t count = 0;
+      const std::string collect = shell_quote(runner.string()) + " campaign collect " +
+                                  shell_quote(c.file.string()) + " --dir " +
+                                  shell_quote(paths.dir.string()) +
+                                  (a->database.empty() ? "" : " --db " + shell_quote(paths.database.string())) +
+                                  (a->binary.empty() ? "" : " --rtsim " + shell_quote(o->binary.string()));
+      if (*slurm) {
+        const fs::path script = emit_slurm(c, paths, store, *o, count);
+        std::printf("%s: %zu array tasks\n", script.string().c_str(), count);
+        if (count) std::printf("submit:  sbatch %s\nthen:    %s\n", shell_quote(script.string()).c_str(), collect.c_str());
+      } else {
+        const fs::path list = emit_parallel(c, paths, store, *o, count);
+        std::printf("%s: %zu jobs\n", list.string().c_str(), count);
+        if (count)
+          std::printf("run:   parallel --jobs N --joblog %s --resume < %s\nthen:  %s\n",
+                      shell_quote((list.parent_path() / "joblog.txt").string()).c_str(),
+                      shell_quote(list.string()).c_str(), collect.c_str());
+      }
+    });
+  }
+
+  // ---- collect
+  {
+    auto a = std::make_shared<CampaignArgs>();
+    CLI::App* cmd = campaign->add_subcommand(
+        "collect", "merge per-job result files (Slurm, GNU parallel) into the database");
+    add_common(cmd, *a);
+    cmd->callback([=] {
+      const Campaign c = load(*a);
+      const CampaignPaths paths = paths_of(c, *a);
+      ResultsStore store(paths.database);
+      const CollectSummary s = collect_results(c, paths, store);
+      print_collect(s, true);
+      if (s.bad) throw ExitStatus(1, std::to_string(s.bad) + " result files could not be read");
+    });
+  }
+
+  // ---- job (what an array task or a GNU parallel line runs)
+  {
+    auto a = std::make_shared<CampaignArgs>();
+    auto key = std::make_shared<std::string>();
+    auto force = std::make_shared<bool>(false);
+    auto timeout = std::make_shared<double>(0);
+    CLI::App* cmd = campaign->add_subcommand(
+        "job", "run one job by key and write its result file (no database access)");
+    add_common(cmd, *a);
+    cmd->add_option("--key", *key, "the job key (`rtsim campaign list`)")->required();
+    cmd->add_flag("--force", *force, "rerun even if its result file says ok");
+    cmd->add_option("--timeout", *timeout, "seconds before the job is killed (0: none)")
+        ->check(CLI::NonNegativeNumber);
+    cmd->callback([=] {
+      const Campaign c = load(*a);
+      const CampaignJob* job = c.find(*key);
+      if (!job)
+        throw InputError("--key " + *key, "no job with this key in " + c.file.string() +
+                                              " at revision " + c.revision);
+      const RunRecord r = run_one_job(c, *job, paths_of(c, *a), job_binary(*a), *timeout, *force);
+      std::printf("%s %s %s (%.2f s)\n", r.job_key.c_str(), r.status.c_str(), r.label.c_str(),
+                  r.host_seconds);
+      if (r.status != "ok") throw ExitStatus(1, "job failed: " + r.error);
+    });
+  }
+}
+
+}  // namespace rtsim::cli

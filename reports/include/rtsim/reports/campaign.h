@@ -1,0 +1,59 @@
+#pragma once
+// A campaign: a declarative sweep (TOML or JSON) over scenes x builders x cameras x
+// hardware presets/overrides x fidelity levels x seeds, expanded into jobs. Each job
+// is one `rtsim simulate` process; its identity (key) is a hash of its resolved
+// configuration and the simulator binary's revision, so rerunning a finished job is
+// a no-op and a new binary reruns everything. The file format is in docs/campaigns.md.
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace rtsim {
+
+struct CampaignJob {
+  std::string key;          // hash(resolved configuration + revision), 16 hex digits
+  std::string config_hash;  // hash(resolved configuration), 16 hex digits
+  std::string label;        // "interior/sah/view1/mobile/functional/seed1[/l2.size_bytes=...]"
+  std::string group;        // first named group that produced the job ("default" if none)
+
+  std::string scene, builder, camera, preset, fidelity;
+  uint64_t seed = 1;
+  std::string resolution;   // "WxH" or "" (simulate's default)
+  int64_t ao_rays = -1;     // AO rays per primary hit, < 0: simulate's default
+  std::map<std::string, std::string> overrides;  // dotted hardware key -> value text
+
+  // Absolute paths for inputs named by path in the campaign (empty: a name).
+  std::filesystem::path preset_path, scene_path;
+
+  nlohmann::json resolved;  // canonical description hashed into config_hash
+
+  // Arguments after the binary: simulate --scene ... --out DIR [--set k=v ...].
+  std::vector<std::string> simulate_arguments(const std::filesystem::path& out_dir) const;
+};
+
+struct Campaign {
+  std::string name;
+  std::string description;
+  std::filesystem::path file;  // absolute
+  std::string revision;        // the simulator binary's revision the keys were made with
+  std::vector<std::string> groups;
+  std::vector<CampaignJob> jobs;  // in expansion order, unique keys
+
+  const CampaignJob* find(const std::string& key) const;  // nullptr if absent
+};
+
+// Reads and expands a campaign file. `revision` is the job binary's revision (part of
+// every key). Throws InputError naming the file and key for anything wrong.
+Campaign load_campaign(const std::filesystem::path& file, const std::string& revision);
+Campaign parse_campaign(const nlohmann::json& document, const std::filesystem::path& file,
+                        const std::string& revision);
+
+// Stable 64-bit content hash (FNV-1a) as 16 lowercase hex digits.
+std::string content_hash_hex(const std::string& bytes);
+std::string file_hash_hex(const std::filesystem::path& file);  // InputError if unreadable
+
+}  // namespace rtsim

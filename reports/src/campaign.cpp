@@ -1,0 +1,367 @@
+// Campaign files: parsing, sweep expansion and job identity.
+#include <rtsim/reports/campaign.h>
+
+#include <rtsim/workloads/config_reader.h>
+#include <rtsim/workloads/error.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <set>
+#include <sstream>
+
+namespace rtsim {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+// Guards against a typo ("step = 0.0001") expanding into millions of processes.
+constexpr size_t kMaxValuesPerAxis = 10000;
+constexpr size_t kMaxJobs = 200000;
+
+const char* const kAxes[] = {"scene", "builder", "camera", "preset", "fidelity",
+                             "seed",  "resolution", "ao"};
+
+// One axis value as the text passed on the command line. Integers stay integers;
+// reals use the shortest text that reads back to the same double.
+std::string scalar_text(const json& v, const std::string& where) {
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_boolean()) return v.get<bool>() ? "true" : "false";
+  if (v.is_number_integer()) return std::to_string(v.get<int64_t>());
+  if (v.is_number_unsigned()) return std::to_string(v.get<uint64_t>());
+  if (v.is_number_float()) {
+    const double d = v.get<double>();
+    if (!std::isfinite(d)) throw InputError(where, "values must be finite");
+    return json(d).dump();
+  }
+  throw InputError(where, "values must be strings, numbers or booleans, not " +
+                              std::string(v.type_name()));
+}
+
+// A range table: {from, to, step} (arithmetic, inclusive) or {from, to, factor}
+// (geometric, inclusive). Integer endpoints and step give integer values.
+std::vector<json> expand_range(const json& range, const std::string& where) {
+  for (auto it = range.begin(); it != range.end(); ++it)
+    if (it.key() != "from" && it.key() != "to" && it.key() != "step" && it.key() != "factor")
+      throw InputError(where, "unknown range key '" + it.key() +
+                                  "' (a range is {from, to, step} or {from, to, factor})");
+  if (!range.contains("from") || !range.contains("to") ||
+      range.contains("step") == range.contains("factor"))
+    throw InputError(where, "a range needs from, to and exactly one of step or factor");
+  for (const char* k : {"from", "to", "step", "factor"})
+    if (range.contains(k) && !range[k].is_number())
+      throw InputError(where, std::string("range '") + k + "' must be a number");
+  const bool integral = range["from"].is_number_integer() && range["to"].is_number_integer() &&
+                        (range.contains("factor") ? range["factor"].is_number_integer()
+                                                  : range["step"].is_number_integer());
+  const double from = range["from"].get<double>(), to = range["to"].get<double>();
+  if (!std::isfinite(from) || !std::isfinite(to) || to < from)
+    throw InputError(where, "range needs finite from <= to");
+  std::vector<json> values;
+  auto push = [&](double v) {
+    if (values.size() >= kMaxValuesPerAxis)
+      throw InputError(where, "range expands to more than " + std::to_string(kMaxValuesPerAxis) +
+                                  " values");
+    if (integral)
+      values.emplace_back(static_cast<int64_t>(std::llround(v)));
+    else
+      values.emplace_back(v);
+  };
+  // Tolerance so that 0.1-steps reach their end point despite rounding.
+  const double slack = 1e-9 * std::max(1.0, std::fabs(to));
+  if (range.contains("step")) {
+    const double step = range["step"].get<double>();
+    if (!(step > 0)) throw InputError(where, "range step must be > 0");
+    const double count = std::floor((to - from) / step + 1e-9);
+    if (count + 1 > double(kMaxValuesPerAxis))
+      throw InputError(where, "range expands to more than " + std::to_string(kMaxValuesPerAxis) +
+                                  " values");
+    for (int64_t i = 0; i <= int64_t(count); ++i) push(from + double(i) * step);
+  } else {
+    const double factor = range["factor"].get<double>();
+    if (!(factor > 1)) throw InputError(where, "range factor must be > 1");
+    if (!(from > 0)) throw InputError(where, "a geometric range needs from > 0");
+    for (double v = from; v <= to + slack; v *= factor) push(v);
+  }
+  return values;
+}
+
+// An axis: a scalar, a list of scalars or a range table.
+std::vector<json> axis_values(const json& v, const std::string& where) {
+  std::vector<json> out;
+  if (v.is_array()) {
+    if (v.empty()) throw InputError(where, "an empty list would make no jobs");
+    for (const json& e : v) {
+      if (e.is_object()) {
+        for (json& r : expand_range(e, where)) out.push_back(std::move(r));
+      } else {
+        scalar_text(e, where);  // type check
+        out.push_back(e);
+      }
+    }
+  } else if (v.is_object()) {
+    out = expand_range(v, where);
+  } else {
+    scalar_text(v, where);
+    out.push_back(v);
+  }
+  if (out.size() > kMaxValuesPerAxis)
+    throw InputError(where, "more than " + std::to_string(kMaxValuesPerAxis) + " values");
+  return out;
+}
+
+// The hardware overrides table, flattened to dotted keys. A table that looks like a
+// range ({from, ...}) is a leaf; any other table is a level of the dotted key.
+void flatten_overrides(const json& table, const std::string& prefix, const std::string& where_prefix,
+                       std::map<std::string, std::vector<json>>& out) {
+  for (auto it = table.begin(); it != table.end(); ++it) {
+    const std::string key = prefix.empty() ? it.key() : prefix + "." + it.key();
+    const std::string where = where_prefix + key + "'";
+    if (it.value().is_object() && !it.value().contains("from"))
+      flatten_overrides(it.value(), key, where_prefix, out);
+    else
+      out[key] = axis_values(it.value(), where);
+  }
+}
+
+struct Sweep {
+  std::map<std::string, std::vector<json>> axes;       // axis name -> values
+  std::map<std::string, std::vector<json>> overrides;  // dotted hardware key -> values
+};
+
+// Reads the axes and the `set` table of one [sweep] or [[group]] table.
+void read_sweep(ConfigTable& table, const std::string& section, Sweep& sweep) {
+  for (const char* axis : kAxes)
+    if (table.has(axis))
+      sweep.axes[axis] = axis_values(table.raw(axis), table.where(axis));
+  if (table.has("set")) {
+    const json& set = table.raw("set");
+    if (!set.is_object()) throw InputError(table.where("set"), "must be a table of dotted keys");
+    std::map<std::string, std::vector<json>> flat;
+    flatten_overrides(set, "", table.file() + ": key '" + section + ".set.", flat);
+    for (auto& [k, v] : flat) sweep.overrides[k] = std::move(v);
+  }
+}
+
+bool looks_like_path(const std::string& s) {
+  auto ends_with = [&](const char* tail) {
+    const std::string t(tail);
+    return s.size() > t.size() && s.compare(s.size() - t.size(), t.size(), t) == 0;
+  };
+  return s.find('/') != std::string::npos || ends_with(".toml") || ends_with(".json");
+}
+
+}  // namespace
+
+std::string content_hash_hex(const std::string& bytes) {
+  uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : bytes) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+std::string file_hash_hex(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InputError(file.string(), "cannot read");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return content_hash_hex(ss.str());
+}
+
+std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir) const {
+  std::vector<std::string> a = {"simulate",
+                                "--scene", scene_path.empty() ? scene : scene_path.string(),
+                                "--builder", builder,
+                                "--camera", camera,
+                                "--fidelity", fidelity,
+                                "--config", preset_path.empty() ? preset : preset_path.string(),
+                                "--seed", std::to_string(seed),
+                                "--out", out_dir.string()};
+  if (!resolution.empty()) a.insert(a.end(), {"--res", resolution});
+  if (ao_rays >= 0) a.insert(a.end(), {"--ao", std::to_string(ao_rays)});
+  for (const auto& [k, v] : overrides) a.insert(a.end(), {"--set", k + "=" + v});
+  return a;
+}
+
+const CampaignJob* Campaign::find(const std::string& key) const {
+  for (const CampaignJob& j : jobs)
+    if (j.key == key) return &j;
+  return nullptr;
+}
+
+Campaign load_campaign(const fs::path& file, const std::string& revision) {
+  return parse_campaign(parse_config_file(file), file, revision);
+}
+
+Campaign parse_campaign(const json& document, const fs::path& file_in,
+                        const std::string& revision) {
+  const fs::path file = fs::absolute(file_in).lexically_normal();
+  const fs::path base_dir = file.parent_path();
+  const std::string fname = file_in.string();
+  Campaign campaign;
+  campaign.file = file;
+  campaign.revision = revision;
+
+  ConfigTable root(document, fname);
+  {
+    ConfigTable meta = root.table("campaign");
+    campaign.name = meta.string("name", file.stem().string());
+    campaign.description = meta.string("description", "");
+    meta.finish();
+  }
+  if (campaign.name.empty() ||
+      campaign.name.find_first_of("/\\ \t\n'\"") != std::string::npos)
+    throw InputError(fname + ": key 'campaign.name'",
+                     "must be a non-empty name without spaces, quotes or slashes");
+
+  Sweep base;
+  base.axes["camera"] = {json("view1")};
+  base.axes["preset"] = {json("mobile")};
+  base.axes["fidelity"] = {json("functional")};
+  base.axes["seed"] = {json(1)};
+  {
+    ConfigTable sweep = root.table("sweep");
+    read_sweep(sweep, "sweep", base);
+    sweep.finish();
+  }
+
+  std::vector<std::pair<std::string, Sweep>> groups;
+  for (ConfigTable& g : root.array_of_tables("group")) {
+    Sweep s = base;
+    const std::string name = g.string("name");
+    if (name.empty()) throw InputError(g.where("name"), "must not be empty");
+    for (const auto& [n, _] : groups)
+      if (n == name) throw InputError(g.where("name"), "group '" + name + "' is defined twice");
+    read_sweep(g, "group", s);
+    g.finish();
+    groups.emplace_back(name, std::move(s));
+  }
+  root.finish();
+  if (groups.empty()) groups.emplace_back("default", base);
+
+  // Hashes of inputs named by path, so that editing a preset file changes the keys.
+  std::map<std::string, std::string> input_hash;
+  auto resolve_input = [&](const std::string& value, const std::string& where, fs::path& path,
+                           bool must_be_file) -> std::string {
+    if (!must_be_file && !looks_like_path(value)) return "";
+    fs::path p = fs::path(value).is_absolute() ? fs::path(value) : base_dir / value;
+    if (!fs::is_regular_file(p)) {
+      if (!must_be_file) return "";
+      throw InputError(where, "'" + value + "' is not a file (relative paths start at " +
+                                  base_dir.string() + ")");
+    }
+    path = fs::absolute(p).lexically_normal();
+    auto [it, fresh] = input_hash.emplace(path.string(), "");
+    if (fresh) it->second = file_hash_hex(path);
+    return it->second;
+  };
+
+  std::set<std::string> seen;
+  for (const auto& [group_name, sweep] : groups) {
+    const std::string where = fname + ": group '" + group_name + "'";
+    if (!sweep.axes.count("scene") || !sweep.axes.count("builder"))
+      throw InputError(where, "needs 'scene' and 'builder' (in [sweep] or the group)");
+    // Mixed-radix counter over every axis and override, last one fastest.
+    std::vector<std::pair<std::string, const std::vector<json>*>> dims;
+    for (const auto& [k, v] : sweep.axes) dims.emplace_back(k, &v);
+    for (const auto& [k, v] : sweep.overrides) dims.emplace_back("set:" + k, &v);
+    // Order the named axes the way people read labels.
+    auto rank = [](const std::string& k) {
+      for (size_t i = 0; i < std::size(kAxes); ++i)
+        if (k == kAxes[i]) return i;
+      return std::size(kAxes);
+    };
+    std::stable_sort(dims.begin(), dims.end(),
+                     [&](const auto& a, const auto& b) { return rank(a.first) < rank(b.first); });
+    double total = 1;
+    for (const auto& d : dims) total *= double(d.second->size());
+    if (total + double(campaign.jobs.size()) > double(kMaxJobs))
+      throw InputError(where, "expands to more than " + std::to_string(kMaxJobs) + " jobs");
+
+    std::vector<size_t> index(dims.size(), 0);
+    bool done = false;
+    while (!done) {
+      CampaignJob job;
+      job.group = group_name;
+      json resolved = json::object();
+      json overrides = json::object();
+      for (size_t d = 0; d < dims.size(); ++d) {
+        const std::string& name = dims[d].first;
+        const std::string w = fname + ": key '" + name + "'";
+        const std::string value = scalar_text((*dims[d].second)[index[d]], w);
+        if (name.rfind("set:", 0) == 0) {
+          job.overrides[name.substr(4)] = value;
+          overrides[name.substr(4)] = value;
+          continue;
+        }
+        resolved[name] = value;
+        if (name == "scene") {
+          job.scene = value;
+          const std::string h = resolve_input(value, w, job.scene_path, false);
+          if (!h.empty()) resolved["scene_file_hash"] = h;
+        } else if (name == "builder") {
+          job.builder = value;
+        } else if (name == "camera") {
+          job.camera = value;
+        } else if (name == "preset") {
+          job.preset = value;
+          const std::string h = resolve_input(value, w, job.preset_path, false);
+          if (!h.empty()) resolved["preset_file_hash"] = h;
+        } else if (name == "fidelity") {
+          if (value != "functional" && value != "lt" && value != "cycle")
+            throw InputError(w, "'" + value + "' is not a fidelity level (functional, lt, cycle)");
+          job.fidelity = value;
+        } else if (name == "seed") {
+          const json& v = (*dims[d].second)[index[d]];
+          if (!v.is_number_integer() || v.get<int64_t>() < 0)
+            throw InputError(w, "seeds must be integers >= 0");
+          job.seed = v.get<uint64_t>();
+        } else if (name == "resolution") {
+          unsigned wdt = 0, hgt = 0;
+          char tail = 0;
+          if (std::sscanf(value.c_str(), "%ux%u%c", &wdt, &hgt, &tail) != 2 || wdt == 0 ||
+              hgt == 0 || wdt > 16384 || hgt > 16384)
+            throw InputError(w, "'" + value + "' is not a resolution WxH (1..16384)");
+          job.resolution = value;
+        } else if (name == "ao") {
+          const json& v = (*dims[d].second)[index[d]];
+          if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > 1024)
+            throw InputError(w, "AO ray counts must be integers in [0, 1024]");
+          job.ao_rays = v.get<int64_t>();
+        }
+      }
+      resolved["set"] = overrides;
+      job.resolved = resolved;
+      // json objects keep keys sorted, so dump() is canonical.
+      job.config_hash = content_hash_hex(resolved.dump());
+      job.key = content_hash_hex(resolved.dump() + "\nrevision=" + revision);
+      job.label = job.scene + "/" + job.builder + "/" + job.camera + "/" + job.preset + "/" +
+                  job.fidelity + "/seed" + std::to_string(job.seed);
+      if (!job.resolution.empty()) job.label += "/" + job.resolution;
+      if (job.ao_rays >= 0) job.label += "/ao" + std::to_string(job.ao_rays);
+      for (const auto& [k, v] : job.overrides) job.label += "/" + k + "=" + v;
+      if (seen.insert(job.key).second) campaign.jobs.push_back(std::move(job));
+
+      // Advance the odometer; when every digit wraps, the group is complete.
+      size_t d = dims.size();
+      for (;;) {
+        if (d == 0) { done = true; break; }
+        --d;
+        if (++index[d] < dims[d].second->size()) break;
+        index[d] = 0;
+      }
+    }
+    campaign.groups.push_back(group_name);
+  }
+  return campaign;
+}
+
+}  // namespace rtsim

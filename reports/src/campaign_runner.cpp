@@ -1,0 +1,560 @@
+// Campaign execution: one child process per job, result files, resume, collect, emit.
+#include <rtsim/reports/campaign_runner.h>
+
+#include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/file.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <thread>
+
+namespace rtsim {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+std::string utc_now() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The last lines of a job's log: enough to see why it failed, small enough for a cell.
+std::string log_tail(const fs::path& log, size_t max_chars = 2000) {
+  std::string text = read_text(log);
+  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
+  if (text.size() > max_chars) {
+    text = text.substr(text.size() - max_chars);
+    const size_t nl = text.find('\n');
+    if (nl != std::string::npos) text = text.substr(nl + 1);
+    text = "..." + std::string("\n") + text;
+  }
+  return text;
+}
+
+// A started child process.
+struct Child {
+  pid_t pid = -1;
+  Clock::time_point start;
+};
+
+// fork + exec with the log as stdout/stderr. The child dies with the runner
+// (PR_SET_PDEATHSIG), so a kill -9 of the runner never leaves orphans that keep
+// writing into a job directory the next run reuses.
+Child spawn(const fs::path& binary, const std::vector<std::string>& args, const fs::path& log) {
+  std::vector<std::string> words;
+  words.push_back(binary.string());
+  words.insert(words.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& w : words) argv.push_back(w.data());
+  argv.push_back(nullptr);
+  const std::string log_path = log.string();
+  const pid_t parent = getpid();
+  Child c;
+  c.start = Clock::now();
+  c.pid = fork();
+  if (c.pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
+  if (c.pid == 0) {
+    // Only async-signal-safe calls from here on.
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (getppid() != parent) _exit(126);  // the runner died before prctl took effect
+    const int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    const int null_fd = open("/dev/null", O_RDONLY | O_CLOEXEC);
+    if (fd < 0 || null_fd < 0) _exit(126);
+    dup2(null_fd, 0);
+    dup2(fd, 1);
+    dup2(fd, 2);
+    execv(argv[0], argv.data());
+    const char msg[] = "rtsim campaign: cannot execute the job binary\n";
+    (void)!write(2, msg, sizeof msg - 1);
+    _exit(127);
+  }
+  return c;
+}
+
+std::string describe_exit(int status) {
+  if (WIFEXITED(status)) return "exit code " + std::to_string(WEXITSTATUS(status));
+  if (WIFSIGNALED(status)) {
+    const int sig = WTERMSIG(status);
+    return "killed by signal " + std::to_string(sig) + " (" + strsignal(sig) + ")";
+  }
+  return "ended with wait status " + std::to_string(status);
+}
+
+// Reads a JSON output of a job; null if absent or unreadable (the reason in `why`).
+json read_json_output(const fs::path& p, std::string& why) {
+  if (!fs::exists(p)) {
+    why = p.filename().string() + " was not written";
+    return nullptr;
+  }
+  try {
+    return json::parse(read_text(p));
+  } catch (const std::exception& e) {
+    why = p.filename().string() + " is not valid JSON: " + e.what();
+    return nullptr;
+  }
+}
+
+RunRecord make_record(const Campaign& campaign, const CampaignJob& job, const CampaignPaths& paths,
+                      int wait_status, bool timed_out, double seconds) {
+  RunRecord r;
+  r.campaign = campaign.name;
+  r.job_key = job.key;
+  r.label = job.label;
+  r.group = job.group;
+  r.config_hash = job.config_hash;
+  r.revision = campaign.revision;
+  r.host_seconds = seconds;
+  r.finished_at = utc_now();
+  r.job = job.resolved;
+  const fs::path dir = paths.job_dir(job.key);
+  std::string why_config, why_stats;
+  r.config = read_json_output(dir / "config.json", why_config);
+  r.stats = read_json_output(dir / "stats.json", why_stats);
+  const bool exited_ok = !timed_out && WIFEXITED(wait_status) && WEXITSTATUS(wait_status) == 0;
+  if (exited_ok && r.stats.is_object() && r.config.is_object()) {
+    r.status = "ok";
+  } else {
+    r.status = "failed";
+    std::string reason = timed_out ? "timed out" : describe_exit(wait_status);
+    if (exited_ok) reason = !why_stats.empty() ? why_stats : !why_config.empty() ? why_config
+                                                                                 : "bad outputs";
+    const std::string tail = log_tail(dir / "log.txt");
+    r.error = reason + (tail.empty() ? "" : "\n" + tail);
+  }
+  return r;
+}
+
+void write_result_file(const CampaignPaths& paths, const RunRecord& r) {
+  fs::create_directories(paths.dir / "results");
+  write_file_atomic(paths.result_file(r.job_key), r.to_json().dump(1) + "\n");
+}
+
+// Prepares a clean job directory (a killed earlier attempt may have left files).
+fs::path fresh_job_dir(const CampaignPaths& paths, const std::string& key) {
+  const fs::path dir = paths.job_dir(key);
+  std::error_code ec;
+  fs::remove_all(dir, ec);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::atomic<int> g_stop_signal{0};
+void on_stop_signal(int sig) { g_stop_signal = sig; }
+
+std::string format_duration(double s) {
+  if (!std::isfinite(s) || s < 0) return "?";
+  char buf[32];
+  const long t = std::lround(s);
+  if (t >= 3600) std::snprintf(buf, sizeof buf, "%ldh%02ldm", t / 3600, (t / 60) % 60);
+  else if (t >= 60) std::snprintf(buf, sizeof buf, "%ldm%02lds", t / 60, t % 60);
+  else std::snprintf(buf, sizeof buf, "%lds", t);
+  return buf;
+}
+
+// One exclusive lock per campaign directory; flock is released by the kernel when the
+// holder dies, kill -9 included, so a stale lock never blocks a resume.
+class CampaignLock {
+ public:
+  explicit CampaignLock(const fs::path& dir) {
+    fs::create_directories(dir);
+    const fs::path file = dir / "run.lock";
+    fd_ = open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw std::runtime_error(file.string() + ": " + std::strerror(errno));
+    if (flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      close(fd_);
+      throw InputError(dir.string(), "another `rtsim campaign run` is using this campaign "
+                                     "directory (run.lock is held)");
+    }
+  }
+  ~CampaignLock() { close(fd_); }
+
+ private:
+  int fd_ = -1;
+};
+
+}  // namespace
+
+std::string shell_quote(const std::string& word) {
+  std::string out = "'";
+  for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+fs::path self_executable() { return fs::read_symlink("/proc/self/exe"); }
+
+std::string binary_revision(const fs::path& binary) {
+  if (access(binary.c_str(), X_OK) != 0)
+    throw InputError(binary.string(), "the job binary is not an executable file");
+  const std::string command = shell_quote(binary.string()) + " --version 2>/dev/null";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) throw InputError(binary.string(), "cannot run --version");
+  std::string out;
+  char buf[256];
+  while (fgets(buf, sizeof buf, pipe)) out += buf;
+  const int status = pclose(pipe);
+  if (status != 0 || out.empty())
+    throw InputError(binary.string(), "`--version` failed; is it an rtsim binary?");
+  out = out.substr(0, out.find('\n'));
+  const size_t open_paren = out.rfind('('), close_paren = out.rfind(')');
+  if (open_paren != std::string::npos && close_paren != std::string::npos &&
+      close_paren > open_paren + 1)
+    return out.substr(open_paren + 1, close_paren - open_paren - 1);
+  return out;
+}
+
+CampaignPaths campaign_paths(const Campaign& campaign, const fs::path& dir_option,
+                             const fs::path& database_option) {
+  CampaignPaths p;
+  p.dir = fs::absolute(dir_option.empty() ? fs::path("rtsim-campaigns") / campaign.name
+                                          : dir_option).lexically_normal();
+  p.database = fs::absolute(database_option.empty() ? p.dir / "results.sqlite"
+                                                    : database_option).lexically_normal();
+  return p;
+}
+
+RunRecord run_one_job(const Campaign& campaign, const CampaignJob& job, const CampaignPaths& paths,
+                      const fs::path& binary, double timeout_seconds, bool force) {
+  if (!force && fs::exists(paths.result_file(job.key))) {
+    try {
+      RunRecord done = RunRecord::from_json(json::parse(read_text(paths.result_file(job.key))),
+                                            paths.result_file(job.key).string());
+      if (done.status == "ok") return done;
+    } catch (const std::exception&) {
+      // An unreadable result file is rerun.
+    }
+  }
+  const fs::path dir = fresh_job_dir(paths, job.key);
+  Child c = spawn(binary, job.simulate_arguments(dir), dir / "log.txt");
+  int status = 0;
+  bool timed_out = false;
+  for (;;) {
+    const pid_t r = waitpid(c.pid, &status, timeout_seconds > 0 ? WNOHANG : 0);
+    if (r == c.pid) break;
+    if (r < 0 && errno != EINTR) throw std::runtime_error(std::string("waitpid: ") + std::strerror(errno));
+    if (timeout_seconds > 0 &&
+        std::chrono::duration<double>(Clock::now() - c.start).count() > timeout_seconds) {
+      kill(c.pid, SIGKILL);
+      timed_out = true;
+    }
+    if (timeout_seconds > 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  const double seconds = std::chrono::duration<double>(Clock::now() - c.start).count();
+  RunRecord r = make_record(campaign, job, paths, status, timed_out, seconds);
+  write_result_file(paths, r);
+  return r;
+}
+
+CollectSummary collect_results(const Campaign& campaign, const CampaignPaths& paths,
+                               ResultsStore& store) {
+  CollectSummary s;
+  const fs::path folder = paths.dir / "results";
+  if (!fs::is_directory(folder)) return s;
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(folder))
+    if (e.is_regular_file() && e.path().extension() == ".json") files.push_back(e.path());
+  std::sort(files.begin(), files.end());  // deterministic order of merging
+  std::set<std::string> keys;
+  for (const CampaignJob& j : campaign.jobs) keys.insert(j.key);
+  for (const fs::path& f : files) {
+    ++s.files;
+    RunRecord r;
+    try {
+      r = RunRecord::from_json(json::parse(read_text(f)), f.string());
+    } catch (const std::exception& e) {
+      ++s.bad;
+      s.problems.push_back(f.string() + ": " + e.what());
+      continue;
+    }
+    if (r.campaign != campaign.name || !keys.count(r.job_key)) {
+      ++s.stale;
+      s.problems.push_back(f.string() + ": not a job of this campaign at revision " +
+                           campaign.revision + " (stale; left out)");
+      continue;
+    }
+    switch (store.record(r)) {
+      case ResultsStore::Outcome::Inserted: ++s.inserted; break;
+      case ResultsStore::Outcome::Replaced: ++s.replaced; break;
+      case ResultsStore::Outcome::Unchanged: ++s.unchanged; break;
+      case ResultsStore::Outcome::KeptOk: ++s.kept_ok; break;
+    }
+  }
+  return s;
+}
+
+RunSummary run_campaign(const Campaign& campaign, const CampaignPaths& paths,
+                        const RunOptions& options) {
+  const auto wall_start = Clock::now();
+  CampaignLock lock(paths.dir);
+  ResultsStore store(paths.database);
+  RunSummary summary;
+  summary.total = campaign.jobs.size();
+  // Results written by a runner killed between its result file and its transaction.
+  summary.collected = collect_results(campaign, paths, store).inserted;
+
+  const auto recorded = store.summaries(campaign.name);
+  std::set<std::string> only(options.only_keys.begin(), options.only_keys.end());
+  std::vector<const CampaignJob*> todo;
+  for (const CampaignJob& job : campaign.jobs) {
+    if (!only.empty() && !only.count(job.key)) continue;
+    auto it = recorded.find(job.key);
+    if (!options.force && it != recorded.end()) {
+      if (it->second.status == "ok") { ++summary.already_ok; continue; }
+      if (!options.retry_failed) { ++summary.skipped_failed; continue; }
+    }
+    todo.push_back(&job);
+  }
+
+  const fs::path binary = options.binary.empty() ? self_executable() : options.binary;
+  const int parallel = std::max(1, options.parallel);
+  // The runner's children: quiet progress bars, same cache folder.
+  setenv("RTSIM_NO_PROGRESS", "1", 1);
+
+  g_stop_signal = 0;
+  struct sigaction action {}, old_int{}, old_term{};
+  action.sa_handler = on_stop_signal;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, &old_int);
+  sigaction(SIGTERM, &action, &old_term);
+
+  std::map<pid_t, std::pair<const CampaignJob*, Child>> running;
+  size_t next = 0;
+  double finished_seconds = 0;
+  auto last_draw = Clock::now() - std::chrono::seconds(1);
+  auto draw = [&](bool final) {
+    if (!options.progress) return;
+    const size_t left = todo.size() - next;
+    const size_t finished = summary.ok + summary.failed;
+    std::string eta = "?";
+    if (finished > 0) {
+      const double mean = finished_seconds / double(finished);
+      eta = format_duration(mean * double(left + running.size()) /
+                            double(std::min<size_t>(parallel, left + running.size() + 1)));
+    }
+    std::fprintf(stderr, "\r%s: %zu done, %zu failed, %zu running, %zu left, ETA %s\x1b[K",
+                 campaign.name.c_str(), summary.already_ok + summary.ok, summary.failed,
+                 running.size(), left, final ? "0s" : eta.c_str());
+    if (final) std::fputc('\n', stderr);
+    std::fflush(stderr);
+  };
+
+  while ((next < todo.size() || !running.empty())) {
+    if (g_stop_signal) break;
+    while (running.size() < size_t(parallel) && next < todo.size()) {
+      const CampaignJob* job = todo[next++];
+      const fs::path dir = fresh_job_dir(paths, job->key);
+      Child c = spawn(binary, job->simulate_arguments(dir), dir / "log.txt");
+      running.emplace(c.pid, std::make_pair(job, c));
+    }
+    int status = 0;
+    const pid_t pid = waitpid(-1, &status, WNOHANG);
+    if (pid > 0) {
+      auto it = running.find(pid);
+      if (it == running.end()) continue;
+      const CampaignJob* job = it->second.first;
+      const double seconds =
+          std::chrono::duration<double>(Clock::now() - it->second.second.start).count();
+      running.erase(it);
+      const RunRecord r = make_record(campaign, *job, paths, status, false, seconds);
+      // The result file first, then the transaction: a kill between the two is healed
+      // by the next run's collect, never by running the job again.
+      write_result_file(paths, r);
+      store.record(r);
+      ++summary.ran;
+      finished_seconds += seconds;
+      if (r.status == "ok") {
+        ++summary.ok;
+      } else {
+        ++summary.failed;
+        if (options.progress) std::fputc('\n', stderr);
+        std::fprintf(stderr, "rtsim campaign: job %s (%s) failed: %s\n", job->key.c_str(),
+                     job->label.c_str(), r.error.substr(0, r.error.find('\n')).c_str());
+      }
+      draw(false);
+      continue;
+    }
+    if (pid < 0 && errno != EINTR && errno != ECHILD)
+      throw std::runtime_error(std::string("waitpid: ") + std::strerror(errno));
+    if (options.timeout_seconds > 0)
+      for (auto& [p, entry] : running)
+        if (std::chrono::duration<double>(Clock::now() - entry.second.start).count() >
+            options.timeout_seconds)
+          kill(p, SIGKILL);  // recorded as failed ("killed by signal 9") when reaped
+    if (Clock::now() - last_draw > std::chrono::milliseconds(500)) {
+      draw(false);
+      last_draw = Clock::now();
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+
+  if (g_stop_signal) {
+    summary.interrupted = true;
+    for (auto& [p, entry] : running) kill(p, SIGTERM);
+    for (auto& [p, entry] : running) waitpid(p, nullptr, 0);
+  }
+  sigaction(SIGINT, &old_int, nullptr);
+  sigaction(SIGTERM, &old_term, nullptr);
+  draw(true);
+  summary.wall_seconds = std::chrono::duration<double>(Clock::now() - wall_start).count();
+  return summary;
+}
+
+CampaignStatus campaign_status(const Campaign& campaign, const CampaignPaths& paths,
+                               const ResultsStore& store) {
+  (void)paths;
+  CampaignStatus s;
+  const auto recorded = store.summaries(campaign.name);
+  s.total = campaign.jobs.size();
+  for (const CampaignJob& job : campaign.jobs) {
+    auto it = recorded.find(job.key);
+    if (it == recorded.end()) {
+      ++s.missing;
+    } else if (it->second.status == "ok") {
+      ++s.ok;
+    } else {
+      ++s.failed;
+      s.failures.emplace_back(job.label, it->second.error);
+    }
+  }
+  return s;
+}
+
+void write_campaign_csv(const Campaign& campaign, const ResultsStore& store, std::ostream& out) {
+  auto csv = [](const json& v) -> std::string {
+    if (v.is_null()) return "";
+    if (v.is_number()) return v.dump();
+    std::string t = v.is_string() ? v.get<std::string>() : v.dump();
+    if (t.find_first_of(",\"\n\r") == std::string::npos) return t;
+    std::string q = "\"";
+    for (char c : t) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return q + "\"";
+  };
+  std::vector<std::string> columns = {"campaign", "job_key", "label", "group_name", "config_hash",
+                                      "git_revision", "status", "error", "host_seconds",
+                                      "finished_at", "scene", "builder", "camera", "preset",
+                                      "fidelity", "seed", "overrides"};
+  for (const auto& [name, unit] : ResultsStore::headline_columns()) columns.push_back(name);
+  for (size_t i = 0; i < columns.size(); ++i) out << (i ? "," : "") << columns[i];
+  out << "\n";
+  std::set<std::string> keys;
+  for (const CampaignJob& j : campaign.jobs) keys.insert(j.key);
+  for (const json& row : store.rows(campaign.name)) {
+    if (!keys.count(row["job_key"].get<std::string>())) continue;  // stale revision
+    for (size_t i = 0; i < columns.size(); ++i)
+      out << (i ? "," : "") << csv(row.value(columns[i], json()));
+    out << "\n";
+  }
+}
+
+namespace {
+
+std::vector<const CampaignJob*> jobs_to_emit(const Campaign& campaign, const ResultsStore& store,
+                                             const EmitOptions& options) {
+  const auto recorded = store.summaries(campaign.name);
+  std::vector<const CampaignJob*> out;
+  for (const CampaignJob& job : campaign.jobs) {
+    auto it = recorded.find(job.key);
+    if (!options.all && it != recorded.end() &&
+        (it->second.status == "ok" || !options.retry_failed))
+      continue;
+    out.push_back(&job);
+  }
+  return out;
+}
+
+std::string job_command(const Campaign& campaign, const CampaignPaths& paths,
+                        const EmitOptions& options, const std::string& key_word) {
+  const fs::path runner = options.runner.empty() ? self_executable() : options.runner;
+  std::string cmd = shell_quote(runner.string()) + " campaign job " +
+                    shell_quote(campaign.file.string()) + " --key " + key_word + " --dir " +
+                    shell_quote(paths.dir.string());
+  if (!options.binary.empty() && options.binary != runner)
+    cmd += " --rtsim " + shell_quote(options.binary.string());
+  if (options.timeout_seconds > 0)
+    cmd += " --timeout " + json(options.timeout_seconds).dump();
+  return cmd;
+}
+
+}  // namespace
+
+fs::path emit_slurm(const Campaign& campaign, const CampaignPaths& paths, const ResultsStore& store,
+                    const EmitOptions& options, size_t& count) {
+  const fs::path runner = options.runner.empty() ? self_executable() : options.runner;
+  const auto jobs = jobs_to_emit(campaign, store, options);
+  count = jobs.size();
+  const fs::path folder = paths.dir / "slurm";
+  fs::create_directories(folder / "logs");
+  std::string keys;
+  for (const CampaignJob* j : jobs) keys += j->key + "\n";
+  write_file_atomic(folder / "jobs.txt", keys);
+  std::ostringstream s;
+  s << "#!/bin/bash\n"
+    << "# rtsim campaign '" << campaign.name << "': " << count << " jobs as one Slurm array.\n"
+    << "# Submit: sbatch " << (folder / "campaign.sbatch").string() << "\n"
+    << "# Then:   " << shell_quote(runner.string()) << " campaign collect "
+    << shell_quote(campaign.file.string()) << " --dir " << shell_quote(paths.dir.string())
+    << "\n"
+    << "#SBATCH --job-name=rtsim-" << campaign.name << "\n"
+    << "#SBATCH --array=0-" << (count == 0 ? 0 : count - 1) << "%" << std::max(1, options.throttle)
+    << "\n"
+    << "#SBATCH --ntasks=1\n"
+    << "#SBATCH --cpus-per-task=1\n"
+    << "#SBATCH --output=" << (folder / "logs" / "%A_%a.out").string() << "\n";
+  for (const std::string& o : options.sbatch_options) s << "#SBATCH " << o << "\n";
+  s << "set -euo pipefail\n"
+    << "key=$(sed -n \"$((SLURM_ARRAY_TASK_ID + 1))p\" " << shell_quote((folder / "jobs.txt").string())
+    << ")\n"
+    << "test -n \"$key\" || { echo \"no job for array index $SLURM_ARRAY_TASK_ID\" >&2; exit 2; }\n"
+    << "exec " << job_command(campaign, paths, options, "\"$key\"") << "\n";
+  const fs::path script = folder / "campaign.sbatch";
+  write_file_atomic(script, s.str());
+  fs::permissions(script, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
+                  fs::perm_options::add);
+  return script;
+}
+
+fs::path emit_parallel(const Campaign& campaign, const CampaignPaths& paths,
+                       const ResultsStore& store, const EmitOptions& options, size_t& count) {
+  const auto jobs = jobs_to_emit(campaign, store, options);
+  count = jobs.size();
+  const fs::path folder = paths.dir / "parallel";
+  fs::create_directories(folder);
+  std::string lines;
+  for (const CampaignJob* j : jobs)
+    lines += job_command(campaign, paths, options, j->key) + "\n";
+  const fs::path list = folder / "jobs.txt";
+  write_file_atomic(list, lines);
+  return list;
+}
+
+}  // namespace rtsim

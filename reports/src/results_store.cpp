@@ -1,0 +1,387 @@
+// SQLite results store of campaigns (sqlite3 C API).
+#include <rtsim/reports/results_store.h>
+
+#include <rtsim/reports/campaign.h>
+#include <rtsim/workloads/error.h>
+
+#include <sqlite3.h>
+
+#include <stdexcept>
+
+namespace rtsim {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// ---------------------------------------------------------------- run records
+
+json RunRecord::to_json() const {
+  return {{"campaign", campaign}, {"job_key", job_key},   {"label", label},
+          {"group", group},       {"config_hash", config_hash}, {"revision", revision},
+          {"status", status},     {"error", error},       {"host_seconds", host_seconds},
+          {"finished_at", finished_at}, {"job", job},     {"config", config},
+          {"stats", stats}};
+}
+
+RunRecord RunRecord::from_json(const json& j, const std::string& where) {
+  if (!j.is_object()) throw InputError(where, "a run record must be a JSON object");
+  auto text = [&](const char* k) {
+    if (!j.contains(k) || !j[k].is_string())
+      throw InputError(where, std::string("field '") + k + "' must be a string");
+    return j[k].get<std::string>();
+  };
+  RunRecord r;
+  r.campaign = text("campaign");
+  r.job_key = text("job_key");
+  r.label = text("label");
+  r.group = text("group");
+  r.config_hash = text("config_hash");
+  r.revision = text("revision");
+  r.status = text("status");
+  r.error = text("error");
+  r.finished_at = text("finished_at");
+  if (r.status != "ok" && r.status != "failed")
+    throw InputError(where, "field 'status' must be \"ok\" or \"failed\"");
+  if (!j.contains("host_seconds") || !j["host_seconds"].is_number())
+    throw InputError(where, "field 'host_seconds' must be a number");
+  r.host_seconds = j["host_seconds"].get<double>();
+  r.job = j.value("job", json());
+  r.config = j.value("config", json());
+  r.stats = j.value("stats", json());
+  if (r.status == "ok" && !r.stats.is_object())
+    throw InputError(where, "an ok run needs a 'stats' object");
+  return r;
+}
+
+// ---------------------------------------------------------------- stats
+
+namespace {
+
+void flatten_into(const json& node, const std::string& prefix, std::map<std::string, double>& out) {
+  if (!node.is_object()) return;
+  // A leaf is {value, unit, ...}; anything else is a level of the hierarchy.
+  if (node.contains("value") && node["value"].is_number() && node.contains("unit")) {
+    out[prefix] = node["value"].get<double>();
+    return;
+  }
+  for (auto it = node.begin(); it != node.end(); ++it)
+    flatten_into(it.value(), prefix.empty() ? it.key() : prefix + "." + it.key(), out);
+}
+
+// The first of several names a statistic may carry (the model's naming may grow).
+double first_of(const std::map<std::string, double>& s, std::initializer_list<const char*> names) {
+  for (const char* n : names) {
+    auto it = s.find(n);
+    if (it != s.end()) return it->second;
+  }
+  return NAN;
+}
+
+double ratio(double a, double b) { return (std::isfinite(a) && b > 0) ? a / b : NAN; }
+
+double hit_rate(const std::map<std::string, double>& s, const std::string& cache) {
+  const double direct = first_of(s, {(cache + ".hit_rate").c_str()});
+  if (std::isfinite(direct)) return direct;
+  return ratio(first_of(s, {(cache + ".hits").c_str()}), first_of(s, {(cache + ".accesses").c_str()}));
+}
+
+}  // namespace
+
+std::map<std::string, double> flatten_stats(const json& stats) {
+  std::map<std::string, double> out;
+  flatten_into(stats, "", out);
+  return out;
+}
+
+HeadlineStats headline_stats(const json& stats) {
+  const auto s = flatten_stats(stats);
+  HeadlineStats h;
+  h.rays = first_of(s, {"rays.total", "raygen.rays", "rays"});
+  h.cycles = first_of(s, {"sim.cycles", "simulated_cycles", "cycles"});
+  const double trv_ops = first_of(s, {"trv.ops", "ops.trv"});
+  const double ist_ops = first_of(s, {"ist.ops", "ops.ist"});
+  h.trv_ops_per_ray = ratio(trv_ops, h.rays);
+  h.ist_ops_per_ray = ratio(ist_ops, h.rays);
+  h.ops_per_ray = ratio(trv_ops + ist_ops, h.rays);
+  h.node_fetches_per_ray = ratio(first_of(s, {"trv.node_fetches", "fetches.node"}), h.rays);
+  h.triangle_fetches_per_ray =
+      ratio(first_of(s, {"ist.triangle_fetches", "fetches.triangle"}), h.rays);
+  h.dram_bytes_per_ray = ratio(first_of(s, {"dram.bytes", "dram.read_bytes"}), h.rays);
+  h.l1_node_hit_rate = hit_rate(s, "l1_node");
+  h.l1_triangle_hit_rate = hit_rate(s, "l1_triangle");
+  h.l2_hit_rate = hit_rate(s, "l2");
+  h.rays_per_host_second = first_of(s, {"host.rays_per_second", "host.rays_per_host_second"});
+  return h;
+}
+
+std::map<std::pair<std::string, std::string>, double> dram_bytes_per_ray_split(const json& stats) {
+  const auto s = flatten_stats(stats);
+  const double rays = headline_stats(stats).rays;
+  std::map<std::pair<std::string, std::string>, double> out;
+  // dram.bytes_by.<ray type>.<kind>: bytes attributed to a ray type and a data kind.
+  const std::string prefix = "dram.bytes_by.";
+  for (auto it = s.lower_bound(prefix); it != s.end() && it->first.rfind(prefix, 0) == 0; ++it) {
+    const std::string rest = it->first.substr(prefix.size());
+    const size_t dot = rest.find('.');
+    if (dot == std::string::npos) continue;
+    out[{rest.substr(0, dot), rest.substr(dot + 1)}] = ratio(it->second, rays);
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------- store
+
+namespace {
+
+class Statement {
+ public:
+  Statement(sqlite3* db, const char* sql) : db_(db) {
+    if (sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr) != SQLITE_OK)
+      throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db) + " in: " + sql);
+  }
+  ~Statement() { sqlite3_finalize(stmt_); }
+  Statement& bind(int i, const std::string& v) {
+    sqlite3_bind_text(stmt_, i, v.data(), int(v.size()), SQLITE_TRANSIENT);
+    return *this;
+  }
+  Statement& bind(int i, double v) {
+    if (std::isfinite(v))
+      sqlite3_bind_double(stmt_, i, v);
+    else
+      sqlite3_bind_null(stmt_, i);
+    return *this;
+  }
+  Statement& bind_int(int i, int64_t v) {
+    sqlite3_bind_int64(stmt_, i, v);
+    return *this;
+  }
+  bool step() {  // true: a row is available
+    const int rc = sqlite3_step(stmt_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc == SQLITE_DONE) return false;
+    throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db_));
+  }
+  std::string text(int col) const {
+    const unsigned char* t = sqlite3_column_text(stmt_, col);
+    return t ? reinterpret_cast<const char*>(t) : "";
+  }
+  double real(int col) const { return sqlite3_column_double(stmt_, col); }
+  sqlite3_stmt* get() const { return stmt_; }
+
+ private:
+  sqlite3* db_;
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+void exec(sqlite3* db, const char* sql) {
+  char* message = nullptr;
+  if (sqlite3_exec(db, sql, nullptr, nullptr, &message) != SQLITE_OK) {
+    std::string m = message ? message : sqlite3_errmsg(db);
+    sqlite3_free(message);
+    throw std::runtime_error("sqlite: " + m + " in: " + sql);
+  }
+}
+
+// Bumped when columns change; an older database is refused with a clear message.
+constexpr int kSchemaVersion = 1;
+
+const char* const kSchema = R"sql(
+CREATE TABLE IF NOT EXISTS meta(key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS runs(
+  campaign TEXT NOT NULL,
+  job_key TEXT NOT NULL,
+  label TEXT NOT NULL,
+  group_name TEXT NOT NULL,
+  config_hash TEXT NOT NULL,
+  git_revision TEXT NOT NULL,
+  status TEXT NOT NULL CHECK (status IN ('ok', 'failed')),
+  error TEXT NOT NULL,
+  host_seconds REAL,
+  finished_at TEXT NOT NULL,
+  scene TEXT, builder TEXT, camera TEXT, preset TEXT, fidelity TEXT, seed INTEGER,
+  overrides TEXT,
+  rays REAL, cycles REAL, ops_per_ray REAL, trv_ops_per_ray REAL, ist_ops_per_ray REAL,
+  node_fetches_per_ray REAL, triangle_fetches_per_ray REAL, dram_bytes_per_ray REAL,
+  l1_node_hit_rate REAL, l1_triangle_hit_rate REAL, l2_hit_rate REAL,
+  rays_per_host_second REAL,
+  job_json TEXT NOT NULL, config_json TEXT NOT NULL, stats_json TEXT NOT NULL,
+  record_hash TEXT NOT NULL,
+  PRIMARY KEY (campaign, job_key));
+)sql";
+
+}  // namespace
+
+const std::vector<std::pair<std::string, std::string>>& ResultsStore::headline_columns() {
+  static const std::vector<std::pair<std::string, std::string>> columns = {
+      {"rays", "rays"},
+      {"cycles", "cycles"},
+      {"ops_per_ray", "ops/ray"},
+      {"trv_ops_per_ray", "ops/ray"},
+      {"ist_ops_per_ray", "ops/ray"},
+      {"node_fetches_per_ray", "fetches/ray"},
+      {"triangle_fetches_per_ray", "fetches/ray"},
+      {"dram_bytes_per_ray", "bytes/ray"},
+      {"l1_node_hit_rate", "fraction"},
+      {"l1_triangle_hit_rate", "fraction"},
+      {"l2_hit_rate", "fraction"},
+      {"rays_per_host_second", "rays/s"}};
+  return columns;
+}
+
+ResultsStore::ResultsStore(const fs::path& file) : file_(file) {
+  if (file.has_parent_path()) fs::create_directories(file.parent_path());
+  if (sqlite3_open_v2(file.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) !=
+      SQLITE_OK) {
+    const std::string m = db_ ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    throw std::runtime_error(file.string() + ": cannot open the results database: " + m);
+  }
+  try {
+    // Writers queue for up to a minute instead of failing with "database is locked".
+    sqlite3_busy_timeout(db_, 60000);
+    exec(db_, "PRAGMA journal_mode=WAL");
+    // WAL + NORMAL: a killed process never loses a committed run (only power loss could).
+    exec(db_, "PRAGMA synchronous=NORMAL");
+    exec(db_, "BEGIN IMMEDIATE");
+    exec(db_, kSchema);
+    Statement get(db_, "SELECT value FROM meta WHERE key='schema_version'");
+    if (get.step()) {
+      if (get.text(0) != std::to_string(kSchemaVersion))
+        throw std::runtime_error("schema version " + get.text(0) + ", this rtsim writes " +
+                                 std::to_string(kSchemaVersion));
+    } else {
+      Statement put(db_, "INSERT INTO meta(key, value) VALUES('schema_version', ?1)");
+      put.bind(1, std::to_string(kSchemaVersion)).step();
+    }
+    exec(db_, "COMMIT");
+  } catch (const std::exception& e) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw std::runtime_error(file.string() + ": " + e.what());
+  }
+}
+
+ResultsStore::~ResultsStore() { sqlite3_close(db_); }
+
+ResultsStore::Outcome ResultsStore::record(const RunRecord& run) {
+  const std::string record_text = run.to_json().dump();
+  const std::string record_hash = content_hash_hex(record_text);
+  const HeadlineStats h = run.stats.is_object() ? headline_stats(run.stats) : HeadlineStats{};
+  exec(db_, "BEGIN IMMEDIATE");
+  try {
+    Outcome outcome = Outcome::Inserted;
+    {
+      Statement q(db_, "SELECT status, record_hash FROM runs WHERE campaign=?1 AND job_key=?2");
+      q.bind(1, run.campaign).bind(2, run.job_key);
+      if (q.step()) {
+        if (q.text(1) == record_hash) outcome = Outcome::Unchanged;
+        else if (q.text(0) == "ok" && run.status != "ok") outcome = Outcome::KeptOk;
+        else outcome = Outcome::Replaced;
+      }
+    }
+    if (outcome == Outcome::Inserted || outcome == Outcome::Replaced) {
+      Statement ins(db_, R"sql(
+INSERT OR REPLACE INTO runs(campaign, job_key, label, group_name, config_hash, git_revision,
+  status, error, host_seconds, finished_at, scene, builder, camera, preset, fidelity, seed,
+  overrides, rays, cycles, ops_per_ray, trv_ops_per_ray, ist_ops_per_ray, node_fetches_per_ray,
+  triangle_fetches_per_ray, dram_bytes_per_ray, l1_node_hit_rate, l1_triangle_hit_rate,
+  l2_hit_rate, rays_per_host_second, job_json, config_json, stats_json, record_hash)
+VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19,
+  ?20, ?21, ?22, ?23, ?24, ?25, ?26, ?27, ?28, ?29, ?30, ?31, ?32, ?33))sql");
+      auto job_text = [&](const char* k) {
+        return run.job.is_object() && run.job.contains(k) && run.job[k].is_string()
+                   ? run.job[k].get<std::string>()
+                   : std::string();
+      };
+      ins.bind(1, run.campaign).bind(2, run.job_key).bind(3, run.label).bind(4, run.group);
+      ins.bind(5, run.config_hash).bind(6, run.revision).bind(7, run.status).bind(8, run.error);
+      ins.bind(9, run.host_seconds).bind(10, run.finished_at);
+      ins.bind(11, job_text("scene")).bind(12, job_text("builder")).bind(13, job_text("camera"));
+      ins.bind(14, job_text("preset")).bind(15, job_text("fidelity"));
+      const std::string seed = job_text("seed");
+      if (seed.empty()) sqlite3_bind_null(ins.get(), 16);
+      else ins.bind_int(16, std::stoll(seed));
+      ins.bind(17, run.job.is_object() && run.job.contains("set") ? run.job["set"].dump()
+                                                                   : std::string("{}"));
+      const double values[] = {h.rays,
+                               h.cycles,
+                               h.ops_per_ray,
+                               h.trv_ops_per_ray,
+                               h.ist_ops_per_ray,
+                               h.node_fetches_per_ray,
+                               h.triangle_fetches_per_ray,
+                               h.dram_bytes_per_ray,
+                               h.l1_node_hit_rate,
+                               h.l1_triangle_hit_rate,
+                               h.l2_hit_rate,
+                               h.rays_per_host_second};
+      for (int i = 0; i < 12; ++i) ins.bind(18 + i, values[i]);
+      ins.bind(30, run.job.dump()).bind(31, run.config.dump()).bind(32, run.stats.dump());
+      ins.bind(33, record_hash);
+      ins.step();
+    }
+    exec(db_, "COMMIT");
+    return outcome;
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+}
+
+std::map<std::string, ResultsStore::Summary> ResultsStore::summaries(
+    const std::string& campaign) const {
+  std::map<std::string, Summary> out;
+  Statement q(db_,
+              "SELECT job_key, status, error, label, git_revision, host_seconds FROM runs "
+              "WHERE campaign=?1");
+  q.bind(1, campaign);
+  while (q.step()) {
+    Summary& s = out[q.text(0)];
+    s.status = q.text(1);
+    s.error = q.text(2);
+    s.label = q.text(3);
+    s.revision = q.text(4);
+    s.host_seconds = q.real(5);
+  }
+  return out;
+}
+
+std::vector<json> ResultsStore::rows(const std::string& campaign) const {
+  Statement q(db_, campaign.empty()
+                       ? "SELECT * FROM runs ORDER BY campaign, job_key"
+                       : "SELECT * FROM runs WHERE campaign=?1 ORDER BY job_key");
+  if (!campaign.empty()) q.bind(1, campaign);
+  std::vector<json> out;
+  while (q.step()) {
+    json row = json::object();
+    sqlite3_stmt* s = q.get();
+    for (int c = 0; c < sqlite3_column_count(s); ++c) {
+      const char* name = sqlite3_column_name(s, c);
+      switch (sqlite3_column_type(s, c)) {
+        case SQLITE_INTEGER: row[name] = sqlite3_column_int64(s, c); break;
+        case SQLITE_FLOAT: row[name] = sqlite3_column_double(s, c); break;
+        case SQLITE_NULL: row[name] = nullptr; break;
+        default: row[name] = q.text(c); break;
+      }
+    }
+    out.push_back(std::move(row));
+  }
+  return out;
+}
+
+std::vector<std::string> ResultsStore::campaigns() const {
+  Statement q(db_, "SELECT DISTINCT campaign FROM runs ORDER BY campaign");
+  std::vector<std::string> out;
+  while (q.step()) out.push_back(q.text(0));
+  return out;
+}
+
+std::string ResultsStore::integrity_check() const {
+  Statement q(db_, "PRAGMA integrity_check");
+  std::string out;
+  while (q.step()) out += (out.empty() ? "" : "\n") + q.text(0);
+  return out;
+}
+
+}  // namespace rtsim

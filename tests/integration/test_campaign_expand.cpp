@@ -1,0 +1,182 @@
+// Campaign files: sweep expansion, ranges, groups, job identity and strict errors.
+#include "integration/test_campaign_fake.h"
+
+#include <rtsim/reports/campaign.h>
+#include <rtsim/workloads/error.h>
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+namespace rtsim {
+namespace {
+
+using test::fresh_folder;
+using test::write_text;
+
+Campaign parse(const std::string& text, const std::string& revision = "rev1") {
+  const auto dir = fresh_folder("expand");
+  return load_campaign(write_text(dir / "c.toml", text), revision);
+}
+
+std::string error_of(const std::string& text) {
+  try {
+    parse(text);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(CampaignExpand, CrossProductOfAxesAndOverrides) {
+  const Campaign c = parse(R"(
+[campaign]
+name = "x"
+[sweep]
+scene = "interior"
+builder = ["sah", "sbvh", "aobvh"]
+preset = ["mobile", "desktop"]
+seed = [1, 2]
+[sweep.set]
+"l2.size_bytes" = {from = 131072, to = 524288, factor = 2}
+)");
+  EXPECT_EQ(c.name, "x");
+  ASSERT_EQ(c.jobs.size(), 3u * 2u * 2u * 3u);
+  std::set<std::string> keys, labels;
+  for (const CampaignJob& j : c.jobs) {
+    keys.insert(j.key);
+    labels.insert(j.label);
+    EXPECT_EQ(j.fidelity, "functional");  // the default
+    EXPECT_EQ(j.camera, "view1");
+    ASSERT_EQ(j.overrides.size(), 1u);
+  }
+  EXPECT_EQ(keys.size(), c.jobs.size());
+  EXPECT_EQ(labels.size(), c.jobs.size());
+  std::set<std::string> l2;
+  for (const CampaignJob& j : c.jobs) l2.insert(j.overrides.at("l2.size_bytes"));
+  EXPECT_EQ(l2, (std::set<std::string>{"131072", "262144", "524288"}));
+}
+
+TEST(CampaignExpand, RangesAreInclusiveAndKeepTheirType) {
+  const Campaign c = parse(R"(
+[sweep]
+scene = "cornell"
+builder = "sah"
+set.trv.units = {from = 2, to = 8, step = 3}
+set.raygen.rays_per_cycle = {from = 0.5, to = 1.5, step = 0.25}
+)");
+  std::set<std::string> units, rates;
+  for (const CampaignJob& j : c.jobs) {
+    units.insert(j.overrides.at("trv.units"));
+    rates.insert(j.overrides.at("raygen.rays_per_cycle"));
+  }
+  EXPECT_EQ(units, (std::set<std::string>{"2", "5", "8"}));
+  EXPECT_EQ(rates, (std::set<std::string>{"0.5", "0.75", "1.0", "1.25", "1.5"}));
+  EXPECT_EQ(c.jobs.size(), 15u);
+}
+
+TEST(CampaignExpand, GroupsInheritTheSweepAndDeduplicate) {
+  const Campaign c = parse(R"(
+[sweep]
+scene = "interior"
+builder = ["sah", "aobvh"]
+[[group]]
+name = "builders"
+[[group]]
+name = "sah-only"
+builder = "sah"
+fidelity = ["functional", "cycle"]
+)");
+  // builders: 2 jobs; sah-only: 2 jobs, one of which (sah/functional) is already there.
+  ASSERT_EQ(c.jobs.size(), 3u);
+  EXPECT_EQ(c.jobs[0].group, "builders");
+  EXPECT_EQ(c.jobs[2].group, "sah-only");
+  EXPECT_EQ(c.jobs[2].fidelity, "cycle");
+  EXPECT_EQ(c.groups, (std::vector<std::string>{"builders", "sah-only"}));
+}
+
+TEST(CampaignExpand, KeyDependsOnConfigurationAndRevisionOnly) {
+  const std::string text = "[sweep]\nscene = \"interior\"\nbuilder = [\"sah\", \"osah\"]\n";
+  const Campaign a = parse(text, "rev1"), b = parse(text, "rev1"), c = parse(text, "rev2");
+  ASSERT_EQ(a.jobs.size(), 2u);
+  EXPECT_EQ(a.jobs[0].key, b.jobs[0].key);
+  EXPECT_NE(a.jobs[0].key, c.jobs[0].key);                  // new binary, new runs
+  EXPECT_EQ(a.jobs[0].config_hash, c.jobs[0].config_hash);  // same configuration
+  EXPECT_NE(a.jobs[0].config_hash, a.jobs[1].config_hash);
+  // The campaign's name and group names are not part of a job's identity.
+  const Campaign d = parse("[campaign]\nname = \"other\"\n" + text, "rev1");
+  EXPECT_EQ(a.jobs[1].key, d.jobs[1].key);
+}
+
+TEST(CampaignExpand, PresetFilesAreHashedByContent) {
+  const auto dir = fresh_folder("preset");
+  write_text(dir / "hw.toml", "preset = \"mobile\"\n[trv]\nunits = 2\n");
+  const auto file = write_text(dir / "c.toml",
+                               "[sweep]\nscene = \"interior\"\nbuilder = \"sah\"\n"
+                               "preset = [\"hw.toml\", \"mobile\"]\n");
+  const Campaign before = load_campaign(file, "r");
+  ASSERT_EQ(before.jobs.size(), 2u);
+  EXPECT_EQ(before.jobs[0].preset_path, dir / "hw.toml");
+  EXPECT_TRUE(before.jobs[1].preset_path.empty());
+  const auto args = before.jobs[0].simulate_arguments("/out");
+  EXPECT_NE(std::find(args.begin(), args.end(), (dir / "hw.toml").string()), args.end());
+  write_text(dir / "hw.toml", "preset = \"mobile\"\n[trv]\nunits = 4\n");
+  const Campaign after = load_campaign(file, "r");
+  EXPECT_NE(before.jobs[0].key, after.jobs[0].key);
+  EXPECT_EQ(before.jobs[1].key, after.jobs[1].key);
+}
+
+TEST(CampaignExpand, SimulateArgumentsCarryEveryAxis) {
+  const Campaign c = parse(R"(
+[sweep]
+scene = "interior"
+builder = "aobvh"
+camera = "view2"
+fidelity = "lt"
+seed = 7
+resolution = "64x48"
+ao = 2
+set."l1_node.size_bytes" = 8192
+)");
+  ASSERT_EQ(c.jobs.size(), 1u);
+  const std::vector<std::string> expected = {
+      "simulate", "--scene", "interior", "--builder", "aobvh", "--camera", "view2",
+      "--fidelity", "lt", "--config", "mobile", "--seed", "7", "--out", "/o",
+      "--res", "64x48", "--ao", "2", "--set", "l1_node.size_bytes=8192"};
+  EXPECT_EQ(c.jobs[0].simulate_arguments("/o"), expected);
+}
+
+TEST(CampaignExpand, BadInputNamesFileAndKey) {
+  EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\nbuildr = \"x\"\n")
+                .find("key 'sweep.buildr': is unknown"),
+            std::string::npos);
+  EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\nfidelity = \"fast\"\n")
+                .find("'fast' is not a fidelity level"),
+            std::string::npos);
+  EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\n"
+                     "set.trv.units = {from = 4, to = 2, step = 1}\n")
+                .find("sweep.set.trv.units"),
+            std::string::npos);
+  EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\n"
+                     "set.trv.units = {from = 1, to = 2, stp = 1}\n")
+                .find("unknown range key 'stp'"),
+            std::string::npos);
+  EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = []\n").find("empty list"),
+            std::string::npos);
+  EXPECT_NE(error_of("[sweep]\nscene = \"a\"\n").find("needs 'scene' and 'builder'"),
+            std::string::npos);
+  EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\nresolution = \"64\"\n")
+                .find("not a resolution"),
+            std::string::npos);
+  EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\n"
+                     "set.x = {from = 0, to = 1, step = 1e-9}\n")
+                .find("more than"),
+            std::string::npos);
+  EXPECT_NE(error_of("[[group]]\nname = \"g\"\n[[group]]\nname = \"g\"\n").find("defined twice"),
+            std::string::npos);
+  // Every message names the file.
+  EXPECT_NE(error_of("[sweep]\nscene = 3\nbuilder = {a = 1}\n").find("c.toml"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace rtsim

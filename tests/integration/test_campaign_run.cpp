@@ -1,0 +1,179 @@
+// `rtsim campaign` end to end over a fake simulator: run, rerun as a no-op, failed jobs
+// and --retry-failed, per-job result files + idempotent collect (the Slurm / GNU
+// parallel path) giving the same database as a local run, CSV export.
+#include "integration/test_campaign_fake.h"
+
+#include <rtsim/reports/campaign_runner.h>
+#include <rtsim/reports/results_store.h>
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <set>
+
+namespace rtsim {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using test::read_lines;
+using test::shell;
+
+struct Fixture {
+  fs::path dir, fake, campaign, log;
+  std::string rtsim(const std::string& args, const std::string& env = "") const {
+    return env + " FAKE_LOG=" + shell_quote(log.string()) + " " + shell_quote(RTSIM_BINARY) +
+           " " + args + " --rtsim " + shell_quote(fake.string()) + " >" +
+           shell_quote((dir / "out.txt").string()) + " 2>" + shell_quote((dir / "err.txt").string());
+  }
+  std::string work(const std::string& name) const { return " --dir " + shell_quote((dir / name).string()); }
+};
+
+Fixture make_fixture(const std::string& tag, int seeds) {
+  Fixture f;
+  f.dir = test::fresh_folder(tag);
+  f.fake = test::write_fake_rtsim(f.dir);
+  f.campaign = test::write_text(f.dir / "c.toml", test::small_campaign("demo", seeds));
+  f.log = f.dir / "fake.log";
+  return f;
+}
+
+// Deterministic columns: everything but host time and timestamps.
+std::vector<json> comparable_rows(const fs::path& db) {
+  ResultsStore store(db);
+  std::vector<json> rows = store.rows("demo");
+  for (json& r : rows) {
+    for (const char* k : {"host_seconds", "finished_at", "record_hash"}) r.erase(k);
+  }
+  return rows;
+}
+
+TEST(CampaignRun, RunsEveryJobOnceAndARerunIsANoOp) {
+  const Fixture f = make_fixture("run", 3);  // 2 builders x 2 presets x 3 seeds
+  ASSERT_EQ(shell(f.rtsim("campaign run " + f.campaign.string() + " -j 3" + f.work("w"))), 0)
+      << test::read_lines(f.dir / "err.txt").size();
+  EXPECT_EQ(read_lines(f.log).size(), 12u);
+  const auto first = comparable_rows(f.dir / "w" / "results.sqlite");
+  ASSERT_EQ(first.size(), 12u);
+  for (const json& r : first) {
+    EXPECT_EQ(r["status"], "ok");
+    EXPECT_EQ(r["git_revision"], "fakerev1");
+    EXPECT_TRUE(r["ops_per_ray"].is_number());
+    EXPECT_TRUE(r["l1_node_hit_rate"].is_number());
+    EXPECT_TRUE(fs::exists(f.dir / "w" / "jobs" / r["job_key"].get<std::string>() / "stats.json"));
+  }
+  // Not a terminal: quiet except the one summary line.
+  EXPECT_EQ(read_lines(f.dir / "out.txt").size(), 1u);
+
+  ASSERT_EQ(shell(f.rtsim("campaign run " + f.campaign.string() + " -j 2" + f.work("w"))), 0);
+  EXPECT_EQ(read_lines(f.log).size(), 12u);  // nothing ran again
+  EXPECT_EQ(comparable_rows(f.dir / "w" / "results.sqlite"), first);
+
+  // A new binary revision makes new jobs.
+  ASSERT_EQ(shell(f.rtsim("campaign run " + f.campaign.string() + f.work("w"),
+                          "FAKE_REVISION=fakerev2")), 0);
+  EXPECT_EQ(read_lines(f.log).size(), 24u);
+
+  // status and export see the same campaign.
+  ASSERT_EQ(shell(f.rtsim("campaign status " + f.campaign.string() + f.work("w"))), 0);
+  const auto status = read_lines(f.dir / "out.txt");
+  ASSERT_FALSE(status.empty());
+  EXPECT_NE(status[0].find("12 jobs: 12 ok, 0 failed, 0 missing"), std::string::npos) << status[0];
+  ASSERT_EQ(shell(f.rtsim("campaign export --csv " + f.campaign.string() + f.work("w"))), 0);
+  const auto csv = read_lines(f.dir / "out.txt");
+  ASSERT_EQ(csv.size(), 13u);
+  EXPECT_EQ(csv[0].rfind("campaign,job_key,label,", 0), 0u);
+}
+
+TEST(CampaignRun, FailedJobsAreRecordedAndRetriedOnlyOnRequest) {
+  const Fixture f = make_fixture("fail", 1);
+  EXPECT_EQ(shell(f.rtsim("campaign run " + f.campaign.string() + f.work("w"),
+                          "FAKE_FAIL_BUILDER=aobvh")), 1);
+  EXPECT_EQ(read_lines(f.log).size(), 4u);
+  {
+    ResultsStore store(f.dir / "w" / "results.sqlite");
+    size_t failed = 0;
+    for (const json& r : store.rows("demo")) {
+      if (r["builder"] == "aobvh") {
+        ++failed;
+        EXPECT_EQ(r["status"], "failed");
+        EXPECT_NE(r["error"].get<std::string>().find("exit code 3"), std::string::npos);
+        EXPECT_NE(r["error"].get<std::string>().find("refused on purpose"), std::string::npos);
+      } else {
+        EXPECT_EQ(r["status"], "ok");
+      }
+    }
+    EXPECT_EQ(failed, 2u);
+  }
+  // Without --retry-failed nothing runs (and the exit status still reports failures).
+  EXPECT_EQ(shell(f.rtsim("campaign run " + f.campaign.string() + f.work("w"))), 1);
+  EXPECT_EQ(read_lines(f.log).size(), 4u);
+  // With it, exactly the failed jobs run.
+  EXPECT_EQ(shell(f.rtsim("campaign run --retry-failed " + f.campaign.string() + f.work("w"))), 0);
+  EXPECT_EQ(read_lines(f.log).size(), 6u);
+  ResultsStore store(f.dir / "w" / "results.sqlite");
+  for (const json& r : store.rows("demo")) EXPECT_EQ(r["status"], "ok");
+}
+
+// The scale-out path: every job run by `campaign job` (what a Slurm array task or a GNU
+// parallel line does), then `campaign collect`, twice. The database equals a local run's.
+TEST(CampaignRun, CollectIsIdempotentAndMatchesALocalRun) {
+  const Fixture f = make_fixture("collect", 2);
+  ASSERT_EQ(shell(f.rtsim("campaign run " + f.campaign.string() + " -j 2" + f.work("local"))), 0);
+
+  ASSERT_EQ(shell(f.rtsim("campaign emit --parallel " + f.campaign.string() + f.work("remote"))), 0);
+  const auto commands = read_lines(f.dir / "remote" / "parallel" / "jobs.txt");
+  ASSERT_EQ(commands.size(), 8u);
+  for (const std::string& c : commands)
+    ASSERT_EQ(shell("FAKE_LOG=" + shell_quote(f.log.string()) + " " + c + " >/dev/null"), 0) << c;
+  EXPECT_EQ(read_lines(f.log).size(), 16u);
+  // A task rerun after success is a no-op (its result file is ok).
+  ASSERT_EQ(shell("FAKE_LOG=" + shell_quote(f.log.string()) + " " + commands[0] + " >/dev/null"), 0);
+  EXPECT_EQ(read_lines(f.log).size(), 16u);
+
+  ASSERT_EQ(shell(f.rtsim("campaign collect " + f.campaign.string() + f.work("remote"))), 0);
+  const auto once = comparable_rows(f.dir / "remote" / "results.sqlite");
+  ASSERT_EQ(shell(f.rtsim("campaign collect " + f.campaign.string() + f.work("remote"))), 0);
+  EXPECT_NE(read_lines(f.dir / "out.txt")[0].find("0 new, 0 replaced, 8 unchanged"),
+            std::string::npos);
+  EXPECT_EQ(comparable_rows(f.dir / "remote" / "results.sqlite"), once);
+  EXPECT_EQ(once, comparable_rows(f.dir / "local" / "results.sqlite"));
+  {
+    ResultsStore store(f.dir / "remote" / "results.sqlite");
+    EXPECT_EQ(store.integrity_check(), "ok");
+  }
+  // Nothing left to emit once everything is collected.
+  ASSERT_EQ(shell(f.rtsim("campaign emit --slurm " + f.campaign.string() + f.work("remote"))), 0);
+  EXPECT_TRUE(read_lines(f.dir / "remote" / "slurm" / "jobs.txt").empty());
+}
+
+TEST(CampaignRun, SlurmScriptIsAThrottledArrayOverTheMissingJobs) {
+  const Fixture f = make_fixture("slurm", 2);
+  ASSERT_EQ(shell(f.rtsim("campaign emit --slurm --throttle 3 --sbatch-option=--partition=debug " +
+                          f.campaign.string() + f.work("w"))), 0);
+  const auto keys = read_lines(f.dir / "w" / "slurm" / "jobs.txt");
+  EXPECT_EQ(keys.size(), 8u);
+  std::ifstream in(f.dir / "w" / "slurm" / "campaign.sbatch");
+  const std::string script((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(script.find("#SBATCH --array=0-7%3"), std::string::npos) << script;
+  EXPECT_NE(script.find("#SBATCH --partition=debug"), std::string::npos);
+  EXPECT_NE(script.find("campaign job"), std::string::npos);
+  // bash accepts the script; an array task runs its job when given an index.
+  EXPECT_EQ(shell("bash -n " + shell_quote((f.dir / "w" / "slurm" / "campaign.sbatch").string())), 0);
+  ASSERT_EQ(shell("SLURM_ARRAY_TASK_ID=5 FAKE_LOG=" + shell_quote(f.log.string()) + " bash " +
+                  shell_quote((f.dir / "w" / "slurm" / "campaign.sbatch").string()) + " >/dev/null"),
+            0);
+  EXPECT_TRUE(fs::exists(f.dir / "w" / "results" / (keys[5] + ".json")));
+}
+
+TEST(CampaignRun, BadCampaignFileExitsWithTwoAndNamesTheKey) {
+  const Fixture f = make_fixture("bad", 1);
+  test::write_text(f.campaign, "[sweep]\nscene = \"interior\"\nbuilder = \"sah\"\nseeds = 3\n");
+  EXPECT_EQ(shell(f.rtsim("campaign run " + f.campaign.string() + f.work("w"))), 2);
+  const auto err = read_lines(f.dir / "err.txt");
+  ASSERT_FALSE(err.empty());
+  EXPECT_NE(err[0].find("sweep.seeds"), std::string::npos) << err[0];
+}
+
+}  // namespace
+}  // namespace rtsim
