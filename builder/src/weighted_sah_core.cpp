@@ -12,6 +12,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <new>
 #include <string>
 
 namespace rtsim::detail {
@@ -39,6 +40,8 @@ constexpr uint32_t kMaxBins = 256;
 // recurse into their children in parallel.
 constexpr uint32_t kChunk = 16384;
 constexpr uint32_t kParallelRecursion = 4096;
+// Nodes with at most this many references are split by an exact sweep.
+constexpr uint32_t kExactSweepBelow = 32;
 
 struct Ref {
   vec3 lo;
@@ -248,8 +251,11 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
   Split best;
   if (!binning.usable(0) && !binning.usable(1) && !binning.usable(2)) return best;
 
-  std::array<Bin, 3 * kMaxBins> bin_store;
-  Bin* b = bin_store.data();
+  // Only the 3 x bins entries in use are initialised (the store is sized for the
+  // maximum bin count; initialising all of it per node dominated the build time).
+  alignas(64) unsigned char bin_bytes[3 * kMaxBins * sizeof(Bin)];
+  Bin* b = reinterpret_cast<Bin*>(bin_bytes);
+  for (uint32_t k = 0; k < 3 * bins; ++k) new (b + k) Bin();
   auto bin_range = [&](Bin* out, uint32_t lo, uint32_t hi) {
     for (uint32_t i = lo; i < hi; ++i) {
       const Ref& r = refs_[i];
@@ -310,26 +316,64 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
   return best;
 }
 
+// Sort key for the sweep: centroid, then triangle, then position in the node's
+// range - a strict total order, so the sort result is fixed by the input.
+struct SweepKey {
+  float centroid;
+  uint32_t prim;
+  uint32_t slot;
+  bool operator<(const SweepKey& o) const {
+    if (centroid != o.centroid) return centroid < o.centroid;
+    if (prim != o.prim) return prim < o.prim;
+    return slot < o.slot;
+  }
+};
+
+void sweep_order(const Ref* refs, uint32_t count, int axis, SweepKey* keys) {
+  for (uint32_t i = 0; i < count; ++i) keys[i] = SweepKey{refs[i].centroid2(axis), refs[i].prim(), i};
+  std::sort(keys, keys + count);
+}
+
 Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info) const {
   Split best;
   if (count < 2) return best;
   const float node_area = info.box.area();
-  std::vector<Ref> sorted(refs_.begin() + begin, refs_.begin() + begin + count);
-  std::vector<float> right_area(count), right_weight(count);
-  std::vector<uint32_t> right_visible(count);
+  // Small nodes (the vast majority) sweep on the stack; large ones on the heap.
+  constexpr uint32_t kSmall = 64;
+  SweepKey small_keys[kSmall];
+  float small_area[kSmall], small_weight[kSmall];
+  uint32_t small_visible[kSmall];
+  std::vector<SweepKey> big_keys;
+  std::vector<float> big_area, big_weight;
+  std::vector<uint32_t> big_visible;
+  SweepKey* keys = small_keys;
+  float* right_area = small_area;
+  float* right_weight = small_weight;
+  uint32_t* right_visible = small_visible;
+  if (count > kSmall) {
+    big_keys.resize(count);
+    big_area.resize(count);
+    big_weight.resize(count);
+    big_visible.resize(count);
+    keys = big_keys.data();
+    right_area = big_area.data();
+    right_weight = big_weight.data();
+    right_visible = big_visible.data();
+  }
+  const Ref* refs = refs_.data() + begin;
   for (int a = 0; a < 3; ++a) {
     if (!(info.centroids.hi[a] > info.centroids.lo[a])) continue;
-    std::sort(sorted.begin(), sorted.end(), RefLess{a});
+    sweep_order(refs, count, a, keys);
     Bin acc;
     for (uint32_t i = count - 1; i > 0; --i) {
-      acc.add(sorted[i]);
+      acc.add(refs[keys[i].slot]);
       right_area[i] = acc.box.area();
       right_weight[i] = acc.weight;
       right_visible[i] = acc.visible;
     }
     Bin left;
     for (uint32_t i = 0; i + 1 < count; ++i) {
-      left.add(sorted[i]);
+      left.add(refs[keys[i].slot]);
       const float cost = split_cost(left.box.area(), left.weight, left.visible, right_area[i + 1],
                                     right_weight[i + 1], right_visible[i + 1], node_area, info);
       if (cost < best.cost) {
@@ -343,10 +387,11 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
       }
     }
   }
-  if (best.valid()) {
-    std::sort(sorted.begin(), sorted.end(), RefLess{best.axis});
+  if (best.valid() && config_.spatial_splits) {
+    // The right box is needed by the SBVH overlap test only.
+    sweep_order(refs, count, best.axis, keys);
     Aabb right;
-    for (uint32_t i = best.bin + 1; i < count; ++i) right.extend(sorted[i].box());
+    for (uint32_t i = best.bin + 1; i < count; ++i) right.extend(refs[keys[i].slot].box());
     best.right_box = right;
   }
   return best;
@@ -469,7 +514,16 @@ uint32_t Builder::partition_object(const Split& split, uint32_t begin, uint32_t 
   Ref* last = first + count;
   Ref* middle;
   if (split.kind == Split::Kind::Sweep) {
-    std::sort(first, last, RefLess{split.axis});
+    constexpr uint32_t kSmall = 64;
+    SweepKey small_keys[kSmall];
+    Ref small_refs[kSmall];
+    std::vector<SweepKey> big_keys(count > kSmall ? count : 0);
+    std::vector<Ref> big_refs(count > kSmall ? count : 0);
+    SweepKey* keys = count > kSmall ? big_keys.data() : small_keys;
+    Ref* ordered = count > kSmall ? big_refs.data() : small_refs;
+    sweep_order(first, count, split.axis, keys);
+    for (uint32_t i = 0; i < count; ++i) ordered[i] = first[keys[i].slot];
+    std::copy(ordered, ordered + count, first);
     middle = first + split.bin + 1;
   } else {
     const CentroidBinning binning(info.centroids, config_.bins);
@@ -577,8 +631,11 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
   };
   if (count == 1 || depth >= config_.max_depth) return make_leaf();
 
-  Split best = config_.bins == 0 ? find_sweep_split(begin, count, info)
-                                 : find_object_split(begin, count, info);
+  // Small nodes take the exact sweep even in binned mode: it is cheaper than
+  // filling and sweeping 3 x bins bins there, and never worse.
+  Split best = (config_.bins == 0 || count <= kExactSweepBelow)
+                   ? find_sweep_split(begin, count, info)
+                   : find_object_split(begin, count, info);
   if (config_.spatial_splits && best.valid() && capacity > count) {
     const Aabb overlap = Aabb::intersection(best.left_box, best.right_box);
     if (!overlap.empty() && overlap.area() >= config_.sbvh_alpha * root_area_) {

@@ -1,0 +1,82 @@
+// Build speed: our binned sah vs Embree's medium build (rtcBuildBVH) on the default
+// scene and, when fetched (RTSIM_CACHE/dragon/scene.toml), on dragon; and the
+// AO-BVH total (AO pass with K = 16 + build) vs sah. Run with
+//   bench_build --benchmark_counters_tabular=true
+// Threads: RTSIM_BENCH_THREADS (default 2, this machine's cores).
+#include <rtsim/builder/build.h>
+#include <rtsim/workloads/scene_registry.h>
+
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <memory>
+
+namespace {
+
+uint32_t bench_threads() {
+  const char* env = std::getenv("RTSIM_BENCH_THREADS");
+  return env ? uint32_t(std::atoi(env)) : 2u;
+}
+
+const rtsim::Scene& scene_named(const std::string& name) {
+  static std::map<std::string, std::unique_ptr<rtsim::Scene>> cache;
+  auto& slot = cache[name];
+  if (!slot) slot = std::make_unique<rtsim::Scene>(rtsim::load_scene(name));
+  return *slot;
+}
+
+void run_build(benchmark::State& state, const std::string& scene_name, const std::string& builder,
+               uint32_t ao_rays) {
+  const rtsim::Scene& scene = scene_named(scene_name);
+  rtsim::BuildParams params;
+  params.builder = builder;
+  params.threads = bench_threads();
+  params.ao_rays = ao_rays;
+  double estimate = 0, build = 0;
+  for (auto _ : state) {
+    rtsim::BuildReport report;
+    rtsim::Bvh bvh = rtsim::build_bvh(scene, params, &report);
+    benchmark::DoNotOptimize(bvh.nodes.data());
+    estimate += report.estimate_seconds;
+    build += report.build_seconds;
+  }
+  state.counters["triangles"] = double(scene.triangle_count());
+  state.counters["estimate_s"] = estimate / double(state.iterations());
+  state.counters["build_s"] = build / double(state.iterations());
+  state.counters["Mtri/s"] = benchmark::Counter(double(scene.triangle_count()) * 1e-6,
+                                                benchmark::Counter::kIsIterationInvariantRate);
+}
+
+void register_scene(const std::string& scene) {
+  for (const char* builder : {"sah", "embree"})
+    benchmark::RegisterBenchmark(("build/" + scene + "/" + builder).c_str(),
+                                 [scene, builder](benchmark::State& s) { run_build(s, scene, builder, 16); })
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime()
+        ->MinTime(2.0);
+  benchmark::RegisterBenchmark(("build/" + scene + "/aobvh_K16").c_str(),
+                               [scene](benchmark::State& s) { run_build(s, scene, "aobvh", 16); })
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime()
+      ->MinTime(2.0);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  register_scene(rtsim::default_scene_name());
+  const char* cache = std::getenv("RTSIM_CACHE");
+  const std::filesystem::path dragon = std::filesystem::path(cache ? cache : "/work/cache") / "dragon";
+  if (std::filesystem::exists(dragon / "scene.toml")) {
+    register_scene("dragon");
+  } else {
+    std::fprintf(stderr, "bench_build: %s not fetched, skipping dragon\n",
+                 (dragon / "scene.toml").c_str());
+  }
+  benchmark::Initialize(&argc, argv);
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
