@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   rtsim::cli::add_build_command(app);
   rtsim::cli::add_campaign_command(app);
   rtsim::cli::add_trace_command(app);
+  rtsim::cli::add_simulate_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -4,7 +4,7 @@
 // it in with --undefined=sc_main. It runs only if SystemC's own main were chosen.
 #include <cstdio>
 
-int sc_main(int, char**) {
+extern "C" int sc_main(int, char**) {
   std::fprintf(stderr, "rtsim: SystemC's main() was linked instead of the program's own\n");
   return 1;
 }

@@ -1,0 +1,204 @@
+// rtsim simulate: run the accelerator model at one fidelity level (functional,
+// lt, cycle) on a scene + builder + camera (or a ray file) with a hardware
+// configuration; writes DIR/config.json (resolved configuration and inputs),
+// DIR/stats.json (deterministic, hierarchical) and DIR/host.json (host time,
+// throughput, memory: kept apart so that stats.json is byte-identical across runs).
+#include "commands.h"
+
+#include <rtsim/builder/build.h>
+#include <rtsim/model/core/ray_file.h>
+#include <rtsim/model/sim/simulator.h>
+#include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
+#include <rtsim/workloads/progress.h>
+#include <rtsim/workloads/scene_registry.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+namespace rtsim::cli {
+
+namespace {
+
+struct SimulateOptions {
+  std::string scene, builder = "sah", camera, fidelity = "functional", config = "mobile", out_dir;
+  std::string resolution = "128x128", rays_in;
+  int ao = -1;
+  uint32_t spp = 1, max_depth = 2;
+  uint64_t seed = 1;
+  bool json = false;
+};
+
+uint64_t fnv1a(const void* data, size_t bytes, uint64_t h = 1469598103934665603ull) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  return h;
+}
+
+std::string hex(uint64_t v) {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
+
+uint64_t bvh_hash(const Bvh& bvh) {
+  uint64_t h = fnv1a(bvh.prim_refs.data(), bvh.prim_refs.size() * sizeof(uint32_t));
+  for (const BvhNode& n : bvh.nodes) {
+    h = fnv1a(&n.bounds, sizeof n.bounds, h);
+    h = fnv1a(&n.index, sizeof n.index, h);
+    h = fnv1a(&n.count, sizeof n.count, h);
+  }
+  return h;
+}
+
+uint64_t file_hash(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  const std::string text = s.str();
+  return fnv1a(text.data(), text.size());
+}
+
+void parse_resolution(const std::string& text, uint32_t& w, uint32_t& h) {
+  unsigned a = 0, b = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%u%c%u%c", &a, &x, &b, &extra) != 3 || (x != 'x' && x != 'X') ||
+      a == 0 || b == 0 || a > 16384 || b > 16384)
+    throw InputError("--res", "expected WxH with 1..16384 each, got '" + text + "'");
+  w = a;
+  h = b;
+}
+
+void run_simulate(const SimulateOptions& o) {
+  sim::SimulationRequest request;
+  request.fidelity = sim::parse_fidelity(o.fidelity);
+  request.config = sim::load_hardware_config(o.config);
+  parse_resolution(o.resolution, request.settings.width, request.settings.height);
+  if (o.ao < -1 || o.ao > 1024) throw InputError("--ao", "must be 0..1024");
+  if (o.spp == 0 || o.spp > 1024) throw InputError("--spp", "must be 1..1024");
+  request.settings.ao_samples = o.ao;
+  request.settings.spp = o.spp;
+  request.settings.seed = o.seed;
+  request.settings.max_depth = o.max_depth;
+
+  const Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene);
+  if (scene.cameras.empty()) throw InputError("scene '" + scene.name + "'", "has no cameras");
+  const Camera& camera = o.camera.empty() ? scene.cameras.front() : scene.camera(o.camera);
+  BuildParams params;
+  params.builder = o.builder;
+  params.seed = o.seed;
+  params.camera = camera.name;
+  const Bvh bvh = build_bvh(scene, params);
+  request.scene = &scene;
+  request.bvh = &bvh;
+  request.camera = &camera;
+  uint64_t rays_hash = 0;
+  if (!o.rays_in.empty()) {
+    RaySet set = read_ray_file(o.rays_in);
+    if (set.scene_hash != 0 && set.scene_hash != scene.content_hash())
+      throw InputError(o.rays_in, "scene hash: the rays were made for another scene");
+    if (set.rays.empty()) throw InputError(o.rays_in, "holds no rays");
+    request.rays = std::move(set.rays);
+    rays_hash = file_hash(o.rays_in);
+  }
+  // Progress: the total grows with spawned rays; primary rays x (1 + AO) is the estimate.
+  const EffectPlan plan = plan_effects(scene, request.settings);
+  const uint64_t primary = request.rays.empty()
+                               ? uint64_t(request.settings.width) * request.settings.height * o.spp
+                               : request.rays.size();
+  const uint64_t expected =
+      request.rays.empty() ? primary * (1 + (plan.on(RayType::Ao) ? plan.ao_samples : 0)) : primary;
+  auto progress = std::make_shared<Progress>("simulate " + o.fidelity, expected, "rays");
+  uint64_t reported = 0;
+  request.progress = [&, progress](uint64_t done) {
+    if (done > reported) progress->advance(done - reported), reported = done;
+  };
+
+  const sim::SimulationResult result = sim::simulate(request);
+  request.progress = nullptr;
+  progress.reset();
+
+  nlohmann::json config = nlohmann::json::parse(sim::to_json(request.config));
+  nlohmann::json out;
+  out["hardware"] = config;
+  out["fidelity"] = o.fidelity;
+  out["git_revision"] = RTSIM_GIT_REVISION;
+  out["rtsim_version"] = RTSIM_VERSION;
+  out["seed"] = o.seed;
+  out["inputs"] = {
+      {"scene", scene.name},
+      {"scene_source", scene.source},
+      {"scene_hash", hex(scene.content_hash())},
+      {"triangles", scene.triangle_count()},
+      {"builder", o.builder},
+      {"bvh_hash", hex(bvh_hash(bvh))},
+      {"bvh_nodes", bvh.nodes.size()},
+      {"camera", camera.name},
+      {"resolution", {request.settings.width, request.settings.height}},
+      {"spp", o.spp},
+      {"ao", o.ao},
+      {"max_depth", o.max_depth},
+      {"config_source", o.config},
+      {"config_hash", std::filesystem::is_regular_file(o.config) ? hex(file_hash(o.config))
+                                                                  : std::string("preset")},
+      {"rays_file", o.rays_in},
+      {"rays_hash", o.rays_in.empty() ? std::string() : hex(rays_hash)}};
+  for (RayType t : kAllRayTypes)
+    out["effects"][ray_type_name(t)] = {{"on", result.plan.on(t)},
+                                        {"why", result.plan.reason[ray_type_index(t)]}};
+
+  const std::filesystem::path dir(o.out_dir);
+  std::filesystem::create_directories(dir);
+  write_file_atomic(dir / "config.json", out.dump(2) + "\n");
+  const std::string stats = result.stats.to_json();
+  write_file_atomic(dir / "stats.json", stats);
+  write_file_atomic(dir / "host.json", sim::host_json(result));
+
+  if (o.json) {
+    std::cout << stats;
+    return;
+  }
+  const auto& s = result.stats;
+  std::printf("%s: %llu rays, %llu cycles (%.3f ms simulated), %.1f ops/ray\n", o.fidelity.c_str(),
+              static_cast<unsigned long long>(result.rays),
+              static_cast<unsigned long long>(result.cycles), double(result.simulated_ps) * 1e-9,
+              s.number("ops.per_ray"));
+  std::printf("  L1 node hit %.3f  L1 tri hit %.3f  L2 hit %.3f  DRAM %.1f B/ray\n",
+              s.number("l1_node.all.hit_rate"), s.number("l1_triangle.all.hit_rate"),
+              s.number("l2.hit_rate"), s.number("dram.bytes_per_ray"));
+  std::printf("  host %.3f s, %.0f simulated rays per host second; results in %s\n",
+              result.host_seconds, result.host_seconds > 0 ? double(result.rays) / result.host_seconds : 0.0,
+              dir.string().c_str());
+}
+
+}  // namespace
+
+void add_simulate_command(CLI::App& root) {
+  auto opts = std::make_shared<SimulateOptions>();
+  CLI::App* cmd = root.add_subcommand(
+      "simulate", "Run the accelerator model (functional | lt | cycle) and write config/stats JSON");
+  cmd->add_option("--scene", opts->scene, "scene name or file (default: interior)");
+  cmd->add_option("--builder", opts->builder, "BVH builder")->capture_default_str();
+  cmd->add_option("--camera", opts->camera, "camera name (default: the scene's first)");
+  cmd->add_option("--fidelity", opts->fidelity, "functional | lt | cycle")->capture_default_str();
+  cmd->add_option("--config", opts->config, "hardware preset (mobile | desktop) or TOML file")
+      ->capture_default_str();
+  cmd->add_option("--out", opts->out_dir, "output directory")->required();
+  cmd->add_option("--res", opts->resolution, "image size WxH")->capture_default_str();
+  cmd->add_option("--ao", opts->ao, "AO rays per primary hit (-1: the scene decides, 0: off)")
+      ->capture_default_str();
+  cmd->add_option("--spp", opts->spp, "samples per pixel")->capture_default_str();
+  cmd->add_option("--max-depth", opts->max_depth, "reflection/refraction depth")->capture_default_str();
+  cmd->add_option("--seed", opts->seed, "seed of every random choice")->capture_default_str();
+  cmd->add_option("--rays", opts->rays_in, "replay this ray file (no secondary rays)");
+  cmd->add_flag("--json", opts->json, "print stats.json to stdout");
+  cmd->callback([opts] { run_simulate(*opts); });
+}
+
+}  // namespace rtsim::cli

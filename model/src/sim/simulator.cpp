@@ -1,0 +1,291 @@
+#include <rtsim/model/sim/cycle/cycle_system.h>
+#include <rtsim/model/sim/memory_system.h>
+#include <rtsim/model/sim/ray_engine.h>
+#include <rtsim/model/sim/simulator.h>
+#include <rtsim/workloads/error.h>
+
+#include <nlohmann/json.hpp>
+
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+namespace rtsim::sim {
+
+namespace {
+
+uint64_t peak_rss_bytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return uint64_t(usage.ru_maxrss) * 1024;  // Linux reports KiB
+}
+
+struct UnitFigures {
+  uint64_t busy_ps = 0, occupied_ps = 0, stalled_ps = 0;
+};
+
+void report_unit(StatsRegistry& s, const std::string& prefix, const UnitFigures& f,
+                 uint64_t total_ps, double cycle_ps, uint64_t work, const std::string& work_unit,
+                 const std::string& work_description) {
+  const auto cycles = [&](uint64_t ps) { return uint64_t(std::llround(double(ps) / cycle_ps)); };
+  const uint64_t total = cycles(total_ps);
+  const uint64_t busy = std::min(cycles(f.busy_ps), total);
+  const uint64_t occupied = std::min(cycles(f.occupied_ps), total);
+  const uint64_t stalled = std::min(cycles(f.stalled_ps), occupied);
+  s.set(prefix + ".busy_cycles", busy, "cycles", "cycles the unit's pipeline accepted work");
+  s.set(prefix + ".idle_cycles", total - occupied, "cycles", "cycles with no work resident");
+  s.set(prefix + ".stalled_cycles", stalled, "cycles",
+        "cycles resident work waited for a full downstream queue");
+  s.set(prefix + ".waiting_cycles", occupied - std::min(occupied, busy), "cycles",
+        "cycles with work resident but the pipeline not fed (memory latency, stalls)");
+  s.set_real(prefix + ".utilisation", total ? double(busy) / double(total) : 0, "ratio",
+             "busy cycles / simulated cycles");
+  s.set(prefix + "." + work_unit, work, work_unit, work_description);
+}
+
+void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCount>& per_type) {
+  CounterTotals total;
+  for (auto& c : per_type) total.add(c);
+  s.set("rays.total", total.rays, "rays", "rays simulated, all types");
+  s.set("ops.trv", total.trv_ops, "ops", "TRV ops: BVH nodes processed");
+  s.set("ops.ist", total.ist_ops, "ops", "IST ops: ray-triangle tests");
+  s.set("ops.box_tests", total.box_tests, "tests", "ray-box slab tests");
+  s.set_real("ops.per_ray", total.per_ray(total.ops()), "ops/ray", "(TRV + IST ops) / rays");
+  s.set("fetches.node", total.node_fetches, "fetches", "node records read by TRV (before caches)");
+  s.set("fetches.prim_ref", total.prim_ref_fetches, "fetches", "leaf prim-ref lists read by IST");
+  s.set("fetches.triangle", total.triangle_fetches, "fetches", "triangles read by IST");
+  s.set("fetches.bytes", total.bytes(), "bytes", "bytes of all fetches before caches");
+  s.set("stack.overflows", total.stack_overflows, "entries",
+        "pushes that found the short stack full and spilled to memory");
+  s.set("stack.refills", total.stack_refills, "entries", "spilled entries read back");
+  for (RayType t : kAllRayTypes) {
+    const CounterTotals& c = per_type[size_t(t)];
+    if (c.rays == 0) continue;
+    const std::string p = std::string("per_type.") + ray_type_name(t);
+    s.set(p + ".rays", c.rays, "rays", std::string(ray_type_name(t)) + " rays");
+    s.set(p + ".hits", c.hits, "rays", "rays that hit something");
+    s.set(p + ".trv_ops", c.trv_ops, "ops", "TRV ops of these rays");
+    s.set(p + ".ist_ops", c.ist_ops, "ops", "IST ops of these rays");
+    s.set(p + ".node_fetches", c.node_fetches, "fetches", "node fetches of these rays");
+    s.set(p + ".triangle_fetches", c.triangle_fetches, "fetches", "triangle fetches of these rays");
+    s.set_real(p + ".ops_per_ray", c.per_ray(c.ops()), "ops/ray", "(TRV + IST ops) / rays");
+  }
+}
+
+void report_memory(StatsRegistry& s, const std::vector<const CacheModel*>& l1_node,
+                   const std::vector<const CacheModel*>& l1_triangle, const CacheModel& l2,
+                   const DramModel& dram, bool row_timing, bool timed, uint64_t sim_ps,
+                   uint64_t rays) {
+  report_cache_group(s, "l1_node.all", l1_node);
+  for (size_t i = 0; i < l1_node.size(); ++i) l1_node[i]->report(s, "l1_node.unit" + std::to_string(i));
+  report_cache_group(s, "l1_triangle.all", l1_triangle);
+  for (size_t i = 0; i < l1_triangle.size(); ++i)
+    l1_triangle[i]->report(s, "l1_triangle.unit" + std::to_string(i));
+  l2.report(s, "l2");
+  dram.report(s, "dram", row_timing, timed, sim_ps);
+  // Every DRAM byte is an L2 fill: attribute them the same way.
+  l2.filled().report(s, "dram.bytes_by_type", "bytes read from DRAM");
+  s.set_real("dram.bytes_per_ray", rays ? double(dram.counters().bytes) / double(rays) : 0,
+             "bytes/ray", "DRAM bytes / rays");
+}
+
+void report_time(StatsRegistry& s, const HardwareConfig& c, uint64_t sim_ps, uint64_t rays,
+                 bool estimate) {
+  const double cycle_ps = c.clock_period_ps();
+  const uint64_t cycles = uint64_t(std::llround(double(sim_ps) / cycle_ps));
+  const std::string how = estimate ? " (analytic estimate)" : "";
+  s.set("time.cycles", cycles, "cycles", "simulated accelerator cycles" + how);
+  s.set_real("time.seconds", double(sim_ps) * 1e-12, "s", "simulated time" + how);
+  s.set_real("time.rays_per_second", sim_ps ? double(rays) / (double(sim_ps) * 1e-12) : 0, "rays/s",
+             "rays per second at the simulated clock" + how);
+  s.set("time.clock_mhz", c.clock_mhz, "MHz", "accelerator clock");
+}
+
+MemoryImage make_image(const SimulationRequest& r) {
+  MemoryLayoutConfig layout;
+  layout.node_layout =
+      r.config.node_layout == "single-32" ? NodeLayout::SingleBox32 : NodeLayout::Bvh2Wide64;
+  layout.triangle_bytes = r.config.triangle_bytes;
+  return MemoryImage(*r.bvh, r.scene->triangle_count(), layout);
+}
+
+bool& systemc_used() {
+  static bool used = false;
+  return used;
+}
+
+}  // namespace
+
+SimulationResult simulate(const SimulationRequest& request) {
+  if (!request.scene || !request.bvh) throw InputError("simulate", "scene and BVH are required");
+  if (request.rays.empty() && !request.camera)
+    throw InputError("simulate", "a camera or a ray set is required");
+  const HardwareConfig& config = request.config;
+  validate(config);
+  if (request.fidelity != Fidelity::Functional) {
+    if (systemc_used())
+      throw std::runtime_error("a SystemC fidelity level runs once per process (one elaboration)");
+    systemc_used() = true;
+  }
+
+  const MemoryImage image = make_image(request);
+  TraversalConfig traversal;
+  traversal.stack_limit = config.trv_stack_entries;
+  traversal.overflow_policy = StackOverflowPolicy::SpillToMemory;
+  const TraversalContext context(*request.scene, *request.bvh, image, traversal);
+
+  Workload work;
+  work.scene = request.scene;
+  work.context = &context;
+  work.settings = request.settings;
+  SimulationResult result;
+  if (request.rays.empty()) {
+    work.plan = plan_effects(*request.scene, request.settings);
+    work.initial_rays = generate_primary_rays(*request.camera, request.settings);
+    for (RayType t : kAllRayTypes)
+      if (t != RayType::Primary && work.plan.on(t)) work.spawn_secondary = true;
+  } else {
+    work.initial_rays = request.rays;
+  }
+  result.plan = work.plan;
+  auto progress = request.progress ? request.progress : [](uint64_t) {};
+
+  StatsRegistry& s = result.stats;
+  const double cycle_ps = config.clock_period_ps();
+  const auto start = std::chrono::steady_clock::now();
+
+  if (request.fidelity == Fidelity::Functional || request.fidelity == Fidelity::Lt) {
+    std::unique_ptr<FunctionalMemory> functional;
+    std::unique_ptr<LtSystem> lt;
+    RayEngine* engine = nullptr;
+    std::unique_ptr<RayEngine> own_engine;
+    if (request.fidelity == Fidelity::Functional) {
+      functional = std::make_unique<FunctionalMemory>(config);
+      own_engine = std::make_unique<RayEngine>(config, work, false);
+      engine = own_engine.get();
+      engine->run(*functional, [](uint64_t) {}, progress);
+    } else {
+      lt = std::make_unique<LtSystem>("lt", config, work, progress);
+      engine = &lt->engine;
+      sc_core::sc_start();
+    }
+    result.host_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result.per_type = engine->per_type();
+    const CounterTotals total = engine->total();
+    result.rays = total.rays;
+
+    std::vector<const CacheModel*> l1n, l1t;
+    const CacheModel* l2;
+    const DramModel* dram;
+    if (functional) {
+      for (auto& c : functional->l1_node) l1n.push_back(c.get());
+      for (auto& c : functional->l1_triangle) l1t.push_back(c.get());
+      l2 = &functional->l2;
+      dram = &functional->dram;
+      // Analytic estimate: the busiest resource bounds the run.
+      const double bytes_per_cycle = dram->peak_bytes_per_second() * cycle_ps * 1e-12;
+      const double cycles = std::max(
+          {double(total.trv_ops) / (config.trv_units * config.trv_nodes_per_cycle),
+           double(total.ist_ops) / (config.ist_units * config.ist_tests_per_cycle),
+           double(total.rays) / config.raygen_rays_per_cycle,
+           double(dram->counters().bytes) / bytes_per_cycle});
+      result.simulated_ps = uint64_t(std::llround(std::ceil(cycles) * cycle_ps));
+      s.set_real("time.bound_trv_cycles",
+                 double(total.trv_ops) / (config.trv_units * config.trv_nodes_per_cycle), "cycles",
+                 "TRV ops / TRV throughput");
+      s.set_real("time.bound_ist_cycles",
+                 double(total.ist_ops) / (config.ist_units * config.ist_tests_per_cycle), "cycles",
+                 "IST ops / IST throughput");
+      s.set_real("time.bound_dram_cycles", double(dram->counters().bytes) / bytes_per_cycle,
+                 "cycles", "DRAM bytes / peak DRAM bytes per cycle");
+    } else {
+      for (auto& c : lt->l1_node) l1n.push_back(&c->model);
+      for (auto& c : lt->l1_triangle) l1t.push_back(&c->model);
+      l2 = &lt->l2->model;
+      dram = &lt->dram->model;
+      result.simulated_ps = engine->end_ps();
+      // Per-unit figures of the engine's analytic unit timing.
+      for (size_t u = 0; u < engine->trv_time().size(); ++u) {
+        const UnitTime& t = engine->trv_time()[u];
+        report_unit(s, "trv.unit" + std::to_string(u), {t.busy_ps, t.occupied_ps(), 0},
+                    result.simulated_ps, cycle_ps,
+                    uint64_t(std::llround(double(t.busy_ps) * config.trv_nodes_per_cycle / cycle_ps)),
+                    "nodes", "nodes through the box-test pipeline");
+      }
+      for (size_t u = 0; u < engine->ist_time().size(); ++u) {
+        const UnitTime& t = engine->ist_time()[u];
+        report_unit(s, "ist.unit" + std::to_string(u), {t.busy_ps, t.occupied_ps(), 0},
+                    result.simulated_ps, cycle_ps,
+                    uint64_t(std::llround(double(t.busy_ps) * config.ist_tests_per_cycle / cycle_ps)),
+                    "tests", "triangle tests through the pipeline");
+      }
+      if (work.spawn_secondary) {
+        const UnitTime& t = engine->shading_time();
+        report_unit(s, "shading", {t.busy_ps, t.occupied_ps(), 0}, result.simulated_ps, cycle_ps,
+                    uint64_t(std::llround(double(t.busy_ps) * config.shading_rays_per_cycle / cycle_ps)),
+                    "rays", "rays shaded");
+      }
+    }
+    report_memory(s, l1n, l1t, *l2, *dram, false, lt != nullptr, result.simulated_ps, total.rays);
+    report_time(s, config, result.simulated_ps, total.rays, functional != nullptr);
+  } else {
+    CycleSystem system("accelerator", config, work, progress);
+    sc_core::sc_start();
+    result.host_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (system.rays_done != system.raygen->rays().size())
+      throw std::runtime_error("cycle model stopped with " +
+                               std::to_string(system.raygen->rays().size() - system.rays_done) +
+                               " rays unfinished");
+    result.per_type = system.per_type;
+    result.rays = system.rays_done;
+    result.simulated_ps = system.end_ps;
+    const uint64_t T = result.simulated_ps;
+    for (size_t u = 0; u < system.trv.size(); ++u) {
+      const Occupancy& o = system.trv[u]->occupancy;
+      report_unit(s, "trv.unit" + std::to_string(u), {o.busy_ps, o.occupied_ps, o.stalled_ps}, T,
+                  cycle_ps, system.trv[u]->nodes, "nodes", "nodes through the box-test pipeline");
+    }
+    for (size_t u = 0; u < system.ist.size(); ++u) {
+      const Occupancy& o = system.ist[u]->occupancy;
+      report_unit(s, "ist.unit" + std::to_string(u), {o.busy_ps, o.occupied_ps, o.stalled_ps}, T,
+                  cycle_ps, system.ist[u]->tests, "tests", "triangle tests through the pipeline");
+    }
+    if (system.shading) {
+      const Occupancy& o = system.shading->occupancy;
+      report_unit(s, "shading", {system.shading->busy_ps, o.occupied_ps, 0}, T, cycle_ps,
+                  system.shading->shaded, "rays", "rays shaded");
+      s.set("shading.spawned", system.shading->spawned, "rays", "secondary rays spawned");
+    }
+    s.set("raygen.stalled_cycles",
+          uint64_t(std::llround(double(system.raygen->stalled_ps) / cycle_ps)), "cycles",
+          "cycles a ready ray found no free TRV slot");
+    std::vector<const CacheModel*> l1n, l1t;
+    for (auto& c : system.l1_node) l1n.push_back(&c->model);
+    for (auto& c : system.l1_triangle) l1t.push_back(&c->model);
+    report_memory(s, l1n, l1t, system.l2->model, system.dram->model, true, true, T, result.rays);
+    report_time(s, config, T, result.rays, false);
+  }
+  report_counts(s, result.per_type);
+  result.cycles = uint64_t(std::llround(double(result.simulated_ps) / cycle_ps));
+  result.peak_memory_bytes = peak_rss_bytes();
+  return result;
+}
+
+std::string host_json(const SimulationResult& r) {
+  nlohmann::json j;
+  j["host_seconds"] = {{"value", r.host_seconds}, {"unit", "s"},
+                       {"description", "wall time of the simulation (excluding loading and BVH build)"}};
+  j["rays_per_host_second"] = {
+      {"value", r.host_seconds > 0 ? double(r.rays) / r.host_seconds : 0.0},
+      {"unit", "rays/s"},
+      {"description", "simulated rays per host second"}};
+  j["peak_memory"] = {{"value", r.peak_memory_bytes}, {"unit", "bytes"},
+                      {"description", "peak resident set size of the process"}};
+  return j.dump(2) + "\n";
+}
+
+}  // namespace rtsim::sim
