@@ -109,12 +109,12 @@ TEST(Dram, RowHitsAreServedBeforeOlderMisses) {
   DramModel dram(c, 64);
   const uint64_t row_stride = uint64_t(c.row_bytes) * c.banks * c.ranks;
   dram.enqueue({0, 0, 0});  // opens row 0 of bank 0
-  std::vector<DramCompletion> done;
-  dram.advance(0, done);
-  ASSERT_EQ(done.size(), 1u);
+  const auto first = drain(dram);
+  ASSERT_EQ(first.size(), 1u);
   // An older conflict to bank 0 and a younger hit to the open row: the hit goes first.
-  dram.enqueue({row_stride, 1, 1});
-  dram.enqueue({64, 2, 2});
+  const uint64_t t = first[0].done_ps + 1'000'000;
+  dram.enqueue({row_stride, t, 1});
+  dram.enqueue({64, t + 1, 2});
   const auto rest = drain(dram);
   ASSERT_EQ(rest.size(), 2u);
   EXPECT_EQ(rest[0].tag, 2u);

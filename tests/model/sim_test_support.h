@@ -1,0 +1,93 @@
+#pragma once
+// Shared by the simulator tests: a small scene, a BVH, and running a SystemC
+// level in a child process (SystemC allows one elaboration per process).
+#include <rtsim/builder/build.h>
+#include <rtsim/model/sim/simulator.h>
+#include <rtsim/workloads/procedural.h>
+
+#include <nlohmann/json.hpp>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <functional>
+#include <stdexcept>
+#include <string>
+
+namespace rtsim::sim::test {
+
+struct SmallWorkload {
+  Scene scene = make_procedural_scene("cornell");
+  Bvh bvh;
+  SmallWorkload() {
+    BuildParams params;
+    params.builder = "sah";
+    bvh = build_bvh(scene, params);
+  }
+  SimulationRequest request(Fidelity level, uint32_t size = 24, int ao = 4) const {
+    SimulationRequest r;
+    r.scene = &scene;
+    r.bvh = &bvh;
+    r.camera = &scene.cameras.front();
+    r.settings.width = r.settings.height = size;
+    r.settings.ao_samples = ao;
+    r.config = preset("mobile");
+    r.fidelity = level;
+    return r;
+  }
+};
+
+// Runs fn in a forked child and returns the string it produced.
+inline std::string in_child(const std::function<std::string()>& fn) {
+  int fds[2];
+  if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fds[0]);
+    std::string out;
+    try {
+      out = fn();
+    } catch (const std::exception& e) {
+      out = std::string("ERROR: ") + e.what();
+    }
+    size_t done = 0;
+    while (done < out.size()) {
+      const ssize_t n = write(fds[1], out.data() + done, out.size() - done);
+      if (n <= 0) break;
+      done += size_t(n);
+    }
+    close(fds[1]);
+    _exit(0);
+  }
+  close(fds[1]);
+  std::string out;
+  char buffer[65536];
+  ssize_t n;
+  while ((n = read(fds[0], buffer, sizeof buffer)) > 0) out.append(buffer, size_t(n));
+  close(fds[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return out;
+}
+
+// Flattens stats JSON to "a.b.c" -> value.
+inline void flatten(const nlohmann::json& j, const std::string& prefix,
+                    std::map<std::string, double>& out) {
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    const std::string key = prefix.empty() ? it.key() : prefix + "." + it.key();
+    if (it->is_object() && it->contains("value") && it->contains("unit"))
+      out[key] = (*it)["value"].get<double>();
+    else if (it->is_object())
+      flatten(*it, key, out);
+  }
+}
+
+inline std::map<std::string, double> flat_stats(const std::string& json_text) {
+  if (json_text.rfind("ERROR", 0) == 0) throw std::runtime_error(json_text);
+  std::map<std::string, double> out;
+  flatten(nlohmann::json::parse(json_text), "", out);
+  return out;
+}
+
+}  // namespace rtsim::sim::test
