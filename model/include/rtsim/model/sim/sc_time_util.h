@@ -22,7 +22,9 @@ class TimedQueue {
  public:
   void push(uint64_t time_ps, const Item& item) {
     heap_.push(Entry{time_ps, sequence_++, item});
-    if (time_ps < notified_ps_) {
+    // While draining, items due now are picked up by the running loop and the
+    // event is re-armed at its end: no kernel notification needed.
+    if (!draining_ && time_ps < notified_ps_) {
       notified_ps_ = time_ps;
       const uint64_t now = now_ps();
       event_.notify(from_ps(time_ps > now ? time_ps - now : 0));
@@ -33,11 +35,13 @@ class TimedQueue {
   void drain(Handler&& handle) {
     const uint64_t now = now_ps();
     notified_ps_ = UINT64_MAX;
+    draining_ = true;
     while (!heap_.empty() && heap_.top().time_ps <= now) {
       Item item = heap_.top().item;
       heap_.pop();
       handle(item);
     }
+    draining_ = false;
     if (!heap_.empty() && heap_.top().time_ps < notified_ps_) {
       notified_ps_ = heap_.top().time_ps;
       event_.notify(from_ps(notified_ps_ - now));
@@ -57,6 +61,7 @@ class TimedQueue {
   std::priority_queue<Entry> heap_;
   uint64_t sequence_ = 0;
   uint64_t notified_ps_ = UINT64_MAX;
+  bool draining_ = false;
   sc_core::sc_event event_;
 };
 
