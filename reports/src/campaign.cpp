@@ -1,6 +1,7 @@
 // Campaign files: parsing, sweep expansion and job identity.
 #include <rtsim/reports/campaign.h>
 
+#include <rtsim/model/sim/config.h>
 #include <rtsim/workloads/config_reader.h>
 #include <rtsim/workloads/error.h>
 
@@ -176,19 +177,45 @@ std::string file_hash_hex(const fs::path& file) {
   return content_hash_hex(ss.str());
 }
 
-std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir) const {
+std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir,
+                                                         const fs::path& hardware_file) const {
+  const std::string config = !hardware_file.empty() ? hardware_file.string()
+                             : preset_path.empty()  ? preset
+                                                    : preset_path.string();
   std::vector<std::string> a = {"simulate",
                                 "--scene", scene_path.empty() ? scene : scene_path.string(),
                                 "--builder", builder,
-                                "--camera", camera,
                                 "--fidelity", fidelity,
-                                "--config", preset_path.empty() ? preset : preset_path.string(),
+                                "--config", config,
                                 "--seed", std::to_string(seed),
                                 "--out", out_dir.string()};
+  if (!camera.empty()) a.insert(a.end(), {"--camera", camera});
   if (!resolution.empty()) a.insert(a.end(), {"--res", resolution});
   if (ao_rays >= 0) a.insert(a.end(), {"--ao", std::to_string(ao_rays)});
-  for (const auto& [k, v] : overrides) a.insert(a.end(), {"--set", k + "=" + v});
+  if (hardware_file.empty())
+    for (const auto& [k, v] : overrides) a.insert(a.end(), {"--set", k + "=" + v});
   return a;
+}
+
+namespace {
+
+void toml_table(const json& object, const std::string& path, std::string& out) {
+  for (auto it = object.begin(); it != object.end(); ++it)
+    if (!it.value().is_object()) out += it.key() + " = " + it.value().dump() + "\n";
+  for (auto it = object.begin(); it != object.end(); ++it)
+    if (it.value().is_object()) {
+      const std::string sub = path.empty() ? it.key() : path + "." + it.key();
+      out += "\n[" + sub + "]\n";
+      toml_table(it.value(), sub, out);
+    }
+}
+
+}  // namespace
+
+std::string json_to_toml(const json& object) {
+  std::string out;
+  toml_table(object, "", out);
+  return out;
 }
 
 const CampaignJob* Campaign::find(const std::string& key) const {
@@ -223,7 +250,6 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
                      "must be a non-empty name without spaces, quotes or slashes");
 
   Sweep base;
-  base.axes["camera"] = {json("view1")};
   base.axes["preset"] = {json("mobile")};
   base.axes["fidelity"] = {json("functional")};
   base.axes["seed"] = {json(1)};
@@ -264,6 +290,46 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
     return it->second;
   };
 
+  // The hardware configuration of a job: its preset (a name or a file) merged with the
+  // overrides, checked once per distinct combination against the model's parameter
+  // table, so a misspelt key stops the campaign before any job runs.
+  std::map<std::string, std::string> checked;  // merged TOML -> "" (ok)
+  auto hardware_for = [&](const CampaignJob& job, const std::map<std::string, json>& values,
+                          const std::string& where) -> std::string {
+    json merged = json::object();
+    if (!job.preset_path.empty()) merged = parse_config_file(job.preset_path);
+    else merged["preset"] = job.preset;
+    for (const auto& [key, value] : values) {
+      json* node = &merged;
+      size_t start = 0;
+      for (;;) {
+        const size_t dot = key.find('.', start);
+        const std::string part = key.substr(start, dot == std::string::npos ? dot : dot - start);
+        if (node->is_null()) *node = json::object();
+        if (!node->is_object())
+          throw InputError(where, "override '" + key + "' descends into a value, not a table");
+        if (dot == std::string::npos) {
+          (*node)[part] = value;
+          break;
+        }
+        node = &(*node)[part];
+        start = dot + 1;
+      }
+    }
+    const std::string text = json_to_toml(merged);
+    if (!checked.count(text)) {
+      try {
+        if (values.empty()) sim::load_hardware_config(job.preset_path.empty() ? job.preset
+                                                                             : job.preset_path.string());
+        else sim::parse_hardware_config(text, "hardware overrides");
+      } catch (const InputError& e) {
+        throw InputError(where + ", preset '" + job.preset + "'", e.what());
+      }
+      checked.emplace(text, "");
+    }
+    return values.empty() ? std::string() : text;
+  };
+
   std::set<std::string> seen;
   for (const auto& [group_name, sweep] : groups) {
     const std::string where = fname + ": group '" + group_name + "'";
@@ -293,6 +359,7 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
       job.group = group_name;
       json resolved = json::object();
       json overrides = json::object();
+      std::map<std::string, json> typed_overrides;
       for (size_t d = 0; d < dims.size(); ++d) {
         const std::string& name = dims[d].first;
         const std::string w = fname + ": key '" + name + "'";
@@ -300,6 +367,7 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
         if (name.rfind("set:", 0) == 0) {
           job.overrides[name.substr(4)] = value;
           overrides[name.substr(4)] = value;
+          typed_overrides[name.substr(4)] = (*dims[d].second)[index[d]];
           continue;
         }
         resolved[name] = value;
@@ -340,11 +408,12 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
       }
       resolved["set"] = overrides;
       job.resolved = resolved;
+      job.hardware_toml = hardware_for(job, typed_overrides, where);
       // json objects keep keys sorted, so dump() is canonical.
       job.config_hash = content_hash_hex(resolved.dump());
       job.key = content_hash_hex(resolved.dump() + "\nrevision=" + revision);
-      job.label = job.scene + "/" + job.builder + "/" + job.camera + "/" + job.preset + "/" +
-                  job.fidelity + "/seed" + std::to_string(job.seed);
+      job.label = job.scene + "/" + job.builder + (job.camera.empty() ? "" : "/" + job.camera) +
+                  "/" + job.preset + "/" + job.fidelity + "/seed" + std::to_string(job.seed);
       if (!job.resolution.empty()) job.label += "/" + job.resolution;
       if (job.ao_rays >= 0) job.label += "/ao" + std::to_string(job.ao_rays);
       for (const auto& [k, v] : job.overrides) job.label += "/" + k + "=" + v;

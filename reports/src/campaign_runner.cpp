@@ -141,6 +141,8 @@ RunRecord make_record(const Campaign& campaign, const CampaignJob& job, const Ca
   std::string why_config, why_stats;
   r.config = read_json_output(dir / "config.json", why_config);
   r.stats = read_json_output(dir / "stats.json", why_stats);
+  std::string why_host;  // host.json is optional (older simulators put host time in stats)
+  r.host = read_json_output(dir / "host.json", why_host);
   const bool exited_ok = !timed_out && WIFEXITED(wait_status) && WEXITSTATUS(wait_status) == 0;
   if (exited_ok && r.stats.is_object() && r.config.is_object()) {
     r.status = "ok";
@@ -167,6 +169,15 @@ fs::path fresh_job_dir(const CampaignPaths& paths, const std::string& key) {
   fs::remove_all(dir, ec);
   fs::create_directories(dir);
   return dir;
+}
+
+// A clean job directory with the job's hardware file; returns simulate's arguments.
+std::vector<std::string> prepare_job(const CampaignPaths& paths, const CampaignJob& job) {
+  const fs::path dir = fresh_job_dir(paths, job.key);
+  if (job.hardware_toml.empty()) return job.simulate_arguments(dir);
+  const fs::path hardware = dir / "hardware.toml";
+  write_file_atomic(hardware, "# " + job.label + "\n" + job.hardware_toml);
+  return job.simulate_arguments(dir, hardware);
 }
 
 std::atomic<int> g_stop_signal{0};
@@ -254,8 +265,8 @@ RunRecord run_one_job(const Campaign& campaign, const CampaignJob& job, const Ca
       // An unreadable result file is rerun.
     }
   }
-  const fs::path dir = fresh_job_dir(paths, job.key);
-  Child c = spawn(binary, job.simulate_arguments(dir), dir / "log.txt");
+  const std::vector<std::string> args = prepare_job(paths, job);
+  Child c = spawn(binary, args, paths.job_dir(job.key) / "log.txt");
   int status = 0;
   bool timed_out = false;
   for (;;) {
@@ -372,8 +383,8 @@ RunSummary run_campaign(const Campaign& campaign, const CampaignPaths& paths,
     if (g_stop_signal) break;
     while (running.size() < size_t(parallel) && next < todo.size()) {
       const CampaignJob* job = todo[next++];
-      const fs::path dir = fresh_job_dir(paths, job->key);
-      Child c = spawn(binary, job->simulate_arguments(dir), dir / "log.txt");
+      const std::vector<std::string> args = prepare_job(paths, *job);
+      Child c = spawn(binary, args, paths.job_dir(job->key) / "log.txt");
       running.emplace(c.pid, std::make_pair(job, c));
     }
     int status = 0;

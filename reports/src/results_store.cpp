@@ -20,7 +20,7 @@ json RunRecord::to_json() const {
           {"group", group},       {"config_hash", config_hash}, {"revision", revision},
           {"status", status},     {"error", error},       {"host_seconds", host_seconds},
           {"finished_at", finished_at}, {"job", job},     {"config", config},
-          {"stats", stats}};
+          {"stats", stats},       {"host", host}};
 }
 
 RunRecord RunRecord::from_json(const json& j, const std::string& where) {
@@ -48,6 +48,7 @@ RunRecord RunRecord::from_json(const json& j, const std::string& where) {
   r.job = j.value("job", json());
   r.config = j.value("config", json());
   r.stats = j.value("stats", json());
+  r.host = j.value("host", json());
   if (r.status == "ok" && !r.stats.is_object())
     throw InputError(where, "an ok run needs a 'stats' object");
   return r;
@@ -79,10 +80,16 @@ double first_of(const std::map<std::string, double>& s, std::initializer_list<co
 
 double ratio(double a, double b) { return (std::isfinite(a) && b > 0) ? a / b : NAN; }
 
+// A cache level's hit rate: over all instances ("l1_node.all.*") or the one cache.
 double hit_rate(const std::map<std::string, double>& s, const std::string& cache) {
-  const double direct = first_of(s, {(cache + ".hit_rate").c_str()});
-  if (std::isfinite(direct)) return direct;
-  return ratio(first_of(s, {(cache + ".hits").c_str()}), first_of(s, {(cache + ".accesses").c_str()}));
+  for (const std::string prefix : {cache + ".all.", cache + "."}) {
+    const double direct = first_of(s, {(prefix + "hit_rate").c_str()});
+    if (std::isfinite(direct)) return direct;
+    const double derived =
+        ratio(first_of(s, {(prefix + "hits").c_str()}), first_of(s, {(prefix + "accesses").c_str()}));
+    if (std::isfinite(derived)) return derived;
+  }
+  return NAN;
 }
 
 }  // namespace
@@ -93,33 +100,37 @@ std::map<std::string, double> flatten_stats(const json& stats) {
   return out;
 }
 
-HeadlineStats headline_stats(const json& stats) {
+HeadlineStats headline_stats(const json& stats, const json& host) {
   const auto s = flatten_stats(stats);
   HeadlineStats h;
   h.rays = first_of(s, {"rays.total", "raygen.rays", "rays"});
-  h.cycles = first_of(s, {"sim.cycles", "simulated_cycles", "cycles"});
-  const double trv_ops = first_of(s, {"trv.ops", "ops.trv"});
-  const double ist_ops = first_of(s, {"ist.ops", "ops.ist"});
+  h.cycles = first_of(s, {"time.cycles", "sim.cycles", "cycles"});
+  const double trv_ops = first_of(s, {"ops.trv", "trv.ops"});
+  const double ist_ops = first_of(s, {"ops.ist", "ist.ops"});
   h.trv_ops_per_ray = ratio(trv_ops, h.rays);
   h.ist_ops_per_ray = ratio(ist_ops, h.rays);
   h.ops_per_ray = ratio(trv_ops + ist_ops, h.rays);
-  h.node_fetches_per_ray = ratio(first_of(s, {"trv.node_fetches", "fetches.node"}), h.rays);
+  h.node_fetches_per_ray = ratio(first_of(s, {"fetches.node", "trv.node_fetches"}), h.rays);
   h.triangle_fetches_per_ray =
-      ratio(first_of(s, {"ist.triangle_fetches", "fetches.triangle"}), h.rays);
+      ratio(first_of(s, {"fetches.triangle", "ist.triangle_fetches"}), h.rays);
   h.dram_bytes_per_ray = ratio(first_of(s, {"dram.bytes", "dram.read_bytes"}), h.rays);
   h.l1_node_hit_rate = hit_rate(s, "l1_node");
   h.l1_triangle_hit_rate = hit_rate(s, "l1_triangle");
   h.l2_hit_rate = hit_rate(s, "l2");
-  h.rays_per_host_second = first_of(s, {"host.rays_per_second", "host.rays_per_host_second"});
+  // Host speed lives in host.json (kept out of stats.json so that stays byte-identical).
+  const auto host_values = flatten_stats(host);
+  h.rays_per_host_second = first_of(host_values, {"rays_per_host_second"});
+  if (!std::isfinite(h.rays_per_host_second))
+    h.rays_per_host_second = first_of(s, {"host.rays_per_host_second"});
   return h;
 }
 
 std::map<std::pair<std::string, std::string>, double> dram_bytes_per_ray_split(const json& stats) {
   const auto s = flatten_stats(stats);
-  const double rays = headline_stats(stats).rays;
+  const double rays = headline_stats(stats, json()).rays;
   std::map<std::pair<std::string, std::string>, double> out;
-  // dram.bytes_by.<ray type>.<kind>: bytes attributed to a ray type and a data kind.
-  const std::string prefix = "dram.bytes_by.";
+  // dram.bytes_by_type.<ray type>.<kind>: bytes attributed to a ray type and a data kind.
+  const std::string prefix = "dram.bytes_by_type.";
   for (auto it = s.lower_bound(prefix); it != s.end() && it->first.rfind(prefix, 0) == 0; ++it) {
     const std::string rest = it->first.substr(prefix.size());
     const size_t dot = rest.find('.');
@@ -205,6 +216,7 @@ CREATE TABLE IF NOT EXISTS runs(
   l1_node_hit_rate REAL, l1_triangle_hit_rate REAL, l2_hit_rate REAL,
   rays_per_host_second REAL,
   job_json TEXT NOT NULL, config_json TEXT NOT NULL, stats_json TEXT NOT NULL,
+  host_json TEXT NOT NULL,
   record_hash TEXT NOT NULL,
   PRIMARY KEY (campaign, job_key));
 )sql";
@@ -267,7 +279,7 @@ ResultsStore::~ResultsStore() { sqlite3_close(db_); }
 ResultsStore::Outcome ResultsStore::record(const RunRecord& run) {
   const std::string record_text = run.to_json().dump();
   const std::string record_hash = content_hash_hex(record_text);
-  const HeadlineStats h = run.stats.is_object() ? headline_stats(run.stats) : HeadlineStats{};
+  const HeadlineStats h = run.stats.is_object() ? headline_stats(run.stats, run.host) : HeadlineStats{};
   exec(db_, "BEGIN IMMEDIATE");
   try {
     Outcome outcome = Outcome::Inserted;
@@ -286,9 +298,9 @@ INSERT OR REPLACE INTO runs(campaign, job_key, label, group_name, config_hash, g
   status, error, host_seconds, finished_at, scene, builder, camera, preset, fidelity, seed,
   overrides, rays, cycles, ops_per_ray, trv_ops_per_ray, ist_ops_per_ray, node_fetches_per_ray,
   triangle_fetches_per_ray, dram_bytes_per_ray, l1_node_hit_rate, l1_triangle_hit_rate,
-  l2_hit_rate, rays_per_host_second, job_json, config_json, stats_json, record_hash)
+  l2_hit_rate, rays_per_host_second, job_json, config_json, stats_json, record_hash, host_json)
 VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19,
-  ?20, ?21, ?22, ?23, ?24, ?25, ?26, ?27, ?28, ?29, ?30, ?31, ?32, ?33))sql");
+  ?20, ?21, ?22, ?23, ?24, ?25, ?26, ?27, ?28, ?29, ?30, ?31, ?32, ?33, ?34))sql");
       auto job_text = [&](const char* k) {
         return run.job.is_object() && run.job.contains(k) && run.job[k].is_string()
                    ? run.job[k].get<std::string>()
@@ -318,7 +330,7 @@ VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?1
                                h.rays_per_host_second};
       for (int i = 0; i < 12; ++i) ins.bind(18 + i, values[i]);
       ins.bind(30, run.job.dump()).bind(31, run.config.dump()).bind(32, run.stats.dump());
-      ins.bind(33, record_hash);
+      ins.bind(33, record_hash).bind(34, run.host.dump());
       ins.step();
     }
     exec(db_, "COMMIT");

@@ -47,7 +47,7 @@ seed = [1, 2]
     keys.insert(j.key);
     labels.insert(j.label);
     EXPECT_EQ(j.fidelity, "functional");  // the default
-    EXPECT_EQ(j.camera, "view1");
+    EXPECT_EQ(j.camera, "");  // the scene's first camera
     ASSERT_EQ(j.overrides.size(), 1u);
   }
   EXPECT_EQ(keys.size(), c.jobs.size());
@@ -140,10 +140,15 @@ set."l1_node.size_bytes" = 8192
 )");
   ASSERT_EQ(c.jobs.size(), 1u);
   const std::vector<std::string> expected = {
-      "simulate", "--scene", "interior", "--builder", "aobvh", "--camera", "view2",
-      "--fidelity", "lt", "--config", "mobile", "--seed", "7", "--out", "/o",
+      "simulate", "--scene", "interior", "--builder", "aobvh", "--fidelity", "lt",
+      "--config", "mobile", "--seed", "7", "--out", "/o", "--camera", "view2",
       "--res", "64x48", "--ao", "2", "--set", "l1_node.size_bytes=8192"};
   EXPECT_EQ(c.jobs[0].simulate_arguments("/o"), expected);
+  // The runner writes the merged hardware file instead: preset + typed overrides.
+  EXPECT_EQ(c.jobs[0].hardware_toml, "preset = \"mobile\"\n\n[l1_node]\nsize_bytes = 8192\n");
+  const auto with_file = c.jobs[0].simulate_arguments("/o", "/o/hardware.toml");
+  EXPECT_EQ(with_file[8], "/o/hardware.toml");
+  EXPECT_EQ(std::count(with_file.begin(), with_file.end(), "--set"), 0);
 }
 
 TEST(CampaignExpand, BadInputNamesFileAndKey) {
@@ -176,6 +181,17 @@ TEST(CampaignExpand, BadInputNamesFileAndKey) {
             std::string::npos);
   // Every message names the file.
   EXPECT_NE(error_of("[sweep]\nscene = 3\nbuilder = {a = 1}\n").find("c.toml"), std::string::npos);
+  // Hardware keys and presets are checked against the model before anything runs.
+  const std::string unknown =
+      error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\nset.l2.size_byte = 1024\n");
+  EXPECT_NE(unknown.find("c.toml"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("l2.size_byte"), std::string::npos) << unknown;
+  EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\npreset = \"mobil\"\n")
+                .find("mobil"),
+            std::string::npos);
+  EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\nset.trv.units = 100000\n")
+                .find("out of range"),
+            std::string::npos);
 }
 
 }  // namespace

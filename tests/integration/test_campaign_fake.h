@@ -5,7 +5,7 @@
 // collect) is tested without depending on the simulator's speed or state.
 // Knobs (environment): FAKE_SLEEP seconds per job, FAKE_FAIL_BUILDER makes every job
 // of that builder fail, FAKE_LOG gets one line per started job (its --out folder),
-// FAKE_REVISION the revision --version reports. `--set fake.sleep=S` also works.
+// FAKE_REVISION the revision --version reports.
 #include <rtsim/reports/campaign.h>
 
 #include <gtest/gtest.h>
@@ -30,7 +30,7 @@ while [ $# -gt 0 ]; do
   case "$1" in
     --out) out="$2";; --builder) builder="$2";; --config) preset="$2";;
     --scene) scene="$2";; --seed) seed="$2";;
-    --set) sets="$sets $2"; case "$2" in fake.sleep=*) sleep_s="${2#fake.sleep=}";; esac;;
+    --set) sets="$sets $2";;
   esac
   shift 2
 done
@@ -47,18 +47,18 @@ dram=$((300000 + n % 200000)); hits=$((n % 900)); l2hits=$((n % 500))
 leaf() { printf '{"value": %s, "unit": "%s", "description": "%s"}' "$1" "$2" "$3"; }
 cat > "$out/stats.json.tmp" <<EOF
 {"rays": {"total": $(leaf $rays rays "rays traced")},
- "sim": {"cycles": $(leaf $cycles cycles "simulated cycles")},
- "trv": {"ops": $(leaf $trv ops "TRV ops"), "node_fetches": $(leaf $trv fetches "node fetches")},
- "ist": {"ops": $(leaf $ist ops "IST ops"), "triangle_fetches": $(leaf $ist fetches "triangle fetches")},
- "l1_node": {"accesses": $(leaf 1000 accesses "a"), "hits": $(leaf $hits hits "h")},
- "l1_triangle": {"accesses": $(leaf 1000 accesses "a"), "hits": $(leaf $((hits / 2)) hits "h")},
- "l2": {"accesses": $(leaf 500 accesses "a"), "hits": $(leaf $l2hits hits "h")},
+ "time": {"cycles": $(leaf $cycles cycles "simulated cycles")},
+ "ops": {"trv": $(leaf $trv ops "TRV ops"), "ist": $(leaf $ist ops "IST ops")},
+ "fetches": {"node": $(leaf $trv fetches "node fetches"), "triangle": $(leaf $ist fetches "triangle fetches")},
+ "l1_node": {"all": {"accesses": $(leaf 1000 requests "a"), "hits": $(leaf $hits requests "h")}},
+ "l1_triangle": {"all": {"hit_rate": $(leaf 0.$((hits / 2 + 100)) ratio "h")}},
+ "l2": {"accesses": $(leaf 500 requests "a"), "hits": $(leaf $l2hits requests "h")},
  "dram": {"bytes": $(leaf $dram bytes "DRAM bytes"),
-          "bytes_by": {"primary": {"node": $(leaf $((dram / 4)) bytes "x"), "triangle": $(leaf $((dram / 8)) bytes "x")},
-                       "ao": {"node": $(leaf $((dram / 2)) bytes "x"), "triangle": $(dram_rest=$((dram - dram / 4 - dram / 8 - dram / 2)); leaf $dram_rest bytes "x")}}},
- "host": {"rays_per_second": $(leaf 123456.5 "rays/s" "host speed")}}
+          "bytes_by_type": {"primary": {"node": $(leaf $((dram / 4)) bytes "x"), "triangle": $(leaf $((dram / 8)) bytes "x")},
+                       "ao": {"node": $(leaf $((dram / 2)) bytes "x"), "triangle": $(dram_rest=$((dram - dram / 4 - dram / 8 - dram / 2)); leaf $dram_rest bytes "x")}}}}
 EOF
 mv "$out/stats.json.tmp" "$out/stats.json"
+printf '{"rays_per_host_second": {"value": 123456.5, "unit": "rays/s", "description": "d"}}\n' > "$out/host.json"
 printf '{"git_revision": "%s", "seed": %s, "builder": "%s"}\n' "${FAKE_REVISION:-fakerev1}" "$seed" "$builder" > "$out/config.json"
 exit 0
 )fake";

@@ -28,12 +28,13 @@ RunRecord make_run(const std::string& key, double cycles) {
   r.job = {{"scene", "interior"}, {"builder", "sah"}, {"seed", "3"}, {"set", json::object()}};
   r.config = {{"seed", 3}};
   r.stats = {{"rays", {{"total", leaf(100, "rays")}}},
-             {"sim", {{"cycles", leaf(cycles, "cycles")}}},
-             {"trv", {{"ops", leaf(700, "ops")}, {"node_fetches", leaf(650, "fetches")}}},
-             {"ist", {{"ops", leaf(300, "ops")}}},
+             {"time", {{"cycles", leaf(cycles, "cycles")}}},
+             {"ops", {{"trv", leaf(700, "ops")}, {"ist", leaf(300, "ops")}}},
+             {"fetches", {{"node", leaf(650, "fetches")}}},
              {"l2", {{"accesses", leaf(200, "a")}, {"hits", leaf(50, "h")}}},
              {"dram", {{"bytes", leaf(12800, "bytes")},
-                       {"bytes_by", {{"ao", {{"node", leaf(6400, "bytes")}}}}}}}};
+                       {"bytes_by_type", {{"ao", {{"node", leaf(6400, "bytes")}}}}}}}};
+  r.host = {{"rays_per_host_second", leaf(5e5, "rays/s")}};
   return r;
 }
 
@@ -50,6 +51,7 @@ TEST(ResultsStore, HeadlineColumnsComeFromStats) {
   EXPECT_DOUBLE_EQ(rows[0]["l2_hit_rate"].get<double>(), 0.25);
   EXPECT_DOUBLE_EQ(rows[0]["cycles"].get<double>(), 5000.0);
   EXPECT_TRUE(rows[0]["l1_node_hit_rate"].is_null());  // not reported -> NULL, not 0
+  EXPECT_DOUBLE_EQ(rows[0]["rays_per_host_second"].get<double>(), 5e5);
   EXPECT_EQ(rows[0]["seed"].get<int64_t>(), 3);
   EXPECT_EQ(json::parse(rows[0]["stats_json"].get<std::string>()), make_run("k1", 5000).stats);
   const auto split = dram_bytes_per_ray_split(make_run("k1", 5000).stats);

@@ -20,19 +20,26 @@ struct CampaignJob {
   std::string label;        // "interior/sah/view1/mobile/functional/seed1[/l2.size_bytes=...]"
   std::string group;        // first named group that produced the job ("default" if none)
 
-  std::string scene, builder, camera, preset, fidelity;
+  std::string scene, builder, preset, fidelity;
+  std::string camera;       // "" = the scene's first camera
   uint64_t seed = 1;
   std::string resolution;   // "WxH" or "" (simulate's default)
   int64_t ao_rays = -1;     // AO rays per primary hit, < 0: simulate's default
   std::map<std::string, std::string> overrides;  // dotted hardware key -> value text
+  // The hardware configuration the job runs with when it has overrides: the preset
+  // (name or file) merged with the overrides, as TOML; empty without overrides.
+  // Validated against the model's parameter table when the campaign is loaded.
+  std::string hardware_toml;
 
   // Absolute paths for inputs named by path in the campaign (empty: a name).
   std::filesystem::path preset_path, scene_path;
 
   nlohmann::json resolved;  // canonical description hashed into config_hash
 
-  // Arguments after the binary: simulate --scene ... --out DIR [--set k=v ...].
-  std::vector<std::string> simulate_arguments(const std::filesystem::path& out_dir) const;
+  // Arguments after the binary: simulate --scene ... --out DIR. With `hardware_file`
+  // (hardware_toml written there) it is the --config; without, overrides go as --set k=v.
+  std::vector<std::string> simulate_arguments(const std::filesystem::path& out_dir,
+                                              const std::filesystem::path& hardware_file = {}) const;
 };
 
 struct Campaign {
@@ -51,6 +58,9 @@ struct Campaign {
 Campaign load_campaign(const std::filesystem::path& file, const std::string& revision);
 Campaign parse_campaign(const nlohmann::json& document, const std::filesystem::path& file,
                         const std::string& revision);
+
+// A JSON object as TOML (tables for objects, inline arrays, JSON string escapes).
+std::string json_to_toml(const nlohmann::json& object);
 
 // Stable 64-bit content hash (FNV-1a) as 16 lowercase hex digits.
 std::string content_hash_hex(const std::string& bytes);

@@ -27,6 +27,7 @@ struct RunRecord {
   nlohmann::json job;       // the resolved job description (CampaignJob::resolved)
   nlohmann::json config;    // config.json of the run (null if it never appeared)
   nlohmann::json stats;     // stats.json of the run (null if it never appeared)
+  nlohmann::json host;      // host.json: host seconds, rays per host second, peak memory
 
   nlohmann::json to_json() const;
   // Throws InputError naming `where` if fields are missing or of the wrong type.
@@ -40,7 +41,7 @@ struct HeadlineStats {
          dram_bytes_per_ray = NAN, l1_node_hit_rate = NAN, l1_triangle_hit_rate = NAN,
          l2_hit_rate = NAN, rays_per_host_second = NAN;
 };
-HeadlineStats headline_stats(const nlohmann::json& stats);
+HeadlineStats headline_stats(const nlohmann::json& stats, const nlohmann::json& host);
 
 // Every leaf {value, unit, description} of a hierarchical stats.json by dotted path.
 std::map<std::string, double> flatten_stats(const nlohmann::json& stats);
