@@ -23,6 +23,15 @@ uint64_t UnitTime::occupied_ps() const {
 }
 
 namespace {
+// Pipeline slot reservation for requests that arrive out of time order (the
+// round-robin visits slots in a fixed order, not by time): a request may take a
+// slot up to `window` before the unit's running reservation end, while the end
+// still advances by one interval per request, so throughput stays capped.
+uint64_t reserve(uint64_t& pipe_free, uint64_t data, uint64_t interval, uint64_t window) {
+  const uint64_t start = std::max(data, pipe_free > window ? pipe_free - window : 0);
+  pipe_free = std::max(pipe_free, start) + interval;
+  return start;
+}
 uint64_t interval_ps(double per_cycle, uint64_t cycle_ps) {
   return uint64_t(std::llround(double(cycle_ps) / per_cycle));
 }
@@ -38,6 +47,8 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
   ist_interval_ps_ = interval_ps(config.ist_tests_per_cycle, cycle_ps_);
   shading_interval_ps_ = interval_ps(config.shading_rays_per_cycle, cycle_ps_);
   raygen_interval_ps_ = interval_ps(config.raygen_rays_per_cycle, cycle_ps_);
+  // Within one quantum the loosely-timed model does not resolve the order of events.
+  trv_window_ps_ = ist_window_ps_ = uint64_t(config.lt_quantum_cycles) * cycle_ps_;
   slots_.reserve(size_t(config.trv_units) * config.trv_ray_slots);
   for (uint32_t i = 0; i < config.trv_units * config.trv_ray_slots; ++i)
     slots_.emplace_back(*workload.context);
@@ -54,8 +65,11 @@ CounterTotals RayEngine::total() const {
 uint64_t RayEngine::fetch(MemoryPort& port, Requester who, uint32_t unit, uint64_t address,
                           uint32_t bytes, DataKind kind, RayType type, uint64_t issue_ps) {
   // One access per L1 line the fetch touches; they go out together.
-  const uint64_t line_bytes = port.l1_line_bytes(who);
+  const uint64_t line_bytes = line_bytes_[size_t(who)];
   const uint64_t end = address + bytes;
+  if ((address & ~(line_bytes - 1)) + line_bytes >= end)  // the common case: one line
+    return std::max(issue_ps, port.read(who, unit, LineAccess{address & ~(line_bytes - 1), bytes,
+                                                              kind, type}, issue_ps));
   uint64_t done = issue_ps;
   for (uint64_t line = address & ~(line_bytes - 1); line < end; line += line_bytes) {
     const uint64_t lo = std::max(line, address), hi = std::min(line + line_bytes, end);
@@ -95,8 +109,8 @@ void RayEngine::finish(Slot& slot, uint32_t unit) {
   spawned_.clear();
   spawn_secondary_rays(*workload_->scene, workload_->plan, workload_->settings, trv.ray(),
                        slot.ray, trv.hit(), spawned_);
-  const uint64_t start = std::max(slot.time_ps, shading_free_);
-  shading_free_ = start + shading_interval_ps_;
+  const uint64_t start =
+      reserve(shading_free_, slot.time_ps, shading_interval_ps_, trv_window_ps_);
   shading_time_.busy_ps += shading_interval_ps_;
   const uint64_t ready = start + uint64_t(config_.shading_latency) * cycle_ps_;
   shading_time_.add_span(start, ready);
@@ -109,6 +123,8 @@ void RayEngine::finish(Slot& slot, uint32_t unit) {
 
 void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
                     const std::function<void(uint64_t)>& progress) {
+  line_bytes_[size_t(Requester::Trv)] = port.l1_line_bytes(Requester::Trv);
+  line_bytes_[size_t(Requester::Ist)] = port.l1_line_bytes(Requester::Ist);
   const uint32_t slots_per_unit = config_.trv_ray_slots;
   const uint64_t box_latency = uint64_t(config_.trv_box_test_latency) * cycle_ps_;
   const uint64_t test_latency = uint64_t(config_.ist_test_latency) * cycle_ps_;
@@ -127,8 +143,9 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
         slot.traversal.reset(rays_[next_ray]);
         slot.seen_overflows = slot.seen_refills = 0;
         if (timed_) {
-          const uint64_t issue = std::max({slot.time_ps, ready_ps_[next_ray], raygen_next_});
-          raygen_next_ = issue + raygen_interval_ps_;
+          const uint64_t issue =
+              reserve(raygen_next_, std::max(slot.time_ps, ready_ps_[next_ray]),
+                      raygen_interval_ps_, trv_window_ps_);
           slot.time_ps = slot.start_ps = issue;
         }
         ++next_ray;
@@ -140,8 +157,7 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
         case TraversalAction::FetchNode: {
           const uint64_t data = fetch(port, Requester::Trv, unit, trv.node_address(),
                                       trv.node_bytes(), DataKind::Node, type, slot.time_ps);
-          const uint64_t start = std::max(data, trv_free_[unit]);
-          trv_free_[unit] = start + trv_interval_ps_;
+          const uint64_t start = reserve(trv_free_[unit], data, trv_interval_ps_, trv_window_ps_);
           trv_time_[unit].busy_ps += trv_interval_ps_;
           slot.time_ps = start + box_latency;
           trv.process_node();
@@ -156,8 +172,7 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
             data = std::max(data, fetch(port, Requester::Ist, ist, trv.prim_refs_address(),
                                         trv.prim_refs_bytes(), DataKind::Other, type,
                                         slot.time_ps));
-          const uint64_t start = std::max(data, ist_free_[ist]);
-          ist_free_[ist] = start + ist_interval_ps_;
+          const uint64_t start = reserve(ist_free_[ist], data, ist_interval_ps_, ist_window_ps_);
           ist_time_[ist].busy_ps += ist_interval_ps_;
           ist_time_[ist].add_span(slot.time_ps, start + test_latency);
           slot.time_ps = start + test_latency;
@@ -166,7 +181,10 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
         }
         case TraversalAction::Done: break;
       }
-      slot.time_ps = stack_traffic(port, slot, s, unit);
+      const RayCounters& counters = trv.counters();
+      if (slot.seen_overflows != counters.stack_overflows ||
+          slot.seen_refills != counters.stack_refills)
+        slot.time_ps = stack_traffic(port, slot, s, unit);
       if (trv.done()) {
         finish(slot, unit);
         ++done_rays;
@@ -183,6 +201,8 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
   }
   progress(done_rays);
   for (auto& s : slots_) end_ps_ = std::max(end_ps_, s.time_ps);
+  for (uint64_t t : trv_free_) end_ps_ = std::max(end_ps_, t);
+  for (uint64_t t : ist_free_) end_ps_ = std::max(end_ps_, t);
 }
 
 }  // namespace rtsim::sim

@@ -10,8 +10,12 @@
 // sequence: their cache and DRAM counts are identical; only time differs.
 //
 // Loosely-timed unit timing (per TRV unit u, IST unit i = u mod ist.units):
-//   node step:     data = port latency; start = max(data, pipe_free[u]);
-//                  pipe_free[u] = start + 1/nodes_per_cycle; ray ready = start + box latency
+//   node step:     data = port latency; start = max(data, pipe_free[u] - window);
+//                  pipe_free[u] = max(pipe_free[u], start) + 1/nodes_per_cycle;
+//                  ray ready = start + box latency. The window (one lt quantum)
+//                  lets steps visited out of time order fill earlier pipeline slots
+//                  while the unit's throughput stays capped: within a quantum the
+//                  loosely-timed model does not resolve the order of events.
 //   triangle step: the same with the IST unit's pipeline and test latency
 //   finished ray:  shading start = max(ready, shading free); spawned rays are ready
 //                  shading latency later; ray generation issues at raygen rate.
@@ -110,12 +114,14 @@ class RayEngine {
   std::vector<uint64_t> trv_free_, ist_free_;
   uint64_t shading_free_ = 0, raygen_next_ = 0;
   uint64_t trv_interval_ps_, ist_interval_ps_, shading_interval_ps_, raygen_interval_ps_;
+  uint64_t trv_window_ps_, ist_window_ps_;
   std::vector<UnitTime> trv_time_, ist_time_;
   UnitTime shading_time_;
   std::array<CounterTotals, kRayTypeCount> per_type_{};
   uint64_t end_ps_ = 0;
   uint64_t stack_base_ = 0, stack_spill_bytes_ = 0;
   std::vector<Ray> spawned_;
+  std::array<uint64_t, 2> line_bytes_{64, 64};  // L1 line per requester, asked once per run
 };
 
 }  // namespace rtsim::sim
