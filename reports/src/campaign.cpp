@@ -293,9 +293,9 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
   // The hardware configuration of a job: its preset (a name or a file) merged with the
   // overrides, checked once per distinct combination against the model's parameter
   // table, so a misspelt key stops the campaign before any job runs.
-  std::map<std::string, std::string> checked;  // merged TOML -> "" (ok)
-  auto hardware_for = [&](const CampaignJob& job, const std::map<std::string, json>& values,
-                          const std::string& where) -> std::string {
+  std::map<std::string, json> checked;  // merged TOML -> resolved hardware configuration
+  auto hardware_for = [&](CampaignJob& job, const std::map<std::string, json>& values,
+                          const std::string& where) -> json {
     json merged = json::object();
     if (!job.preset_path.empty()) merged = parse_config_file(job.preset_path);
     else merged["preset"] = job.preset;
@@ -317,17 +317,21 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
       }
     }
     const std::string text = json_to_toml(merged);
-    if (!checked.count(text)) {
+    auto it = checked.find(text);
+    if (it == checked.end()) {
       try {
-        if (values.empty()) sim::load_hardware_config(job.preset_path.empty() ? job.preset
-                                                                             : job.preset_path.string());
-        else sim::parse_hardware_config(text, "hardware overrides");
+        const sim::HardwareConfig config =
+            values.empty() ? sim::load_hardware_config(job.preset_path.empty()
+                                                           ? job.preset
+                                                           : job.preset_path.string())
+                           : sim::parse_hardware_config(text, "hardware overrides");
+        it = checked.emplace(text, json::parse(sim::to_json(config))).first;
       } catch (const InputError& e) {
         throw InputError(where + ", preset '" + job.preset + "'", e.what());
       }
-      checked.emplace(text, "");
     }
-    return values.empty() ? std::string() : text;
+    job.hardware_toml = values.empty() ? std::string() : text;
+    return it->second;
   };
 
   std::set<std::string> seen;
@@ -407,11 +411,16 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
         }
       }
       resolved["set"] = overrides;
+      // The identity is the resolved configuration: the full hardware configuration
+      // (preset and overrides applied), not how it was spelt, so "mobile" with
+      // l2.size_bytes at its preset value is the same job as plain "mobile".
+      json identity = resolved;
+      for (const char* spelling : {"preset", "preset_file_hash", "set"}) identity.erase(spelling);
+      identity["hardware"] = hardware_for(job, typed_overrides, where);
       job.resolved = resolved;
-      job.hardware_toml = hardware_for(job, typed_overrides, where);
       // json objects keep keys sorted, so dump() is canonical.
-      job.config_hash = content_hash_hex(resolved.dump());
-      job.key = content_hash_hex(resolved.dump() + "\nrevision=" + revision);
+      job.config_hash = content_hash_hex(identity.dump());
+      job.key = content_hash_hex(identity.dump() + "\nrevision=" + revision);
       job.label = job.scene + "/" + job.builder + (job.camera.empty() ? "" : "/" + job.camera) +
                   "/" + job.preset + "/" + job.fidelity + "/seed" + std::to_string(job.seed);
       if (!job.resolution.empty()) job.label += "/" + job.resolution;

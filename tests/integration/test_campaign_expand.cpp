@@ -120,10 +120,29 @@ TEST(CampaignExpand, PresetFilesAreHashedByContent) {
   EXPECT_TRUE(before.jobs[1].preset_path.empty());
   const auto args = before.jobs[0].simulate_arguments("/out");
   EXPECT_NE(std::find(args.begin(), args.end(), (dir / "hw.toml").string()), args.end());
-  write_text(dir / "hw.toml", "preset = \"mobile\"\n[trv]\nunits = 4\n");
+  write_text(dir / "hw.toml", "preset = \"mobile\"\n[trv]\nunits = 3\n");
   const Campaign after = load_campaign(file, "r");
   EXPECT_NE(before.jobs[0].key, after.jobs[0].key);
   EXPECT_EQ(before.jobs[1].key, after.jobs[1].key);
+}
+
+TEST(CampaignExpand, IdentityIsTheResolvedHardwareNotItsSpelling) {
+  const Campaign c = parse(R"(
+[sweep]
+scene = "interior"
+builder = "sah"
+preset = "mobile"
+set.trv.units = [4, 2]
+[[group]]
+name = "plain"
+set = {}
+[[group]]
+name = "sweep"
+)");
+  // mobile has 4 TRV units: the override at its preset value is the plain job.
+  ASSERT_EQ(c.jobs.size(), 2u);
+  EXPECT_EQ(c.jobs[0].group, "plain");
+  EXPECT_EQ(c.jobs[1].overrides.at("trv.units"), "2");
 }
 
 TEST(CampaignExpand, SimulateArgumentsCarryEveryAxis) {
