@@ -102,7 +102,7 @@ uint64_t RayEngine::stack_traffic(MemoryPort& port, Slot& slot, uint32_t slot_in
 void RayEngine::finish(Slot& slot, uint32_t unit) {
   const RayTraversal& trv = slot.traversal;
   per_type_[size_t(trv.ray().type)].add(trv.counters(), trv.hit().hit());
-  trv_time_[unit].add_span(slot.start_ps, slot.time_ps);
+  if (timed_) trv_time_[unit].add_span(slot.start_ps, slot.time_ps);
   slot.active = false;
   end_ps_ = std::max(end_ps_, slot.time_ps);
   if (!workload_->spawn_secondary) return;
@@ -157,9 +157,12 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
         case TraversalAction::FetchNode: {
           const uint64_t data = fetch(port, Requester::Trv, unit, trv.node_address(),
                                       trv.node_bytes(), DataKind::Node, type, slot.time_ps);
-          const uint64_t start = reserve(trv_free_[unit], data, trv_interval_ps_, trv_window_ps_);
-          trv_time_[unit].busy_ps += trv_interval_ps_;
-          slot.time_ps = start + box_latency;
+          if (timed_) {
+            const uint64_t start =
+                reserve(trv_free_[unit], data, trv_interval_ps_, trv_window_ps_);
+            trv_time_[unit].busy_ps += trv_interval_ps_;
+            slot.time_ps = start + box_latency;
+          }
           trv.process_node();
           break;
         }
@@ -172,10 +175,13 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
             data = std::max(data, fetch(port, Requester::Ist, ist, trv.prim_refs_address(),
                                         trv.prim_refs_bytes(), DataKind::Other, type,
                                         slot.time_ps));
-          const uint64_t start = reserve(ist_free_[ist], data, ist_interval_ps_, ist_window_ps_);
-          ist_time_[ist].busy_ps += ist_interval_ps_;
-          ist_time_[ist].add_span(slot.time_ps, start + test_latency);
-          slot.time_ps = start + test_latency;
+          if (timed_) {
+            const uint64_t start =
+                reserve(ist_free_[ist], data, ist_interval_ps_, ist_window_ps_);
+            ist_time_[ist].busy_ps += ist_interval_ps_;
+            ist_time_[ist].add_span(slot.time_ps, start + test_latency);
+            slot.time_ps = start + test_latency;
+          }
           trv.process_triangle();
           break;
         }
