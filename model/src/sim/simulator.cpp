@@ -9,12 +9,19 @@
 #include <sys/resource.h>
 
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <stdexcept>
 
 namespace rtsim::sim {
 
 namespace {
+
+double cpu_now() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) + double(t.tv_nsec) * 1e-9;
+}
 
 uint64_t peak_rss_bytes() {
   rusage usage{};
@@ -155,6 +162,7 @@ SimulationResult simulate(const SimulationRequest& request) {
   StatsRegistry& s = result.stats;
   const double cycle_ps = config.clock_period_ps();
   const auto start = std::chrono::steady_clock::now();
+  const double cpu_start = cpu_now();
 
   if (request.fidelity == Fidelity::Functional || request.fidelity == Fidelity::Lt) {
     std::unique_ptr<FunctionalMemory> functional;
@@ -173,6 +181,7 @@ SimulationResult simulate(const SimulationRequest& request) {
     }
     result.host_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result.cpu_seconds = cpu_now() - cpu_start;
     result.per_type = engine->per_type();
     const CounterTotals total = engine->total();
     result.rays = total.rays;
@@ -236,6 +245,7 @@ SimulationResult simulate(const SimulationRequest& request) {
     sc_core::sc_start();
     result.host_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result.cpu_seconds = cpu_now() - cpu_start;
     if (system.rays_done != system.raygen->rays().size())
       throw std::runtime_error("cycle model stopped with " +
                                std::to_string(system.raygen->rays().size() - system.rays_done) +
@@ -283,6 +293,12 @@ std::string host_json(const SimulationResult& r) {
       {"value", r.host_seconds > 0 ? double(r.rays) / r.host_seconds : 0.0},
       {"unit", "rays/s"},
       {"description", "simulated rays per host second"}};
+  j["cpu_seconds"] = {{"value", r.cpu_seconds}, {"unit", "s"},
+                      {"description", "CPU time of the simulation (one thread)"}};
+  j["rays_per_cpu_second"] = {
+      {"value", r.cpu_seconds > 0 ? double(r.rays) / r.cpu_seconds : 0.0},
+      {"unit", "rays/s"},
+      {"description", "simulated rays per CPU second (unaffected by other load)"}};
   j["peak_memory"] = {{"value", r.peak_memory_bytes}, {"unit", "bytes"},
                       {"description", "peak resident set size of the process"}};
   return j.dump(2) + "\n";

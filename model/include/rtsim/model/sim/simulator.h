@@ -34,6 +34,7 @@ struct SimulationResult {
   uint64_t simulated_ps = 0;
   uint64_t cycles = 0;
   double host_seconds = 0;    // wall time of the simulation proper (not loading/building)
+  double cpu_seconds = 0;     // CPU time of the same (the fair figure on a loaded machine)
   uint64_t peak_memory_bytes = 0;
   std::array<CounterTotals, kRayTypeCount> per_type{};
   EffectPlan plan;
