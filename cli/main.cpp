@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   rtsim::cli::add_campaign_command(app);
   rtsim::cli::add_trace_command(app);
   rtsim::cli::add_simulate_command(app);
+  rtsim::cli::add_table1_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

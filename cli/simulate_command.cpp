@@ -5,6 +5,8 @@
 // throughput, memory: kept apart so that stats.json is byte-identical across runs).
 #include "commands.h"
 
+#include <rtsim/builder/bvh_file.h>
+
 #include <rtsim/builder/build.h>
 #include <rtsim/model/core/ray_file.h>
 #include <rtsim/model/sim/simulator.h>
@@ -28,7 +30,7 @@ namespace {
 
 struct SimulateOptions {
   std::string scene, builder = "sah", camera, fidelity = "functional", config = "mobile", out_dir;
-  std::string resolution = "128x128", rays_in;
+  std::string resolution = "128x128", rays_in, bvh_in;
   int ao = -1;
   uint32_t spp = 1, max_depth = 2;
   uint64_t seed = 1;
@@ -94,7 +96,11 @@ void run_simulate(const SimulateOptions& o) {
   params.builder = o.builder;
   params.seed = o.seed;
   params.camera = camera.name;
-  const Bvh bvh = build_bvh(scene, params);
+  // A saved tree (rtsim build --out) is replayed as it is, so that runs of a campaign
+  // or of table1 simulate exactly the tree that was measured; it must belong to the scene.
+  BvhFileHeader bvh_header;
+  const Bvh bvh = o.bvh_in.empty() ? build_bvh(scene, params) : load_bvh(o.bvh_in, &scene, &bvh_header);
+  if (!o.bvh_in.empty()) params.builder = bvh_header.builder;
   request.scene = &scene;
   request.bvh = &bvh;
   request.camera = &camera;
@@ -136,7 +142,8 @@ void run_simulate(const SimulateOptions& o) {
       {"scene_source", scene.source},
       {"scene_hash", hex(scene.content_hash())},
       {"triangles", scene.triangle_count()},
-      {"builder", o.builder},
+      {"builder", params.builder},
+      {"bvh_file", o.bvh_in},
       {"bvh_hash", hex(bvh_hash(bvh))},
       {"bvh_nodes", bvh.nodes.size()},
       {"camera", camera.name},
@@ -197,6 +204,7 @@ void add_simulate_command(CLI::App& root) {
   cmd->add_option("--max-depth", opts->max_depth, "reflection/refraction depth")->capture_default_str();
   cmd->add_option("--seed", opts->seed, "seed of every random choice")->capture_default_str();
   cmd->add_option("--rays", opts->rays_in, "replay this ray file (no secondary rays)");
+  cmd->add_option("--bvh", opts->bvh_in, "replay this saved tree (rtsim build --out) instead of building one");
   cmd->add_flag("--json", opts->json, "print stats.json to stdout");
   cmd->callback([opts] { run_simulate(*opts); });
 }

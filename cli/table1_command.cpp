@@ -1,0 +1,132 @@
+// rtsim table1: the patent's Table 1 on a scene's two cameras (the README's main job).
+#include "commands.h"
+
+#include <rtsim/reports/table1.h>
+#include <rtsim/reports/text_table.h>
+#include <rtsim/workloads/error.h>
+#include <rtsim/workloads/fetch.h>
+#include <rtsim/workloads/files.h>
+#include <rtsim/workloads/scene_registry.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+namespace rtsim::cli {
+
+namespace {
+
+struct Table1CommandOptions {
+  Table1Options table;
+  std::string resolution = "256x256";
+  bool all_scenes = false, no_cycle = false, json = false;
+};
+
+void parse_resolution(const std::string& text, uint32_t& width, uint32_t& height) {
+  unsigned w = 0, h = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%u%c%u%c", &w, &x, &h, &extra) != 3 || x != 'x' || w == 0 ||
+      h == 0 || w > 8192 || h > 8192)
+    throw InputError("--res", "expected WxH with 1..8192 each, not '" + text + "'");
+  width = w;
+  height = h;
+}
+
+Table1 run_one(Table1Options options, bool print) {
+  const Table1 table = run_table1(options);
+  write_table1(table);
+  if (print) std::fputs(table1_text(table).c_str(), stdout);
+  std::fprintf(stderr, "wrote %s/table1.{md,csv,json}, table1_reductions.png, table1_heatmaps.png\n",
+               options.out_dir.string().c_str());
+  return table;
+}
+
+void run_all_scenes(const Table1CommandOptions& o) {
+  std::vector<std::string> scenes = {default_scene_name()};
+  for (const RealSceneInfo& info : real_scene_catalogue())
+    if (std::filesystem::exists(scene_cache_dir() / info.name / "scene.toml")) scenes.push_back(info.name);
+  if (scenes.size() == 1)
+    std::fprintf(stderr, "no real scene is fetched yet (rtsim scenes fetch all); running the default only\n");
+  TextTable summary({"scene", "camera", "median", "sah", "sbvh", "osah", "aobvh", "AO-BVH red. vs median",
+                     "AO-BVH red. vs SAH", "ordering vs median", "ordering vs SAH"});
+  for (const std::string& scene : scenes) {
+    Table1Options options = o.table;
+    options.scene = scene;
+    options.out_dir = o.table.out_dir / scene;
+    const Table1 table = run_one(options, false);
+    for (const std::string& camera : options.cameras) {
+      std::vector<std::string> row = {table.scene_name, camera};
+      for (const char* b : {"median", "sah", "sbvh", "osah", "aobvh"}) {
+        const Table1Row* r = table.find(camera, b);
+        row.push_back(r ? format_number(r->combined.ops_per_ray) : "-");
+      }
+      const Table1Row* ao = table.find(camera, "aobvh");
+      for (const char* base : {"median", "sah"}) {
+        const Table1Row* b = table.find(camera, base);
+        row.push_back(ao && b ? format_number(100.0 * (1 - ao->combined.ops_per_ray / b->combined.ops_per_ray), 3) + "%" : "-");
+      }
+      for (const char* base : {"median", "sah"}) {
+        std::string verdict = "-";
+        for (const std::string& v : table.verdicts)
+          if (v.rfind(camera + ", against the " + std::string(base == std::string("sah") ? "SAH" : "median") + " BVH", 0) == 0)
+            verdict = v.find("HOLDS") != std::string::npos ? "holds" : "does not hold";
+        row.push_back(verdict);
+      }
+      summary.add_row(row);
+    }
+  }
+  const std::string text = "Table 1 on every scene (TRV+IST ops/ray; details in each scene's folder)\n\n" +
+                           summary.plain();
+  std::fputs(text.c_str(), stdout);
+  write_file_atomic(o.table.out_dir / "summary.md",
+                    "# Table 1 on every scene\n\nTRV+IST ops/ray; each scene's folder has the details.\n\n" +
+                        summary.markdown());
+  write_file_atomic(o.table.out_dir / "summary.csv", summary.csv());
+}
+
+}  // namespace
+
+void add_table1_command(CLI::App& root) {
+  auto o = std::make_shared<Table1CommandOptions>();
+  CLI::App* cmd = root.add_subcommand(
+      "table1", "Reproduce the patent's Table 1: TRV+IST ops/ray, node fetches, DRAM bytes and "
+                "cycles for median/SAH BVH, SBVH, OSAH and AO-BVH on a scene's two cameras");
+  cmd->add_option("--scene", o->table.scene, "Scene name or descriptor path")->capture_default_str();
+  cmd->add_flag("--all-scenes", o->all_scenes,
+                "Run on the default scene and every fetched real scene, with a summary table");
+  cmd->add_option("--cameras", o->table.cameras, "Cameras (the patent's two viewpoints)")->capture_default_str();
+  cmd->add_option("--builders", o->table.builders, "Builders to compare")->capture_default_str();
+  cmd->add_option("--res", o->resolution, "Primary rays per camera, WxH")->capture_default_str();
+  cmd->add_option("--ao", o->table.ao_samples, "AO rays per primary hit (-1: the scene's setting)")
+      ->check(CLI::Range(-1, 1024))->capture_default_str();
+  cmd->add_option("--seed", o->table.seed, "Seed of every random choice")->capture_default_str();
+  cmd->add_option("--config", o->table.hardware, "Hardware preset or TOML for the cycle-level runs")
+      ->capture_default_str();
+  cmd->add_flag("--no-cycle", o->no_cycle, "Skip the cycle-level runs (no DRAM bytes or cycles)");
+  cmd->add_option("-j,--jobs", o->table.jobs, "Cycle-level runs in parallel")
+      ->check(CLI::Range(1u, 256u))->capture_default_str();
+  cmd->add_option("--out-dir", o->table.out_dir, "Where table1.{md,csv,json} and the pictures go")
+      ->capture_default_str();
+  cmd->add_option("--ao-rays", o->table.build.ao_rays, "AO-BVH: AO rays per primitive (K)")
+      ->check(CLI::Range(1u, 4096u))->capture_default_str();
+  cmd->add_flag("--json", o->json, "Print table1.json to stdout instead of the text table");
+  cmd->callback([o] {
+    parse_resolution(o->resolution, o->table.width, o->table.height);
+    o->table.cycle_level = !o->no_cycle;
+    o->table.rtsim_binary = std::filesystem::read_symlink("/proc/self/exe");
+    if (o->all_scenes) {
+      run_all_scenes(*o);
+      return;
+    }
+    run_one(o->table, !o->json);
+    if (o->json) {
+      std::ifstream in(o->table.out_dir / "table1.json");
+      std::fputs(std::string(std::istreambuf_iterator<char>(in), {}).c_str(), stdout);
+    }
+  });
+}
+
+}  // namespace rtsim::cli

@@ -1,0 +1,78 @@
+#pragma once
+// Table 1 of the patent, reproduced on a scene's two cameras: TRV+IST operations
+// per ray and node fetches per ray for the BVH baselines (median and SAH, the two
+// readings of the patent's plain "BVH"), SBVH, OSAH (per camera) and AO-BVH, with
+// DRAM bytes per ray and cycles from the cycle-level model.
+#include <rtsim/builder/build.h>
+#include <rtsim/model/core/ray.h>
+
+#include <array>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace rtsim {
+
+struct Table1Options {
+  std::string scene = "interior";
+  std::vector<std::string> cameras = {"view1", "view2"};
+  std::vector<std::string> builders = {"median", "sah", "sbvh", "osah", "aobvh"};
+  uint32_t width = 256, height = 256;
+  int ao_samples = -1;            // < 0: the scene's AO settings
+  uint64_t seed = 1;
+  std::string hardware = "mobile";  // preset or TOML for the cycle-level runs
+  bool cycle_level = true;        // run the cycle-level model for DRAM bytes and cycles
+  uint32_t jobs = 2;              // cycle-level runs in parallel (one process each)
+  std::filesystem::path out_dir = "table1";
+  std::filesystem::path rtsim_binary;  // for the cycle-level child processes
+  BuildParams build;              // one parameter set for every builder and scene
+};
+
+// Per ray type (primary, AO) and combined.
+struct Table1Counts {
+  uint64_t rays = 0;
+  double ops_per_ray = 0, trv_per_ray = 0, ist_per_ray = 0, node_fetches_per_ray = 0;
+  double dram_bytes_per_ray = -1;  // < 0: not measured (no cycle-level run)
+};
+
+struct Table1Row {
+  std::string camera, builder;
+  Table1Counts combined;
+  Table1Counts primary, ao;
+  double cycles = -1;
+  double l1_node_hit_rate = -1, l2_hit_rate = -1;
+  double build_seconds = 0, estimate_seconds = 0;
+  double sah_cost = 0;
+  bool counts_match_cycle_level = true;  // the invariant: same counts at every level
+};
+
+struct Table1 {
+  Table1Options options;
+  std::string scene_name;
+  uint64_t triangles = 0;
+  float ao_length = 0;
+  uint32_t ao_samples = 0;
+  std::vector<Table1Row> rows;
+  std::vector<std::string> verdicts;  // plain sentences: where the patent's ordering holds
+  std::string counting_rule;
+  const Table1Row* find(const std::string& camera, const std::string& builder) const;
+};
+
+// Builds the trees, traces the frames and (optionally) runs the cycle-level model.
+// Writes the per-pixel ops of every (camera, builder) under out_dir/data for the plots.
+Table1 run_table1(const Table1Options& options);
+
+// table1.md, table1.csv, table1.json, and the pictures (bar chart of reductions,
+// heatmaps side by side on one colour scale) via reports/scripts/table1_plots.py.
+void write_table1(const Table1& table);
+
+std::string table1_text(const Table1& table);  // what the terminal shows
+
+// The patent's Table 1 (ops/ray), for printing beside ours.
+struct PatentTable1Entry {
+  const char* builder;
+  double viewpoint1, viewpoint2;
+};
+const std::array<PatentTable1Entry, 4>& patent_table1();
+
+}  // namespace rtsim

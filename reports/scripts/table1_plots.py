@@ -1,0 +1,104 @@
+#!/usr/bin/env python3
+"""Pictures for `rtsim table1`: reductions per builder and camera, and the
+ops-per-pixel heatmaps of every builder side by side on one colour scale.
+
+Usage: table1_plots.py OUT_DIR   (reads OUT_DIR/table1.json and OUT_DIR/data/*.f32)
+"""
+import json
+import os
+import sys
+
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+NAMES = {"median": "BVH (median)", "sah": "BVH (SAH)", "sbvh": "SBVH", "osah": "OSAH",
+         "aobvh": "AO-BVH"}
+
+
+def save(fig, path):
+    tmp = path + ".tmp.png"
+    fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    os.replace(tmp, path)  # never leave a half-written picture
+    plt.close(fig)
+
+
+def main(out_dir):
+    with open(os.path.join(out_dir, "table1.json")) as f:
+        table = json.load(f)
+    rows = table["rows"]
+    cameras = list(dict.fromkeys(r["camera"] for r in rows))
+    builders = list(dict.fromkeys(r["builder"] for r in rows))
+    ops = {(r["camera"], r["builder"]): r["combined"]["ops_per_ray"] for r in rows}
+
+    # Bar chart: reduction of ops/ray against each baseline, per camera; the
+    # patent's reductions against its BVH as hollow bars for comparison.
+    patent = table["patent"]
+    patent_red = {}
+    for i, cam in enumerate(cameras[:2]):
+        key = "viewpoint%d" % (i + 1)
+        base = patent["BVH"][key]
+        patent_red[cam] = {"sbvh": 1 - patent["SBVH"][key] / base,
+                           "osah": 1 - patent["OSAH"][key] / base,
+                           "aobvh": 1 - patent["AO-BVH"][key] / base}
+    compared = [b for b in builders if b not in ("median",)]
+    fig, axes = plt.subplots(1, len(cameras), figsize=(6.5 * len(cameras), 4.6), squeeze=False)
+    width = 0.27
+    for ax, cam in zip(axes[0], cameras):
+        x = np.arange(len(compared))
+        for k, (base, colour) in enumerate((("median", "#4c72b0"), ("sah", "#dd8452"))):
+            if (cam, base) not in ops:
+                continue
+            red = [100 * (1 - ops[(cam, b)] / ops[(cam, base)]) for b in compared]
+            ax.bar(x + (k - 1) * width, red, width, color=colour, label="ours vs %s" % NAMES[base])
+        if cam in patent_red:
+            red = [100 * patent_red[cam].get(b, np.nan) for b in compared]
+            ax.bar(x + width, red, width, fill=False, edgecolor="black", hatch="//",
+                   label="patent vs its BVH")
+        ax.axhline(0, color="black", linewidth=0.8)
+        ax.set_xticks(x)
+        ax.set_xticklabels([NAMES.get(b, b) for b in compared])
+        ax.set_ylabel("reduction of TRV+IST ops/ray (%)")
+        ax.set_title("camera %s" % cam)
+        ax.grid(axis="y", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("Table 1 on %s: reduction of TRV+IST operations per ray (higher is better)"
+                 % table["scene"])
+    save(fig, os.path.join(out_dir, "table1_reductions.png"))
+
+    # Heatmaps: one shared colour scale (99th percentile over all) so that the
+    # builders compare by eye.
+    w, h = table["resolution"]
+    maps = {}
+    for cam in cameras:
+        for b in builders:
+            path = os.path.join(out_dir, "data", "ops_%s_%s.f32" % (cam, b))
+            if os.path.exists(path):
+                maps[(cam, b)] = np.fromfile(path, dtype=np.float32).reshape(h, w)
+    if maps:
+        vmax = float(np.percentile(np.concatenate([m.ravel() for m in maps.values()]), 99))
+        fig, axes = plt.subplots(len(cameras), len(builders),
+                                 figsize=(2.9 * len(builders), 2.9 * len(cameras) * h / w + 0.6),
+                                 squeeze=False)
+        image = None
+        for i, cam in enumerate(cameras):
+            for j, b in enumerate(builders):
+                ax = axes[i][j]
+                ax.set_xticks([])
+                ax.set_yticks([])
+                if (cam, b) in maps:
+                    image = ax.imshow(maps[(cam, b)], cmap="viridis", vmin=0, vmax=vmax)
+                    ax.set_title("%s, %s\n%.1f ops/ray" % (NAMES.get(b, b), cam, ops[(cam, b)]),
+                                 fontsize=9)
+        if image is not None:
+            bar = fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.8)
+            bar.set_label("TRV+IST ops per pixel (primary + its AO rays)")
+        fig.suptitle("Ops per pixel on %s, one colour scale" % table["scene"])
+        save(fig, os.path.join(out_dir, "table1_heatmaps.png"))
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 2:
+        sys.exit(__doc__)
+    main(sys.argv[1])

@@ -1,0 +1,322 @@
+#include <rtsim/builder/bvh_file.h>
+#include <rtsim/builder/memory_image.h>
+#include <rtsim/builder/metrics.h>
+#include <rtsim/model/core/functional_tracer.h>
+#include <rtsim/reports/table1.h>
+#include <rtsim/reports/text_table.h>
+#include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
+#include <rtsim/workloads/progress.h>
+#include <rtsim/workloads/scene_registry.h>
+
+#include <nlohmann/json.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <thread>
+
+namespace rtsim {
+
+const std::array<PatentTable1Entry, 4>& patent_table1() {
+  static const std::array<PatentTable1Entry, 4> table = {{{"BVH", 52.9, 44.9},
+                                                          {"SBVH", 34.4, 36.4},
+                                                          {"OSAH", 33.9, 36.1},
+                                                          {"AO-BVH", 31.41, 30.80}}};
+  return table;
+}
+
+const Table1Row* Table1::find(const std::string& camera, const std::string& builder) const {
+  for (const Table1Row& row : rows)
+    if (row.camera == camera && row.builder == builder) return &row;
+  return nullptr;
+}
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+Table1Counts counts_of(const CounterTotals& t) {
+  Table1Counts c;
+  c.rays = t.rays;
+  c.ops_per_ray = t.per_ray(t.ops());
+  c.trv_per_ray = t.per_ray(t.trv_ops);
+  c.ist_per_ray = t.per_ray(t.ist_ops);
+  c.node_fetches_per_ray = t.per_ray(t.node_fetches);
+  return c;
+}
+
+// OSAH trees depend on the camera; the others are built once per scene.
+std::string tree_key(const std::string& builder, const std::string& camera) {
+  return builder == "osah" ? builder + "-" + camera : builder;
+}
+
+std::string shell_quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+double stat_value(const nlohmann::json& stats, std::initializer_list<const char*> path) {
+  const nlohmann::json* node = &stats;
+  for (const char* key : path) {
+    if (!node->is_object() || !node->contains(key)) return -1;
+    node = &(*node)[key];
+  }
+  return node->is_object() && node->contains("value") ? (*node)["value"].get<double>() : -1;
+}
+
+double dram_bytes_of_type(const nlohmann::json& stats, const char* type) {
+  double sum = 0;
+  for (const char* kind : {"node", "triangle", "other"}) {
+    const double v = stat_value(stats, {"dram", "bytes_by_type", type, kind});
+    if (v > 0) sum += v;
+  }
+  return sum;
+}
+
+void write_floats(const std::filesystem::path& path, const std::vector<float>& values) {
+  write_file_atomic(path, [&](std::ostream& out) {
+    out.write(reinterpret_cast<const char*>(values.data()), std::streamsize(values.size() * sizeof(float)));
+  });
+}
+
+// Cycle-level runs: one `rtsim simulate` process each (SystemC elaborates once per process).
+void run_cycle_level(Table1& table, const std::map<std::string, std::filesystem::path>& tree_files) {
+  const Table1Options& o = table.options;
+  struct Job {
+    Table1Row* row;
+    std::filesystem::path dir;
+    std::string command;
+  };
+  std::vector<Job> jobs;
+  for (Table1Row& row : table.rows) {
+    Job job;
+    job.row = &row;
+    job.dir = o.out_dir / "runs" / (row.camera + "-" + row.builder);
+    char res[32];
+    std::snprintf(res, sizeof res, "%ux%u", o.width, o.height);
+    job.command = shell_quote(o.rtsim_binary.string()) + " simulate --scene " + shell_quote(o.scene) +
+                  " --builder " + shell_quote(row.builder) + " --bvh " +
+                  shell_quote(tree_files.at(tree_key(row.builder, row.camera)).string()) +
+                  " --camera " + shell_quote(row.camera) + " --fidelity cycle --config " +
+                  shell_quote(o.hardware) + " --res " + res + " --ao " + std::to_string(o.ao_samples) +
+                  " --seed " + std::to_string(o.seed) + " --out " + shell_quote(job.dir.string()) +
+                  " > " + shell_quote((o.out_dir / "runs" / (row.camera + "-" + row.builder + ".log")).string()) +
+                  " 2>&1";
+    jobs.push_back(job);
+  }
+  std::filesystem::create_directories(o.out_dir / "runs");
+  Progress progress("table1: cycle level", jobs.size(), "runs");
+  std::atomic<size_t> next{0};
+  std::mutex failure_mutex;
+  std::string failure;
+  auto worker = [&] {
+    for (size_t i = next++; i < jobs.size(); i = next++) {
+      const int status = std::system(jobs[i].command.c_str());
+      if (status != 0) {
+        std::lock_guard<std::mutex> lock(failure_mutex);
+        failure = "cycle-level run failed (" + jobs[i].command + ")";
+      }
+      progress.advance();
+    }
+  };
+  std::vector<std::thread> threads;
+  for (uint32_t t = 0; t < std::max(1u, o.jobs); ++t) threads.emplace_back(worker);
+  for (std::thread& t : threads) t.join();
+  if (!failure.empty()) throw std::runtime_error(failure);
+
+  for (Job& job : jobs) {
+    std::ifstream in(job.dir / "stats.json");
+    if (!in) throw std::runtime_error((job.dir / "stats.json").string() + ": missing after the run");
+    const nlohmann::json stats = nlohmann::json::parse(in);
+    Table1Row& row = *job.row;
+    row.cycles = stat_value(stats, {"time", "cycles"});
+    row.l1_node_hit_rate = stat_value(stats, {"l1_node", "all", "hit_rate"});
+    row.l2_hit_rate = stat_value(stats, {"l2", "hit_rate"});
+    row.primary.dram_bytes_per_ray = row.primary.rays ? dram_bytes_of_type(stats, "primary") / row.primary.rays : 0;
+    row.ao.dram_bytes_per_ray = row.ao.rays ? dram_bytes_of_type(stats, "ao") / row.ao.rays : 0;
+    row.combined.dram_bytes_per_ray = stat_value(stats, {"dram", "bytes_per_ray"});
+    // The invariant of the model: the cycle level counts exactly what the functional level counts.
+    const double trv = stat_value(stats, {"ops", "trv"}), ist = stat_value(stats, {"ops", "ist"});
+    const double rays = stat_value(stats, {"rays", "total"});
+    row.counts_match_cycle_level =
+        uint64_t(rays) == row.combined.rays &&
+        std::llround(trv) == std::llround(row.combined.trv_per_ray * row.combined.rays) &&
+        std::llround(ist) == std::llround(row.combined.ist_per_ray * row.combined.rays);
+  }
+}
+
+// "12.3% fewer" / "4.5% more": the sign convention of the tables, in words.
+std::string percent(double reduction) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.1f%% %s", 100.0 * std::fabs(reduction), reduction >= 0 ? "fewer" : "more");
+  return buf;
+}
+
+const char* display(const std::string& builder) {
+  if (builder == "median") return "median BVH";
+  if (builder == "sah") return "SAH BVH";
+  if (builder == "sbvh") return "SBVH";
+  if (builder == "osah") return "OSAH";
+  if (builder == "aobvh") return "AO-BVH";
+  return builder.c_str();
+}
+
+double reduction(double value, double baseline) { return baseline > 0 ? 1.0 - value / baseline : 0.0; }
+
+void add_verdicts(Table1& table) {
+  for (const std::string& camera : table.options.cameras) {
+    const Table1Row* ao = table.find(camera, "aobvh");
+    const Table1Row* osah = table.find(camera, "osah");
+    const Table1Row* sbvh = table.find(camera, "sbvh");
+    for (const char* baseline_name : {"median", "sah"}) {
+      const Table1Row* base = table.find(camera, baseline_name);
+      if (!ao || !osah || !sbvh || !base) continue;
+      const double b = base->combined.ops_per_ray;
+      std::vector<std::string> broken;
+      if (!(ao->combined.ops_per_ray < osah->combined.ops_per_ray))
+        broken.push_back("AO-BVH (" + format_number(ao->combined.ops_per_ray) + ") is not below OSAH (" +
+                         format_number(osah->combined.ops_per_ray) + ")");
+      if (!(ao->combined.ops_per_ray < sbvh->combined.ops_per_ray))
+        broken.push_back("AO-BVH (" + format_number(ao->combined.ops_per_ray) + ") is not below SBVH (" +
+                         format_number(sbvh->combined.ops_per_ray) + ")");
+      for (const Table1Row* r : {sbvh, osah, ao})
+        if (!(r->combined.ops_per_ray < b))
+          broken.push_back(std::string(display(r->builder)) + " (" + format_number(r->combined.ops_per_ray) +
+                           ") is not below the " + display(baseline_name) + " (" + format_number(b) + ")");
+      std::string sentence = camera + ", against the " + std::string(display(baseline_name)) + " (" +
+                             format_number(b) + " ops/ray): ";
+      sentence += "SBVH " + percent(reduction(sbvh->combined.ops_per_ray, b)) + ", OSAH " +
+                  percent(reduction(osah->combined.ops_per_ray, b)) + ", AO-BVH " +
+                  percent(reduction(ao->combined.ops_per_ray, b)) + " ops/ray; ";
+      // The patent's ordering: AO-BVH below OSAH and SBVH, all three below the BVH.
+      if (broken.empty()) sentence += "the patent's ordering HOLDS (AO-BVH < OSAH, SBVH < BVH).";
+      else {
+        sentence += "the patent's ordering does NOT hold: ";
+        for (size_t i = 0; i < broken.size(); ++i) sentence += (i ? "; " : "") + broken[i];
+        sentence += ".";
+      }
+      table.verdicts.push_back(sentence);
+    }
+  }
+}
+
+}  // namespace
+
+Table1 run_table1(const Table1Options& options) {
+  Table1 table;
+  table.options = options;
+  const auto total_start = std::chrono::steady_clock::now();
+  const Scene scene = load_scene(options.scene);
+  for (const std::string& camera : options.cameras) scene.camera(camera);  // InputError if absent
+  for (const std::string& b : options.builders) {
+    bool known = false;
+    for (const std::string& n : builder_names()) known |= n == b;
+    if (!known) throw InputError("--builders", "unknown builder '" + b + "'");
+  }
+  table.scene_name = scene.name;
+  table.triangles = scene.triangle_count();
+
+  EffectSettings settings;
+  settings.width = options.width;
+  settings.height = options.height;
+  settings.seed = options.seed;
+  settings.ao_samples = options.ao_samples;
+  const EffectPlan plan = plan_effects(scene, settings);
+  table.ao_samples = plan.on(RayType::Ao) ? plan.ao_samples : 0;
+  table.ao_length = plan.ao_length;
+  table.options.ao_samples = int(table.ao_samples);  // the cycle-level runs get the resolved value
+
+  // Trees: every builder once, OSAH once per camera; saved so that the cycle-level
+  // runs replay exactly the same tree.
+  struct Tree {
+    Bvh bvh;
+    BuildReport report;
+    double sah_cost = 0;
+  };
+  std::map<std::string, Tree> trees;
+  std::map<std::string, std::filesystem::path> tree_files;
+  std::filesystem::create_directories(options.out_dir / "trees");
+  std::filesystem::create_directories(options.out_dir / "data");
+  {
+    std::vector<std::pair<std::string, std::string>> to_build;  // (builder, camera)
+    for (const std::string& b : options.builders) {
+      if (b == "osah")
+        for (const std::string& c : options.cameras) to_build.push_back({b, c});
+      else
+        to_build.push_back({b, options.cameras.front()});
+    }
+    Progress progress("table1: building trees", to_build.size(), "trees");
+    for (const auto& [builder, camera] : to_build) {
+      BuildParams params = options.build;
+      params.builder = builder;
+      params.camera = camera;
+      params.osah_width = options.width;
+      params.osah_height = options.height;
+      Tree tree;
+      tree.bvh = build_bvh(scene, params, &tree.report);
+      tree.sah_cost = sah_cost(tree.bvh, params.t1, params.t2);
+      const std::string key = tree_key(builder, camera);
+      tree_files[key] = options.out_dir / "trees" / (key + ".bvh");
+      save_bvh(tree_files[key], tree.bvh, scene, params);
+      trees.emplace(key, std::move(tree));
+      progress.advance();
+    }
+  }
+
+  // Functional level: exact counts and the per-pixel ops for the heatmaps.
+  {
+    Progress progress("table1: tracing", options.cameras.size() * options.builders.size(), "frames");
+    for (const std::string& camera_name : options.cameras) {
+      const Camera& camera = scene.camera(camera_name);
+      for (const std::string& builder : options.builders) {
+        const Tree& tree = trees.at(tree_key(builder, camera_name));
+        const MemoryImage image(tree.bvh, scene.triangle_count());
+        const TraversalContext context(scene, tree.bvh, image);
+        const FrameRun run = run_frame(context, camera, settings);
+        Table1Row row;
+        row.camera = camera_name;
+        row.builder = builder;
+        row.combined = counts_of(run.total);
+        row.primary = counts_of(run.per_type[ray_type_index(RayType::Primary)]);
+        row.ao = counts_of(run.per_type[ray_type_index(RayType::Ao)]);
+        row.build_seconds = tree.report.build_seconds;
+        row.estimate_seconds = tree.report.estimate_seconds;
+        row.sah_cost = tree.sah_cost;
+        table.rows.push_back(row);
+        write_floats(options.out_dir / "data" / ("ops_" + camera_name + "_" + builder + ".f32"),
+                     ops_per_pixel(run));
+        progress.advance();
+      }
+    }
+  }
+  if (options.cycle_level) run_cycle_level(table, tree_files);
+  add_verdicts(table);
+
+  char rule[1024];
+  std::snprintf(rule, sizeof rule,
+                "TRV op = one ray processing one BVH2 node (fetch its 64-byte record holding both "
+                "child boxes, 2 box tests, stack update); IST op = one ray-triangle test "
+                "(watertight); ops/ray = (TRV + IST ops) / rays. Rays: %ux%u primary rays (1 per "
+                "pixel, closest hit) per camera, plus %u AO rays per primary hit (cosine-weighted, "
+                "any hit, length %.4g = %.3g x scene diagonal). Node fetch = one node record read by "
+                "TRV before any cache. Max leaf size %u, T1 = %g, T2 = %g, %u SAH bins, AO-BVH K = %u "
+                "rays/primitive with weight floor %g, OSAH w = %g. DRAM bytes and cycles: cycle-level "
+                "model, hardware preset '%s'. %.1f s in all.",
+                options.width, options.height, table.ao_samples, table.ao_length,
+                scene.ao.cutoff_relative, options.build.max_leaf_size, options.build.t1,
+                options.build.t2, options.build.bins, options.build.ao_rays,
+                options.build.ao_weight_floor, options.build.osah_w, options.hardware.c_str(),
+                seconds_since(total_start));
+  table.counting_rule = rule;
+  return table;
+}
+
+}  // namespace rtsim

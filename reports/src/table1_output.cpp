@@ -1,0 +1,156 @@
+#include <rtsim/reports/plot_script.h>
+#include <rtsim/reports/table1.h>
+#include <rtsim/reports/text_table.h>
+#include <rtsim/workloads/files.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <cstdlib>
+
+namespace rtsim {
+
+namespace {
+
+std::string pct(double value, double baseline) {
+  if (baseline <= 0) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f%%", 100.0 * (1.0 - value / baseline));
+  return buf;
+}
+
+std::string num(double value, int digits = 4) { return value < 0 ? "-" : format_number(value, digits); }
+
+const char* display_name(const std::string& builder) {
+  if (builder == "median") return "BVH (median)";
+  if (builder == "sah") return "BVH (SAH)";
+  if (builder == "sbvh") return "SBVH";
+  if (builder == "osah") return "OSAH";
+  if (builder == "aobvh") return "AO-BVH";
+  return builder.c_str();
+}
+
+// One table per camera: the Table 1 columns first, then what the patent does not show.
+TextTable camera_table(const Table1& table, const std::string& camera) {
+  TextTable t({"builder", "ops/ray", "red. vs median", "red. vs SAH", "TRV/ray", "IST/ray",
+               "primary ops/ray", "AO ops/ray", "node fetches/ray", "fetch red. vs median",
+               "fetch red. vs SAH", "DRAM B/ray", "cycles", "build s"});
+  const Table1Row* median = table.find(camera, "median");
+  const Table1Row* sah = table.find(camera, "sah");
+  for (const Table1Row& r : table.rows) {
+    if (r.camera != camera) continue;
+    t.add_row({display_name(r.builder), num(r.combined.ops_per_ray),
+               median ? pct(r.combined.ops_per_ray, median->combined.ops_per_ray) : "-",
+               sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
+               num(r.combined.trv_per_ray), num(r.combined.ist_per_ray), num(r.primary.ops_per_ray),
+               num(r.ao.ops_per_ray), num(r.combined.node_fetches_per_ray),
+               median ? pct(r.combined.node_fetches_per_ray, median->combined.node_fetches_per_ray) : "-",
+               sah ? pct(r.combined.node_fetches_per_ray, sah->combined.node_fetches_per_ray) : "-",
+               num(r.combined.dram_bytes_per_ray), num(r.cycles, 6),
+               num(r.build_seconds + r.estimate_seconds, 3)});
+  }
+  return t;
+}
+
+TextTable patent_table() {
+  TextTable t({"viewpoint", "BVH", "SBVH", "OSAH", "AO-BVH"});
+  const auto& p = patent_table1();
+  for (int v = 0; v < 2; ++v) {
+    auto cell = [&](int i) {
+      const double value = v == 0 ? p[i].viewpoint1 : p[i].viewpoint2;
+      const double base = v == 0 ? p[0].viewpoint1 : p[0].viewpoint2;
+      return format_number(value) + " (" + pct(value, base) + ")";
+    };
+    t.add_row({"viewpoint " + std::to_string(v + 1), cell(0), cell(1), cell(2), cell(3)});
+  }
+  return t;
+}
+
+nlohmann::json counts_json(const Table1Counts& c) {
+  return {{"rays", c.rays},
+          {"ops_per_ray", c.ops_per_ray},
+          {"trv_ops_per_ray", c.trv_per_ray},
+          {"ist_ops_per_ray", c.ist_per_ray},
+          {"node_fetches_per_ray", c.node_fetches_per_ray},
+          {"dram_bytes_per_ray", c.dram_bytes_per_ray < 0 ? nlohmann::json(nullptr)
+                                                          : nlohmann::json(c.dram_bytes_per_ray)}};
+}
+
+}  // namespace
+
+std::string table1_text(const Table1& table) {
+  std::string out = "Table 1 on scene '" + table.scene_name + "' (" + std::to_string(table.triangles) +
+                    " triangles)\n\nThe patent's Table 1 (TRV+IST ops/ray, reduction against BVH):\n" +
+                    patent_table().plain() + "\n";
+  for (const std::string& camera : table.options.cameras)
+    out += "Ours, camera " + camera + " (reductions: positive = fewer than the baseline):\n" +
+           camera_table(table, camera).plain() + "\n";
+  out += "Where the patent's ordering holds:\n";
+  for (const std::string& v : table.verdicts) out += "  - " + v + "\n";
+  for (const Table1Row& r : table.rows)
+    if (!r.counts_match_cycle_level)
+      out += "  ! " + r.camera + "/" + r.builder +
+             ": the cycle-level counts differ from the functional counts (a model bug)\n";
+  out += "\nCounting rule and parameters: " + table.counting_rule + "\n";
+  return out;
+}
+
+void write_table1(const Table1& table) {
+  const auto& dir = table.options.out_dir;
+  std::string md = "# Table 1 on `" + table.scene_name + "` (" + std::to_string(table.triangles) +
+                   " triangles)\n\n## The patent's Table 1\n\nTRV+IST operations per ray "
+                   "(reduction against BVH):\n\n" + patent_table().markdown() + "\n";
+  for (const std::string& camera : table.options.cameras)
+    md += "## Ours, camera `" + camera + "`\n\nReductions: positive = fewer than the baseline.\n\n" +
+          camera_table(table, camera).markdown() + "\n";
+  md += "## Where the patent's ordering holds\n\n";
+  for (const std::string& v : table.verdicts) md += "- " + v + "\n";
+  md += "\n## Counting rule and parameters\n\n" + table.counting_rule + "\n\n";
+  md += "![Reductions](table1_reductions.png)\n\n![Ops per pixel](table1_heatmaps.png)\n";
+  write_file_atomic(dir / "table1.md", md);
+
+  TextTable csv({"scene", "camera", "builder", "ray_type", "rays", "ops_per_ray", "trv_ops_per_ray",
+                 "ist_ops_per_ray", "node_fetches_per_ray", "dram_bytes_per_ray", "cycles",
+                 "build_seconds", "estimate_seconds", "sah_cost"});
+  nlohmann::json json;
+  json["scene"] = table.scene_name;
+  json["triangles"] = table.triangles;
+  json["counting_rule"] = table.counting_rule;
+  json["resolution"] = {table.options.width, table.options.height};
+  json["ao_samples"] = table.ao_samples;
+  json["ao_length"] = table.ao_length;
+  json["hardware"] = table.options.hardware;
+  json["verdicts"] = table.verdicts;
+  for (const auto& p : patent_table1())
+    json["patent"][p.builder] = {{"viewpoint1", p.viewpoint1}, {"viewpoint2", p.viewpoint2}};
+  for (const Table1Row& r : table.rows) {
+    nlohmann::json row = {{"camera", r.camera},
+                          {"builder", r.builder},
+                          {"cycles", r.cycles < 0 ? nlohmann::json(nullptr) : nlohmann::json(r.cycles)},
+                          {"l1_node_hit_rate", r.l1_node_hit_rate},
+                          {"l2_hit_rate", r.l2_hit_rate},
+                          {"build_seconds", r.build_seconds},
+                          {"estimate_seconds", r.estimate_seconds},
+                          {"sah_cost", r.sah_cost},
+                          {"counts_match_cycle_level", r.counts_match_cycle_level},
+                          {"combined", counts_json(r.combined)},
+                          {"primary", counts_json(r.primary)},
+                          {"ao", counts_json(r.ao)}};
+    json["rows"].push_back(row);
+    for (const auto& [type, c] : {std::pair<const char*, const Table1Counts*>{"combined", &r.combined},
+                                  {"primary", &r.primary},
+                                  {"ao", &r.ao}})
+      csv.add_row({table.scene_name, r.camera, r.builder, type, std::to_string(c->rays),
+                   format_number(c->ops_per_ray, 6), format_number(c->trv_per_ray, 6),
+                   format_number(c->ist_per_ray, 6), format_number(c->node_fetches_per_ray, 6),
+                   c->dram_bytes_per_ray < 0 ? "" : format_number(c->dram_bytes_per_ray, 6),
+                   r.cycles < 0 ? "" : format_number(r.cycles, 9), format_number(r.build_seconds, 4),
+                   format_number(r.estimate_seconds, 4), format_number(r.sah_cost, 6)});
+  }
+  write_file_atomic(dir / "table1.csv", csv.csv());
+  write_file_atomic(dir / "table1.json", json.dump(2) + "\n");
+
+  run_plot_script("table1_plots.py", {dir.string()});
+}
+
+}  // namespace rtsim
