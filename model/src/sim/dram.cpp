@@ -212,12 +212,13 @@ void DramModel::advance(uint64_t now_ps, std::vector<DramCompletion>& issued) {
     if (!ch.queue.empty() && ch.next_decision_ps <= now_ps) schedule(ch, now_ps, issued);
 }
 
-uint64_t DramModel::lt_access(uint64_t address, uint64_t now_ps) {
+uint64_t DramModel::lt_access(uint64_t address, uint64_t now_ps, uint64_t window_ps) {
   Channel& ch = channels_[map_.decode(address).channel];
   const uint64_t ready = now_ps + uint64_t(config_.trcd + config_.tcl) * tck_;
-  const uint64_t start = std::max(ready, ch.bus_free_ps);
+  const uint64_t start =
+      std::max(ready, ch.bus_free_ps > window_ps ? ch.bus_free_ps - window_ps : 0);
   const uint64_t done = start + transfer_ps_;
-  ch.bus_free_ps = done;
+  ch.bus_free_ps = std::max(ch.bus_free_ps, start) + transfer_ps_;
   counters_.reads++;
   counters_.bytes += access_bytes_;
   counters_.bus_busy_ps += transfer_ps_;

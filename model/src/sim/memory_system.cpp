@@ -72,14 +72,15 @@ void LtCache::b_transport(int, tlm::tlm_generic_payload& p, sc_time& delay) {
   p.set_response_status(tlm::TLM_OK_RESPONSE);
 }
 
-LtDram::LtDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes)
-    : sc_module(name), target("target"), model(config, access_bytes) {
+LtDram::LtDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes,
+               uint64_t window_ps)
+    : sc_module(name), target("target"), model(config, access_bytes), window_ps_(window_ps) {
   target.register_b_transport(this, &LtDram::b_transport);
 }
 
 void LtDram::b_transport(int, tlm::tlm_generic_payload& p, sc_time& delay) {
   const uint64_t now = now_ps() + to_ps(delay);
-  const uint64_t done = model.lt_access(p.get_address(), now);
+  const uint64_t done = model.lt_access(p.get_address(), now, window_ps_);
   delay += from_ps(done - now);
   p.set_response_status(tlm::TLM_OK_RESPONSE);
 }
@@ -90,7 +91,9 @@ LtSystem::LtSystem(sc_core::sc_module_name name, const HardwareConfig& config,
       progress_(std::move(progress)) {
   const uint64_t cycle_ps = uint64_t(std::llround(config.clock_period_ps()));
   l2 = std::make_unique<LtCache>("l2", config.l2, cycle_ps);
-  dram = std::make_unique<LtDram>("dram", config.dram, config.l2.line_bytes);
+  // Requests reach DRAM out of time order by up to a quantum (temporal decoupling).
+  dram = std::make_unique<LtDram>("dram", config.dram, config.l2.line_bytes,
+                                  uint64_t(config.lt_quantum_cycles) * cycle_ps);
   l2->next.bind(dram->target);
   for (uint32_t u = 0; u < config.trv_units; ++u) {
     const std::string id = std::to_string(u);

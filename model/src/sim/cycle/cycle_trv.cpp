@@ -76,7 +76,7 @@ void CycleTrv::handle(const Item& item) {
     while (!waiting_for_ist_.empty() && ist.can_accept()) {
       const uint32_t s = waiting_for_ist_.front();
       waiting_for_ist_.pop_front();
-      occupancy.stalled_ps += now - slots_[s].stall_since;
+      if (waiting_for_ist_.empty()) occupancy.stalled_ps += now - stalled_since_;
       slots_[s].phase = Phase::InIst;
       ist.accept(this, s, &slots_[s].traversal, now);
     }
@@ -141,7 +141,7 @@ void CycleTrv::next_action(uint32_t s) {
         ist.accept(this, s, &slot.traversal, now);
       } else {
         slot.phase = Phase::WaitIst;
-        slot.stall_since = now;
+        if (waiting_for_ist_.empty()) stalled_since_ = now;  // the unit starts stalling
         waiting_for_ist_.push_back(s);
       }
       break;

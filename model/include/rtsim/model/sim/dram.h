@@ -72,7 +72,9 @@ class DramModel {
 
   // Loosely timed access: a fixed closed-row latency, and the channel's data bus
   // reserved for tBURST so that a stream never exceeds the peak bandwidth.
-  uint64_t lt_access(uint64_t address, uint64_t now_ps);
+  // window_ps: requests may arrive out of time order by up to this much (the lt
+  // quantum); they may then take a bus slot that far before the reservation end.
+  uint64_t lt_access(uint64_t address, uint64_t now_ps, uint64_t window_ps = 0);
   // Functional level: counts the read, no time.
   void count_access(uint64_t address);
 

@@ -75,10 +75,12 @@ class LtCache : public sc_core::sc_module {
 class LtDram : public sc_core::sc_module {
  public:
   tlm_utils::multi_passthrough_target_socket<LtDram> target;
-  LtDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes);
+  LtDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes,
+         uint64_t window_ps);
   DramModel model;
 
  private:
+  uint64_t window_ps_;
   void b_transport(int id, tlm::tlm_generic_payload& payload, sc_core::sc_time& delay);
 };
 

@@ -41,7 +41,6 @@ class CycleTrv : public sc_core::sc_module {
     uint32_t pending = 0;
     Phase phase = Phase::Idle;
     uint32_t seen_overflows = 0, seen_refills = 0;
-    uint64_t stall_since = 0;
     explicit Slot(const TraversalContext& c) : traversal(c) {}
   };
   struct Item {
@@ -63,7 +62,8 @@ class CycleTrv : public sc_core::sc_module {
   std::vector<Slot> slots_;
   TimedQueue<Item> queue_;
   uint64_t pipe_free_ps_ = 0;
-  std::deque<uint32_t> waiting_for_ist_;
+  std::deque<uint32_t> waiting_for_ist_;  // slots whose leaf found the IST queue full
+  uint64_t stalled_since_ = 0;
   PayloadPool payloads_;
 };
 
