@@ -68,3 +68,19 @@ TEST(SimDeterminism, BadInputExitsWithTwo) {
   std::filesystem::remove(toml);
   std::filesystem::remove_all(dir);
 }
+
+TEST(SimDeterminism, RayFileReplayRunsWithoutShading) {
+  const auto dir = temp_dir("replay");
+  std::filesystem::create_directories(dir);
+  const std::string rays = (dir / "rays.bin").string();
+  const std::string trace = std::string(RTSIM_BINARY) + " trace --scene cornell --res 16x16 --ao 0 --rays-out " +
+                            rays + " > /dev/null 2>&1";
+  ASSERT_EQ(std::system(trace.c_str()), 0);
+  ASSERT_EQ(run("--scene cornell --fidelity cycle --rays " + rays + " --out " + (dir / "out").string()), 0);
+  const auto stats = nlohmann::json::parse(read(dir / "out" / "stats.json"));
+  EXPECT_FALSE(stats.contains("shading"));
+  EXPECT_GT(stats["rays"]["total"]["value"].get<double>(), 0.0);
+  const auto config = nlohmann::json::parse(read(dir / "out" / "config.json"));
+  EXPECT_FALSE(config["inputs"]["rays_hash"].get<std::string>().empty());
+  std::filesystem::remove_all(dir);
+}

@@ -83,3 +83,37 @@ TEST(SimLevels, SecondSystemCRunInOneProcessIsRefused) {
   });
   EXPECT_EQ(out.rfind("refused", 0), 0u) << out;
 }
+
+TEST(SimLevels, BackPressureDelaysButKeepsCountsExact) {
+  // One MSHR per cache, one IST queue entry, one DRAM queue entry per channel:
+  // every queue fills, the run still finishes with the functional counts.
+  SmallWorkload w;
+  auto tight = [&](Fidelity level) {
+    auto r = w.request(level);
+    r.config.l1_node.mshrs = r.config.l1_triangle.mshrs = r.config.l2.mshrs = 1;
+    r.config.ist_queue_entries = 1;
+    r.config.dram.queue_entries = 1;
+    r.config.l2.size_bytes = 4096;  // force DRAM traffic
+    return r;
+  };
+  const auto functional = flat_stats(simulate(tight(Fidelity::Functional)).stats.to_json());
+  const auto cycle = flat_stats(in_child([&] { return simulate(tight(Fidelity::Cycle)).stats.to_json(); }));
+  for (const char* key : kOpsAndFetches) EXPECT_EQ(functional.at(key), cycle.at(key)) << key;
+  EXPECT_GT(cycle.at("l1_node.all.mshr_full_stalls") + cycle.at("l1_triangle.all.mshr_full_stalls"), 0);
+  EXPECT_GT(cycle.at("ist.unit0.stalled_cycles") + cycle.at("trv.unit0.stalled_cycles"), 0);
+  EXPECT_GT(cycle.at("dram.reads"), 0);
+  // Tighter resources cannot make the same work faster.
+  const auto roomy = flat_stats(in_child([&] { return simulate(w.request(Fidelity::Cycle)).stats.to_json(); }));
+  EXPECT_GT(cycle.at("time.cycles"), roomy.at("time.cycles"));
+}
+
+TEST(SimLevels, FunctionalReportsUnitWorkAndAnEstimate) {
+  SmallWorkload w;
+  const auto s = flat_stats(simulate(w.request(Fidelity::Functional)).stats.to_json());
+  double nodes = 0;
+  for (uint32_t u = 0; u < preset("mobile").trv_units; ++u)
+    nodes += s.at("trv.unit" + std::to_string(u) + ".nodes");
+  EXPECT_EQ(nodes, s.at("ops.trv"));
+  EXPECT_GE(s.at("time.cycles"), s.at("time.bound_trv_cycles"));
+  EXPECT_GE(s.at("time.cycles"), s.at("time.bound_dram_cycles"));
+}

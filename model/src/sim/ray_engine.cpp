@@ -42,7 +42,8 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
       cycle_ps_(uint64_t(std::llround(config.clock_period_ps()))),
       rays_(workload.initial_rays), ready_ps_(rays_.size(), 0),
       trv_free_(config.trv_units, 0), ist_free_(config.ist_units, 0),
-      trv_time_(config.trv_units), ist_time_(config.ist_units) {
+      trv_time_(config.trv_units), ist_time_(config.ist_units), trv_nodes_(config.trv_units, 0),
+      ist_tests_(config.ist_units, 0) {
   trv_interval_ps_ = interval_ps(config.trv_nodes_per_cycle, cycle_ps_);
   ist_interval_ps_ = interval_ps(config.ist_tests_per_cycle, cycle_ps_);
   shading_interval_ps_ = interval_ps(config.shading_rays_per_cycle, cycle_ps_);
@@ -164,6 +165,7 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
             slot.time_ps = start + box_latency;
           }
           trv.process_node();
+          ++trv_nodes_[unit];
           break;
         }
         case TraversalAction::TestTriangles: {
@@ -183,6 +185,7 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
             slot.time_ps = start + test_latency;
           }
           trv.process_triangle();
+          ++ist_tests_[ist];
           break;
         }
         case TraversalAction::Done: break;

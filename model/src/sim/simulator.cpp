@@ -210,6 +210,21 @@ SimulationResult simulate(const SimulationRequest& request) {
                  "IST ops / IST throughput");
       s.set_real("time.bound_dram_cycles", double(dram->counters().bytes) / bytes_per_cycle,
                  "cycles", "DRAM bytes / peak DRAM bytes per cycle");
+      // Untimed: a unit is busy for its work / throughput, idle for the rest of the
+      // estimate; stalls are not modelled at this level.
+      const auto unit_busy_ps = [&](uint64_t work, double per_cycle) {
+        return uint64_t(std::llround(double(work) / per_cycle * cycle_ps));
+      };
+      for (size_t u = 0; u < engine->trv_nodes().size(); ++u) {
+        const uint64_t busy = unit_busy_ps(engine->trv_nodes()[u], config.trv_nodes_per_cycle);
+        report_unit(s, "trv.unit" + std::to_string(u), {busy, busy, 0}, result.simulated_ps,
+                    cycle_ps, engine->trv_nodes()[u], "nodes", "nodes through the box-test pipeline");
+      }
+      for (size_t u = 0; u < engine->ist_tests().size(); ++u) {
+        const uint64_t busy = unit_busy_ps(engine->ist_tests()[u], config.ist_tests_per_cycle);
+        report_unit(s, "ist.unit" + std::to_string(u), {busy, busy, 0}, result.simulated_ps,
+                    cycle_ps, engine->ist_tests()[u], "tests", "triangle tests through the pipeline");
+      }
     } else {
       for (auto& c : lt->l1_node) l1n.push_back(&c->model);
       for (auto& c : lt->l1_triangle) l1t.push_back(&c->model);
@@ -221,15 +236,13 @@ SimulationResult simulate(const SimulationRequest& request) {
         const UnitTime& t = engine->trv_time()[u];
         report_unit(s, "trv.unit" + std::to_string(u), {t.busy_ps, t.occupied_ps(), 0},
                     result.simulated_ps, cycle_ps,
-                    uint64_t(std::llround(double(t.busy_ps) * config.trv_nodes_per_cycle / cycle_ps)),
-                    "nodes", "nodes through the box-test pipeline");
+                    engine->trv_nodes()[u], "nodes", "nodes through the box-test pipeline");
       }
       for (size_t u = 0; u < engine->ist_time().size(); ++u) {
         const UnitTime& t = engine->ist_time()[u];
         report_unit(s, "ist.unit" + std::to_string(u), {t.busy_ps, t.occupied_ps(), 0},
                     result.simulated_ps, cycle_ps,
-                    uint64_t(std::llround(double(t.busy_ps) * config.ist_tests_per_cycle / cycle_ps)),
-                    "tests", "triangle tests through the pipeline");
+                    engine->ist_tests()[u], "tests", "triangle tests through the pipeline");
       }
       if (work.spawn_secondary) {
         const UnitTime& t = engine->shading_time();

@@ -88,6 +88,8 @@ class RayEngine {
   const std::vector<UnitTime>& trv_time() const { return trv_time_; }
   const std::vector<UnitTime>& ist_time() const { return ist_time_; }
   const UnitTime& shading_time() const { return shading_time_; }
+  const std::vector<uint64_t>& trv_nodes() const { return trv_nodes_; }  // per TRV unit
+  const std::vector<uint64_t>& ist_tests() const { return ist_tests_; }  // per IST unit
   uint64_t stack_spill_bytes() const { return stack_spill_bytes_; }
 
  private:
@@ -116,6 +118,7 @@ class RayEngine {
   uint64_t trv_interval_ps_, ist_interval_ps_, shading_interval_ps_, raygen_interval_ps_;
   uint64_t trv_window_ps_, ist_window_ps_;
   std::vector<UnitTime> trv_time_, ist_time_;
+  std::vector<uint64_t> trv_nodes_, ist_tests_;
   UnitTime shading_time_;
   std::array<CounterTotals, kRayTypeCount> per_type_{};
   uint64_t end_ps_ = 0;
