@@ -14,9 +14,11 @@ int main(int argc, char** argv) {
   rtsim::cli::add_scenes_command(app);
   rtsim::cli::add_build_command(app);
   rtsim::cli::add_campaign_command(app);
+  rtsim::cli::add_report_command(app);
   rtsim::cli::add_trace_command(app);
   rtsim::cli::add_simulate_command(app);
   rtsim::cli::add_table1_command(app);
+  rtsim::cli::add_accuracy_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -40,7 +40,13 @@ sleep "$sleep_s"
 if [ -n "$FAKE_FAIL_BUILDER" ] && [ "$builder" = "$FAKE_FAIL_BUILDER" ]; then
   echo "fake: builder $builder refused on purpose" >&2; exit 3
 fi
-n=$(printf '%s|%s|%s|%s|%s' "$scene" "$builder" "$preset" "$seed" "$sets" | cksum | cut -d' ' -f1)
+# A hardware file (campaign overrides) counts by content, not by its path.
+hardware="$preset"; l2=524288
+if [ -f "$preset" ]; then
+  hardware=$(grep -v '^#' "$preset")
+  l2=$(sed -n '/^\[l2\]/,/^\[/p' "$preset" | sed -n 's/^size_bytes = //p'); l2=${l2:-524288}
+fi
+n=$(printf '%s|%s|%s|%s|%s' "$scene" "$builder" "$hardware" "$seed" "$sets" | cksum | cut -d' ' -f1)
 rays=4096
 cycles=$((200000 + n % 100000)); trv=$((60000 + n % 9000)); ist=$((20000 + n % 7000))
 dram=$((300000 + n % 200000)); hits=$((n % 900)); l2hits=$((n % 500))
@@ -59,7 +65,7 @@ cat > "$out/stats.json.tmp" <<EOF
 EOF
 mv "$out/stats.json.tmp" "$out/stats.json"
 printf '{"rays_per_host_second": {"value": 123456.5, "unit": "rays/s", "description": "d"}}\n' > "$out/host.json"
-printf '{"git_revision": "%s", "seed": %s, "builder": "%s"}\n' "${FAKE_REVISION:-fakerev1}" "$seed" "$builder" > "$out/config.json"
+printf '{"git_revision": "%s", "seed": %s, "builder": "%s", "hardware": {"l2": {"size_bytes": %s}}}\n' "${FAKE_REVISION:-fakerev1}" "$seed" "$builder" "$l2" > "$out/config.json"
 exit 0
 )fake";
 

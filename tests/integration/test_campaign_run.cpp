@@ -3,7 +3,9 @@
 // parallel path) giving the same database as a local run, CSV export.
 #include "integration/test_campaign_fake.h"
 
+#include <rtsim/reports/campaign_report.h>
 #include <rtsim/reports/campaign_runner.h>
+#include <rtsim/reports/plot_script.h>
 #include <rtsim/reports/results_store.h>
 
 #include <gtest/gtest.h>
@@ -164,6 +166,47 @@ TEST(CampaignRun, SlurmScriptIsAThrottledArrayOverTheMissingJobs) {
                   shell_quote((f.dir / "w" / "slurm" / "campaign.sbatch").string()) + " >/dev/null"),
             0);
   EXPECT_TRUE(fs::exists(f.dir / "w" / "results" / (keys[5] + ".json")));
+}
+
+std::string read_all(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+TEST(CampaignRun, ReportHasEveryFigureWithCaptionAndTheFailedJobs) {
+  if (shell(shell_quote(plot_python()) + " -c 'import matplotlib' 2>/dev/null") != 0)
+    GTEST_SKIP() << "python3-matplotlib is not installed for " << plot_python();
+  const Fixture f = make_fixture("report", 1);
+  test::write_text(f.campaign, test::small_campaign("demo", 1) +
+                                   "[[group]]\nname = \"grid\"\n[[group]]\nname = \"l2\"\n"
+                                   "builder = \"sah\"\npreset = \"mobile\"\n"
+                                   "set.l2.size_bytes = [131072, 262144]\n");
+  EXPECT_EQ(shell(f.rtsim("campaign run " + f.campaign.string() + f.work("w"),
+                          "FAKE_FAIL_BUILDER=aobvh")), 1);
+  CampaignReportOptions o;
+  o.database = f.dir / "w" / "results.sqlite";
+  o.out_dir = f.dir / "report";
+  const CampaignReportFiles files = write_campaign_report(o);
+  const std::string md = read_all(files.markdown), html = read_all(files.html);
+  // DRAM, hit rates, cycles, ops/fetches, and the l2.size_bytes sweep.
+  ASSERT_EQ(files.figures.size(), 5u);
+  for (const fs::path& png : files.figures) {
+    const std::string bytes = read_all(png);
+    ASSERT_GT(bytes.size(), 1000u) << png;
+    EXPECT_EQ(bytes.substr(1, 3), "PNG") << png;
+    EXPECT_NE(md.find("](" + png.filename().string() + ")"), std::string::npos);
+    EXPECT_NE(html.find("<img src=\"" + png.filename().string() + "\""), std::string::npos);
+  }
+  EXPECT_NE(md.find("*Figure 5: "), std::string::npos);
+  EXPECT_NE(md.find("## Failed jobs"), std::string::npos);
+  EXPECT_NE(md.find("refused on purpose"), std::string::npos);
+  // The table has one row per ok run (2 sah + 2 sweep points, aobvh failed).
+  size_t rows = 0;
+  for (size_t at = md.find("| interior |"); at != std::string::npos; at = md.find("| interior |", at + 1))
+    ++rows;
+  EXPECT_EQ(rows, 4u);
+  EXPECT_THROW(write_campaign_report({f.dir / "missing.sqlite", f.dir / "r2", "", false}),
+               std::exception);
 }
 
 TEST(CampaignRun, BadCampaignFileExitsWithTwoAndNamesTheKey) {

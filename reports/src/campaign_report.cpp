@@ -1,0 +1,225 @@
+// The campaign report: data for the plot script, then Markdown and HTML around it.
+#include <rtsim/reports/campaign_report.h>
+
+#include <rtsim/reports/plot_script.h>
+#include <rtsim/reports/results_store.h>
+#include <rtsim/reports/text_table.h>
+#include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace rtsim {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+// The stats the figures read; the full stats.json stays in the database.
+bool wanted_stat(const std::string& path) {
+  for (const char* prefix : {"dram.", "per_type.", "l1_node.all.", "l1_triangle.all.", "l2.",
+                             "time.", "ops.", "fetches.", "rays."})
+    if (path.rfind(prefix, 0) == 0) return true;
+  return false;
+}
+
+double number_or_nan(const json& v) { return v.is_number() ? v.get<double>() : NAN; }
+
+std::string cell(const json& v, int digits = 4) {
+  return v.is_number() ? format_number(v.get<double>(), digits) : std::string("-");
+}
+
+std::string html_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+struct Table {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+};
+
+std::string html_table(const Table& t) {
+  std::string out = "<table>\n<tr>";
+  for (const std::string& h : t.header) out += "<th>" + html_escape(h) + "</th>";
+  out += "</tr>\n";
+  for (const auto& row : t.rows) {
+    out += "<tr>";
+    for (const std::string& c : row) out += "<td>" + html_escape(c) + "</td>";
+    out += "</tr>\n";
+  }
+  return out + "</table>\n";
+}
+
+std::string markdown_table(const Table& t) {
+  TextTable table(t.header);
+  for (const auto& row : t.rows) table.add_row(row);
+  return table.markdown();
+}
+
+}  // namespace
+
+CampaignReportFiles write_campaign_report(const CampaignReportOptions& options) {
+  if (!fs::is_regular_file(options.database))
+    throw InputError(options.database.string(), "no such results database");
+  std::vector<json> rows;
+  std::vector<std::string> campaigns;
+  {
+    ResultsStore store(options.database);
+    rows = store.rows(options.campaign);
+    campaigns = options.campaign.empty() ? store.campaigns()
+                                         : std::vector<std::string>{options.campaign};
+  }
+  if (rows.empty())
+    throw InputError(options.database.string(),
+                     options.campaign.empty() ? "holds no runs"
+                                              : "holds no runs of campaign '" + options.campaign + "'");
+  fs::create_directories(options.out_dir);
+
+  // Data for the plot script, one entry per run.
+  json runs = json::array();
+  std::set<std::string> revisions;
+  for (const json& row : rows) {
+    json run;
+    for (const char* k : {"campaign", "job_key", "label", "group_name", "status", "error", "scene",
+                          "builder", "camera", "preset", "fidelity", "git_revision"})
+      run[k] = row.value(k, json(""));
+    revisions.insert(row.value("git_revision", std::string()));
+    run["overrides"] = json::parse(row.value("overrides", std::string("{}")));
+    const json config = json::parse(row.value("config_json", std::string("null")));
+    run["hardware"] = config.is_object() ? config.value("hardware", json::object()) : json::object();
+    json headline = json::object();
+    for (const auto& [name, unit] : ResultsStore::headline_columns()) headline[name] = row[name];
+    headline["host_seconds"] = row["host_seconds"];
+    run["headline"] = headline;
+    json stats = json::object();
+    for (const auto& [path, value] :
+         flatten_stats(json::parse(row.value("stats_json", std::string("null")))))
+      if (wanted_stat(path) && std::isfinite(value)) stats[path] = value;
+    run["stats"] = stats;
+    runs.push_back(run);
+  }
+  std::string title = "Campaign report: ";
+  for (size_t i = 0; i < campaigns.size(); ++i) title += (i ? ", " : "") + campaigns[i];
+
+  CampaignReportFiles files;
+  files.data = options.out_dir / "report-data.json";
+  write_file_atomic(files.data, json{{"title", title}, {"runs", runs}}.dump(1) + "\n");
+
+  // The headline table: grouped by scene, fidelity and overrides, then preset, then
+  // builders in order of DRAM bytes per ray, so neighbouring rows differ in one thing.
+  std::vector<const json*> ok, failed;
+  for (const json& r : runs) (r["status"] == "ok" ? ok : failed).push_back(&r);
+  std::sort(ok.begin(), ok.end(), [](const json* a, const json* b) {
+    auto key = [](const json* r) {
+      return std::make_tuple((*r)["scene"].get<std::string>(), (*r)["fidelity"].get<std::string>(),
+                             (*r)["overrides"].dump(), (*r)["preset"].get<std::string>(),
+                             number_or_nan((*r)["headline"]["dram_bytes_per_ray"]),
+                             (*r)["builder"].get<std::string>());
+    };
+    return key(a) < key(b);
+  });
+  Table results;
+  results.header = {"scene",       "fidelity",        "preset",          "overrides",
+                    "builder",     "cycles",          "ops/ray",         "TRV ops/ray",
+                    "IST ops/ray", "node fetches/ray", "DRAM bytes/ray", "L1 node hit",
+                    "L1 tri hit",  "L2 hit",          "host s",          "rays/host s"};
+  for (const json* r : ok) {
+    const json& h = (*r)["headline"];
+    std::string overrides;
+    for (auto it = (*r)["overrides"].begin(); it != (*r)["overrides"].end(); ++it)
+      overrides += (overrides.empty() ? "" : " ") + it.key() + "=" + it.value().get<std::string>();
+    results.rows.push_back({(*r)["scene"], (*r)["fidelity"], (*r)["preset"],
+                            overrides.empty() ? "-" : overrides, (*r)["builder"], cell(h["cycles"], 6),
+                            cell(h["ops_per_ray"]), cell(h["trv_ops_per_ray"]),
+                            cell(h["ist_ops_per_ray"]), cell(h["node_fetches_per_ray"]),
+                            cell(h["dram_bytes_per_ray"]), cell(h["l1_node_hit_rate"], 3),
+                            cell(h["l1_triangle_hit_rate"], 3), cell(h["l2_hit_rate"], 3),
+                            cell(h["host_seconds"], 3), cell(h["rays_per_host_second"], 3)});
+  }
+  Table failures;
+  failures.header = {"job", "key", "error"};
+  for (const json* r : failed) {
+    // The reason (first line) and the log's last line, which usually says why.
+    const std::string full = (*r)["error"];
+    std::string error = full.substr(0, full.find('\n'));
+    const size_t last = full.find_last_of('\n');
+    if (last != std::string::npos) error += ": " + full.substr(last + 1);
+    failures.rows.push_back({(*r)["label"], (*r)["job_key"], error});
+  }
+
+  // Figures (after the data and before the text, so a failing script leaves the data).
+  json figures = json::array();
+  if (options.figures && !ok.empty()) {
+    run_plot_script("campaign_plots.py", {files.data.string(), options.out_dir.string()});
+    std::ifstream in(options.out_dir / "figures.json");
+    figures = json::parse(in);
+    for (const json& f : figures) files.figures.push_back(options.out_dir / f["file"].get<std::string>());
+  }
+
+  std::string revision_text;
+  for (const std::string& r : revisions) revision_text += (revision_text.empty() ? "" : ", ") + r;
+  const std::string summary = std::to_string(runs.size()) + " runs (" + std::to_string(ok.size()) +
+                              " ok, " + std::to_string(failed.size()) + " failed) from " +
+                              options.database.filename().string() + ", rtsim revision " +
+                              revision_text + ".";
+  const std::string reading =
+      "Figures: builders are sorted by DRAM bytes per ray (mean over presets) and each "
+      "preset has its own bar, so the difference between builders reads left to right and "
+      "the difference between presets within each group. The table is grouped the same way; "
+      "every row's full config.json and stats.json are in the database.";
+
+  std::ostringstream md;
+  md << "# " << title << "\n\n" << summary << "\n\n" << reading << "\n\n";
+  int n = 0;
+  for (const json& f : figures)
+    md << "## Figure " << ++n << ": " << f["title"].get<std::string>() << "\n\n![" << f["title"].get<std::string>()
+       << "](" << f["file"].get<std::string>() << ")\n\n*Figure " << n << ": "
+       << f["caption"].get<std::string>() << "*\n\n";
+  md << "## Results\n\nHit rates are fractions; host seconds are the job's wall time "
+        "including loading and building the tree.\n\n"
+     << markdown_table(results) << "\n";
+  if (!failures.rows.empty()) md << "## Failed jobs\n\n" << markdown_table(failures) << "\n";
+  files.markdown = options.out_dir / "report.md";
+  write_file_atomic(files.markdown, md.str());
+
+  std::ostringstream html;
+  html << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>" << html_escape(title)
+       << "</title>\n<style>body{font-family:sans-serif;max-width:1300px;margin:2em auto;"
+          "padding:0 1em}table{border-collapse:collapse;font-size:12px}td,th{border:1px solid "
+          "#ccc;padding:2px 6px;text-align:right}th{background:#eee}td:nth-child(-n+5){text-"
+          "align:left}figure{margin:2em 0}img{max-width:100%}figcaption{font-style:italic}"
+          "</style></head><body>\n<h1>"
+       << html_escape(title) << "</h1>\n<p>" << html_escape(summary) << "</p>\n<p>"
+       << html_escape(reading) << "</p>\n";
+  n = 0;
+  for (const json& f : figures)
+    html << "<figure><img src=\"" << html_escape(f["file"].get<std::string>()) << "\" alt=\""
+         << html_escape(f["title"].get<std::string>()) << "\"><figcaption>Figure " << ++n << ": "
+         << html_escape(f["caption"].get<std::string>()) << "</figcaption></figure>\n";
+  html << "<h2>Results</h2>\n" << html_table(results);
+  if (!failures.rows.empty()) html << "<h2>Failed jobs</h2>\n" << html_table(failures);
+  html << "</body></html>\n";
+  files.html = options.out_dir / "report.html";
+  write_file_atomic(files.html, html.str());
+  return files;
+}
+
+}  // namespace rtsim
