@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
 
 namespace rtsim::cli {
@@ -188,6 +189,11 @@ void add_build_command(CLI::App& root) {
   cmd->add_option("--ao-floor", p.ao_weight_floor, "aobvh: weight floor, w = floor + (1-floor) x value")
       ->capture_default_str();
   cmd->add_flag("--ao-both-sides", p.ao_both_sides, "aobvh: cast AO rays from both triangle sides");
+  cmd->add_option("--ao-normalise", p.ao_normalise,
+                  "aobvh: on = weights scaled to mean 1 (equal values give the SAH tree); off = the\n"
+                  "patent's literal sum of occlusion values in place of the count, same T2")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, bool>{{"on", true}, {"off", false}}))
+      ->default_str("on");
   cmd->callback([o] {
     o->params.osah_height = o->params.osah_width;
     run_build(*o);

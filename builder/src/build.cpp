@@ -159,7 +159,8 @@ Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report
       });
       r.ao_rays = uint64_t(n) * params.ao_rays;
     }
-    r.weights = occlusion_weights(values, params.ao_weight_floor, &r.sanitised_values);
+    r.weights =
+        occlusion_weights(values, params.ao_weight_floor, &r.sanitised_values, params.ao_normalise);
     double sum = 0;
     for (float v : values) sum += std::isfinite(v) ? std::min(std::max(v, 0.0f), 1.0f) : 1.0f;
     r.mean_occlusion = sum / double(n);

@@ -104,6 +104,7 @@ std::string build_params_json(const BuildParams& p) {
     j["ao_cutoff_relative"] = p.ao_cutoff_relative;
     j["ao_weight_floor"] = p.ao_weight_floor;
     j["ao_both_sides"] = p.ao_both_sides;
+    j["ao_normalise"] = p.ao_normalise;
     j["occlusion_values_supplied"] = !p.occlusion_values.empty();
   }
   return j.dump();

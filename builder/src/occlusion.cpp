@@ -88,7 +88,7 @@ std::vector<uint8_t> estimate_visibility(const Scene& scene, const EmbreeScene& 
 }
 
 std::vector<float> occlusion_weights(const std::vector<float>& values, float floor,
-                                     uint64_t* sanitised) {
+                                     uint64_t* sanitised, bool normalise) {
   uint64_t replaced = 0;
   floor = std::isfinite(floor) ? std::min(std::max(floor, 0.0f), 1.0f) : 0.0f;
   std::vector<float> weights(values.size());
@@ -111,6 +111,7 @@ std::vector<float> occlusion_weights(const std::vector<float>& values, float flo
     std::fill(weights.begin(), weights.end(), 1.0f);
     return weights;
   }
+  if (!normalise) return weights;
   // The mean is exact for equal weights (N copies of w sum exactly in double), so
   // w / mean is exactly 1.0f: equal occlusion values give exactly the SAH tree.
   const float mean = float(sum / double(values.size()));

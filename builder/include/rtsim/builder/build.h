@@ -31,6 +31,12 @@ struct BuildParams {
   uint32_t ao_rays = 16;          // K AO rays per primitive
   float ao_cutoff_relative = -1;  // < 0: the scene's ao.cutoff_relative
   float ao_weight_floor = 0.05f;  // w = floor + (1 - floor) * occlusion value
+  // true: weights scaled to mean 1 (T2 keeps meaning one average triangle test;
+  // equal values give exactly the SAH tree). false: the patent's literal cost,
+  // AO(S) = the plain sum of the (floored) values in place of the count, with
+  // the same T2 - triangle tests in occluded regions become cheap relative to
+  // the 2*T1 node tests. See occlusion_weights().
+  bool ao_normalise = true;
   bool ao_both_sides = false;
   // Per-triangle values supplied by the caller instead of casting rays (tests,
   // cached estimates). Empty = estimate with Embree. NaN / infinite / negative

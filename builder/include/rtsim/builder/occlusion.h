@@ -34,15 +34,21 @@ std::vector<float> estimate_occlusion(const Scene& scene, const EmbreeScene& emb
 std::vector<uint8_t> estimate_visibility(const Scene& scene, const EmbreeScene& embree,
                                          const Camera& camera, uint32_t width, uint32_t height);
 
-// AO-BVH weights from occlusion values: w = floor + (1 - floor) * value, then scaled
-// to mean 1 so that T2 keeps meaning "one average triangle test" and the balance
-// against the 2*T1 node cost is that of the plain SAH (equal values give exactly
-// weight 1, hence exactly the SAH tree). The floor keeps fully occluded regions
-// from costing nothing (they would otherwise be swallowed into huge, arbitrary
-// subtrees and, at value 0 everywhere, every split would cost the same).
+// AO-BVH weights from occlusion values: w = floor + (1 - floor) * value.
+// normalise = true (the default): then scaled to mean 1 so that T2 keeps meaning
+// "one average triangle test" and the balance against the 2*T1 node cost is that
+// of the plain SAH (equal values give exactly weight 1, hence exactly the SAH tree).
+// normalise = false: the weights are used as they are - the patent's literal
+// AO(S), a sum of occlusion values in place of the triangle count with the same
+// T2; the mean weight is then below 1, so the builder sees triangle tests as
+// cheaper (most of all in occluded regions) and makes larger leaves there.
+// The floor keeps fully occluded regions from costing nothing (they would
+// otherwise be swallowed into huge, arbitrary subtrees and, at value 0
+// everywhere, every split would cost the same). With floor 0 and every value 0
+// there is nothing to rank: all weights are 1 in both forms.
 // NaN / infinite values count as 1 (open); values outside [0, 1] are clamped;
 // both are counted in *sanitised.
 std::vector<float> occlusion_weights(const std::vector<float>& values, float floor,
-                                     uint64_t* sanitised = nullptr);
+                                     uint64_t* sanitised = nullptr, bool normalise = true);
 
 }  // namespace rtsim
