@@ -1,5 +1,7 @@
 #include <rtsim/workloads/embree_scene.h>
 
+#include <cmath>
+
 #include <limits>
 #include <mutex>
 #include <stdexcept>
@@ -68,8 +70,23 @@ EmbreeScene::~EmbreeScene() {
   if (device_) rtcReleaseDevice(device_);
 }
 
+namespace {
+// Embree's ray precondition (RayK::valid: |org|, |dir| <= FLT_LARGE = 1.844e18,
+// tnear/tfar not NaN). Its Debian build asserts on it and aborts the process, so
+// a ray it cannot take (e.g. an AO ray from a kept 1e30 vertex) is answered here:
+// no hit, not occluded.
+bool embree_accepts(const vec3& origin, const vec3& direction, float tmin, float tmax) {
+  constexpr float kEmbreeLarge = 1.844e18f;
+  for (int a = 0; a < 3; ++a)
+    if (!(std::fabs(origin[a]) <= kEmbreeLarge) || !(std::fabs(direction[a]) <= kEmbreeLarge))
+      return false;  // also false for NaN
+  return !std::isnan(tmin) && !std::isnan(tmax);
+}
+}  // namespace
+
 EmbreeHit EmbreeScene::intersect(const vec3& origin, const vec3& direction, float tmin,
                                  float tmax) const {
+  if (!embree_accepts(origin, direction, tmin, tmax)) return EmbreeHit{};
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
@@ -102,6 +119,7 @@ EmbreeHit EmbreeScene::intersect(const vec3& origin, const vec3& direction, floa
 
 bool EmbreeScene::occluded(const vec3& origin, const vec3& direction, float tmin,
                            float tmax) const {
+  if (!embree_accepts(origin, direction, tmin, tmax)) return false;
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRay ray;
