@@ -96,8 +96,8 @@ TEST(WeightForms, OsahLowersItsOwnCostAndLiftsVisibleTrianglesTowardsTheRoot) {
   // The OSAH cost P_i = w V_i / V + (1 - w) A_i / A (V, A of the parent) is what
   // the builder minimises: its tree must be cheaper than the SAH tree under that
   // cost, and the visible triangles must sit higher up than in the SAH tree.
-  // (Whether that pays off for real rays depends on the scene: see the builder
-  // notes; on `interior` it does not.)
+  // (Whether that pays off for real rays depends on the scene: see
+  // BuildParams::osah_w; on `interior` it does not.)
   const Scene scene = test::triangle_soup(20000, 14, 0.05f);
   BuildParams p;
   p.builder = "osah";

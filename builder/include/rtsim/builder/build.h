@@ -23,7 +23,14 @@ struct BuildParams {
   float sbvh_alpha = 1e-5f;
   float sbvh_reference_budget = 1.3f;  // x N triangles
   uint32_t sbvh_split_limit = 7;       // times one reference may be split (0..7)
-  // osah
+  // osah: P_i = osah_w * V_i / V + (1 - osah_w) * A_i / A in nodes holding both
+  // visible and hidden triangles (osah_w = 0: exactly the SAH tree). A faithful
+  // build of this rule can make the camera's own primary rays dearer: it lowers
+  // its own cost (interior, view1: 29.7 vs 46.3 for the SAH tree) while primary
+  // rays take 55.0 instead of 30.1 ops/ray, because the probabilities of a mixed
+  // node's children sum to about 1 (a ray is assumed to enter one child) whereas
+  // real rays pass through the loose, overlapping boxes that separating visible
+  // from hidden triangles creates. Measured per w and scene in the builder notes.
   std::string camera = "view1";
   float osah_w = 0.9f;
   uint32_t osah_width = 256, osah_height = 256;  // primary rays cast for visibility
