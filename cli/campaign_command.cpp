@@ -119,6 +119,12 @@ void add_campaign_command(CLI::App& root) {
       const CampaignStatus s = campaign_status(c, paths, store);
       std::printf("campaign %s (revision %s): %zu jobs: %zu ok, %zu failed, %zu missing\n",
                   c.name.c_str(), c.revision.c_str(), s.total, s.ok, s.failed, s.missing);
+      if (s.runner_active)
+        std::printf("a `campaign run` is active: %zu running, %zu left to start\n", s.started,
+                    s.missing - s.started);
+      else if (s.started)
+        std::printf("%zu jobs started without a result (a run was stopped, or they are running "
+                    "on Slurm / GNU parallel)\n", s.started);
       for (const auto& [label, error] : s.failures)
         std::printf("  failed %s: %s\n", label.c_str(), error.substr(0, error.find('\n')).c_str());
     });
@@ -130,7 +136,9 @@ void add_campaign_command(CLI::App& root) {
     auto json_out = std::make_shared<bool>(false);
     CLI::App* cmd = campaign->add_subcommand("list", "the expanded jobs: key, group, label");
     add_common(cmd, *a);
-    cmd->add_flag("--json", *json_out, "the resolved job descriptions as JSON");
+    cmd->add_flag("--json", *json_out,
+                  "the resolved jobs as JSON: key, label, simulate's arguments (DIR = the job's "
+                  "output folder) and the hardware file the runner writes there");
     cmd->callback([=] {
       const Campaign c = load(*a);
       if (*json_out) {
@@ -138,7 +146,10 @@ void add_campaign_command(CLI::App& root) {
         for (const CampaignJob& j : c.jobs)
           all.push_back({{"key", j.key}, {"config_hash", j.config_hash}, {"group", j.group},
                          {"label", j.label}, {"resolved", j.resolved},
-                         {"arguments", j.simulate_arguments("DIR")}});
+                         {"hardware_toml", j.hardware_toml},
+                         {"arguments", j.hardware_toml.empty()
+                                           ? j.simulate_arguments("DIR")
+                                           : j.simulate_arguments("DIR", "DIR/hardware.toml")}});
         std::cout << all.dump(2) << "\n";
         return;
       }

@@ -440,16 +440,35 @@ RunSummary run_campaign(const Campaign& campaign, const CampaignPaths& paths,
   return summary;
 }
 
+namespace {
+
+// True if a `campaign run` holds the campaign directory's lock right now.
+bool runner_active(const fs::path& dir) {
+  const fs::path file = dir / "run.lock";
+  const int fd = open(file.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool held = flock(fd, LOCK_SH | LOCK_NB) != 0;
+  if (!held) flock(fd, LOCK_UN);
+  close(fd);
+  return held;
+}
+
+}  // namespace
+
 CampaignStatus campaign_status(const Campaign& campaign, const CampaignPaths& paths,
                                const ResultsStore& store) {
-  (void)paths;
   CampaignStatus s;
   const auto recorded = store.summaries(campaign.name);
   s.total = campaign.jobs.size();
+  s.runner_active = runner_active(paths.dir);
   for (const CampaignJob& job : campaign.jobs) {
     auto it = recorded.find(job.key);
     if (it == recorded.end()) {
       ++s.missing;
+      // Started (its folder exists) but no result yet: running, or cut short.
+      if (fs::exists(paths.job_dir(job.key) / "log.txt") &&
+          !fs::exists(paths.result_file(job.key)))
+        ++s.started;
     } else if (it->second.status == "ok") {
       ++s.ok;
     } else {

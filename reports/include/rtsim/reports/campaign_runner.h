@@ -73,7 +73,11 @@ CollectSummary collect_results(const Campaign& campaign, const CampaignPaths& pa
                                ResultsStore& store);
 
 struct CampaignStatus {
-  size_t total = 0, ok = 0, failed = 0, running = 0, missing = 0;
+  size_t total = 0, ok = 0, failed = 0, missing = 0;
+  // Missing jobs with an output folder but no result: running if a runner holds the
+  // campaign's lock (or on Slurm / GNU parallel), else cut short by a kill.
+  size_t started = 0;
+  bool runner_active = false;
   std::vector<std::pair<std::string, std::string>> failures;  // label, error
 };
 CampaignStatus campaign_status(const Campaign& campaign, const CampaignPaths& paths,
