@@ -30,7 +30,7 @@ struct BuildParams {
   // rays take 55.0 instead of 30.1 ops/ray, because the probabilities of a mixed
   // node's children sum to about 1 (a ray is assumed to enter one child) whereas
   // real rays pass through the loose, overlapping boxes that separating visible
-  // from hidden triangles creates. Measured per w and scene in the builder notes.
+  // from hidden triangles creates (other scenes and w: issue 3 notes).
   std::string camera = "view1";
   float osah_w = 0.9f;
   uint32_t osah_width = 256, osah_height = 256;  // primary rays cast for visibility
