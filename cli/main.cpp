@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   rtsim::cli::add_trace_command(app);
   rtsim::cli::add_simulate_command(app);
   rtsim::cli::add_table1_command(app);
+  rtsim::cli::add_accuracy_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

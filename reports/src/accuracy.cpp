@@ -1,0 +1,486 @@
+// The measurements of `rtsim accuracy`: four sections, each timing one accuracy knob
+// against the error it causes relative to the most exact setting of that knob.
+#include <rtsim/builder/build.h>
+#include <rtsim/builder/bvh_file.h>
+#include <rtsim/builder/memory_image.h>
+#include <rtsim/builder/metrics.h>
+#include <rtsim/model/core/functional_tracer.h>
+#include <rtsim/reports/accuracy.h>
+#include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
+#include <rtsim/workloads/progress.h>
+#include <rtsim/workloads/scene_registry.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <time.h>
+
+namespace rtsim {
+
+AccuracyOptions quick_accuracy_options(AccuracyOptions base) {
+  base.quick = true;
+  base.fidelity_resolutions = {32};
+  base.knob_resolution = 48;
+  base.ao_rays_per_primitive = {1, 4, 16, 64};
+  base.ao_rays_reference = 256;
+  base.sbvh_alphas = {1e-3f, 1e-5f};
+  base.ao_image_resolution = 48;
+  base.ao_samples = {1, 4, 16, 64};
+  base.ao_samples_reference = 256;
+  base.resolutions = {16, 32, 64, 128};
+  base.seeds = {1, 2};
+  return base;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Process CPU time (all threads): wall time on a machine shared by several jobs
+// measures the load as much as the work.
+double cpu_now() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+
+double relative(double value, double reference) {
+  return reference != 0 ? (value - reference) / reference : (value == 0 ? 0.0 : HUGE_VAL);
+}
+
+std::string shell_quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+nlohmann::json read_json(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path.string() + ": missing after the run");
+  return nlohmann::json::parse(in);
+}
+
+// stats.json / host.json leaves are {"value", "unit", "description"} objects.
+double stat_value(const nlohmann::json& stats, std::initializer_list<const char*> path) {
+  const nlohmann::json* node = &stats;
+  for (const char* key : path) {
+    if (!node->is_object() || !node->contains(key)) return -1;
+    node = &(*node)[key];
+  }
+  return node->is_object() && node->contains("value") ? (*node)["value"].get<double>() : -1;
+}
+
+EffectSettings frame_settings(uint32_t resolution, uint64_t seed, int ao_samples) {
+  EffectSettings s;
+  s.width = s.height = resolution;
+  s.seed = seed;
+  s.ao_samples = ao_samples;
+  return s;
+}
+
+struct Frame {
+  FrameRun run;
+  double seconds = 0, cpu_seconds = 0;
+};
+
+Frame trace_frame(const Scene& scene, const Bvh& bvh, const Camera& camera,
+                  const EffectSettings& settings) {
+  const MemoryImage image(bvh, scene.triangle_count());
+  const TraversalContext context(scene, bvh, image);
+  Frame frame;
+  const auto start = Clock::now();
+  const double cpu_start = cpu_now();
+  frame.run = run_frame(context, camera, settings);
+  frame.cpu_seconds = cpu_now() - cpu_start;
+  frame.seconds = seconds_since(start);
+  return frame;
+}
+
+double ops_per_ray(const FrameRun& run) { return run.total.per_ray(run.total.ops()); }
+
+// The builder hands back its weights, not the occlusion values; they are an affine
+// function of the clamped values (occlusion_weights): w = (f + (1 - f) v) / m with
+// m = f + (1 - f) * mean_occlusion, so v = (w m - f) / (1 - f), exact to float rounding.
+std::vector<float> occlusion_values_of(const BuildReport& report, float floor) {
+  if (!(floor < 1.0f)) throw std::logic_error("accuracy: AO weight floor 1 carries no occlusion values");
+  const double mean_weight = floor + (1.0 - floor) * report.mean_occlusion;
+  std::vector<float> values(report.weights.size());
+  for (size_t i = 0; i < values.size(); ++i)
+    values[i] = float(std::min(1.0, std::max(0.0, (report.weights[i] * mean_weight - floor) / (1.0 - floor))));
+  return values;
+}
+
+double rmse(const std::vector<float>& a, const std::vector<float>& b, double* max_error = nullptr) {
+  double sum = 0, worst = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const double d = double(a[i]) - double(b[i]);
+    sum += d * d;
+    worst = std::max(worst, std::fabs(d));
+  }
+  if (max_error) *max_error = worst;
+  return a.empty() ? 0.0 : std::sqrt(sum / double(a.size()));
+}
+
+std::string alpha_label(float alpha) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "alpha=%g", double(alpha));
+  return buf;
+}
+
+const Camera& pick_camera(const Scene& scene, const std::string& name) {
+  if (scene.cameras.empty()) throw InputError("scene '" + scene.name + "'", "has no cameras");
+  return name.empty() ? scene.cameras.front() : scene.camera(name);  // InputError if absent
+}
+
+class AccuracyRun {
+ public:
+  explicit AccuracyRun(const AccuracyOptions& options)
+      : o_(options), scene_(load_scene(options.scene)),
+        camera_(pick_camera(scene_, options.camera)) {
+    validate();
+    report_.options = options;
+    report_.scene_name = scene_.name;
+    report_.camera = camera_.name;
+    report_.triangles = scene_.triangle_count();
+    const EffectPlan plan = plan_effects(scene_, frame_settings(8, o_.seed, -1));
+    report_.scene_ao_samples = plan.on(RayType::Ao) ? plan.ao_samples : 0;
+    report_.ao_length = plan.ao_length;
+  }
+
+  AccuracyReport run() {
+    const auto start = Clock::now();
+    std::filesystem::create_directories(o_.out_dir);
+    builder_knobs();  // first: it builds the tree the other sections reuse
+    fidelity_levels();
+    ao_samples();
+    resolution_stability();
+    report_.recommendations = recommend(report_);
+    report_.total_seconds = seconds_since(start);
+    return report_;
+  }
+
+ private:
+  void validate() const {
+    auto check_resolutions = [](const std::vector<uint32_t>& list, const char* field) {
+      if (list.empty()) throw InputError(field, "needs at least one value");
+      for (uint32_t r : list)
+        if (r == 0 || r > 4096) throw InputError(field, "resolutions must be 1..4096");
+    };
+    check_resolutions(o_.fidelity_resolutions, "fidelity_resolutions");
+    check_resolutions(o_.resolutions, "resolutions");
+    check_resolutions({o_.knob_resolution, o_.ao_image_resolution}, "resolution");
+    for (uint32_t k : o_.ao_rays_per_primitive)
+      if (k == 0 || k >= o_.ao_rays_reference)
+        throw InputError("ao_rays_per_primitive", "each K must be 1..reference-1");
+    for (uint32_t n : o_.ao_samples)
+      if (n == 0 || n >= o_.ao_samples_reference)
+        throw InputError("ao_samples", "each count must be 1..reference-1");
+    if (o_.seeds.empty()) throw InputError("seeds", "needs at least one seed");
+    if (!(o_.tolerance > 0) || !(o_.fidelity_tolerance > 0) || !(o_.image_rmse_target > 0))
+      throw InputError("tolerance", "must be > 0");
+    bool known = false;
+    for (const std::string& b : builder_names()) known |= b == o_.builder;
+    if (!known) throw InputError("--builder", "unknown builder '" + o_.builder + "'");
+  }
+
+  BuildParams base_params() const {
+    BuildParams p;
+    p.seed = o_.seed;
+    p.camera = camera_.name;
+    return p;
+  }
+
+  // ops/ray of a tree on the knob frame (the scene's AO setting).
+  double knob_ops(const Bvh& bvh) const {
+    return ops_per_ray(trace_frame(scene_, bvh, camera_, frame_settings(o_.knob_resolution, o_.seed, -1)).run);
+  }
+
+  KnobPoint build_point(const std::string& family, const std::string& label, double value,
+                        const BuildParams& params, Bvh* keep = nullptr, BuildReport* keep_report = nullptr) {
+    BuildReport report;
+    const double cpu_start = cpu_now();
+    Bvh bvh = build_bvh(scene_, params, &report);
+    const double cpu_seconds = cpu_now() - cpu_start;
+    KnobPoint p;
+    p.cpu_seconds = cpu_seconds;
+    p.family = family;
+    p.label = label;
+    p.value = value;
+    p.estimate_seconds = report.estimate_seconds;
+    p.build_seconds = report.build_seconds;
+    p.sah_cost = sah_cost(bvh, params.t1, params.t2);
+    p.references = bvh.prim_refs.size();
+    p.ops_per_ray = knob_ops(bvh);
+    if (keep) *keep = std::move(bvh);
+    if (keep_report) *keep_report = std::move(report);
+    return p;
+  }
+
+  static void relative_to_reference(std::vector<KnobPoint>& points) {
+    const KnobPoint* ref = nullptr;
+    for (const KnobPoint& p : points)
+      if (p.reference) ref = &p;
+    if (!ref) return;
+    const double base = ref->ops_per_ray;
+    for (KnobPoint& p : points) p.ops_error = relative(p.ops_per_ray, base);
+  }
+
+  void builder_knobs() {
+    const size_t steps = o_.ao_rays_per_primitive.size() + 1 + o_.sah_bins.size() + o_.sbvh_alphas.size() + 1;
+    Progress progress("accuracy: builder knobs", steps, "trees");
+    const BuildParams defaults = base_params();
+
+    // AO rays per primitive: the reference K first, its values are what the others approach.
+    std::vector<KnobPoint> k_points;
+    std::vector<uint32_t> ks = o_.ao_rays_per_primitive;
+    ks.push_back(o_.ao_rays_reference);
+    std::vector<float> ref_values, ref_weights;
+    std::vector<std::pair<std::vector<float>, std::vector<float>>> per_k(ks.size());
+    for (size_t i = ks.size(); i-- > 0;) {
+      BuildParams p = defaults;
+      p.builder = "aobvh";
+      p.ao_rays = ks[i];
+      Bvh bvh;
+      BuildReport br;
+      KnobPoint point = build_point("ao_rays", "K=" + std::to_string(ks[i]), ks[i], p, &bvh, &br);
+      point.reference = i + 1 == ks.size();
+      per_k[i] = {occlusion_values_of(br, p.ao_weight_floor), br.weights};
+      if (o_.builder == "aobvh" && ks[i] == defaults.ao_rays) main_tree_ = std::make_unique<Bvh>(std::move(bvh));
+      k_points.insert(k_points.begin(), point);
+      progress.advance();
+    }
+    for (size_t i = 0; i < ks.size(); ++i) {
+      k_points[i].occlusion_rmse = rmse(per_k[i].first, per_k.back().first, &k_points[i].occlusion_max_error);
+      k_points[i].weight_rmse = rmse(per_k[i].second, per_k.back().second);
+    }
+    relative_to_reference(k_points);
+
+    // Binned vs full-sweep SAH: the full sweep is the exact (reference) one.
+    std::vector<KnobPoint> bin_points;
+    for (uint32_t bins : o_.sah_bins) {
+      BuildParams p = defaults;
+      p.builder = "sah";
+      p.bins = bins;
+      KnobPoint point = build_point("sah_bins", bins ? "bins=" + std::to_string(bins) : "full sweep", bins, p);
+      point.reference = bins == 0;
+      bin_points.push_back(point);
+      progress.advance();
+    }
+    relative_to_reference(bin_points);
+
+    // SBVH alpha: the smallest alpha allows the most spatial splits (reference).
+    std::vector<KnobPoint> alpha_points;
+    float smallest = o_.sbvh_alphas.empty() ? 0.0f : *std::min_element(o_.sbvh_alphas.begin(), o_.sbvh_alphas.end());
+    for (float alpha : o_.sbvh_alphas) {
+      BuildParams p = defaults;
+      p.builder = "sbvh";
+      p.sbvh_alpha = alpha;
+      KnobPoint point = build_point("sbvh_alpha", alpha_label(alpha), alpha, p);
+      point.reference = alpha == smallest;
+      alpha_points.push_back(point);
+      progress.advance();
+    }
+    relative_to_reference(alpha_points);
+
+    // The tree of the other sections: the builder's defaults (reused from above if built).
+    if (!main_tree_) {
+      BuildParams p = defaults;
+      p.builder = o_.builder;
+      main_tree_ = std::make_unique<Bvh>(build_bvh(scene_, p));
+      main_params_ = p;
+    } else {
+      main_params_ = defaults;
+      main_params_.builder = "aobvh";
+    }
+    progress.advance();
+    for (auto* list : {&k_points, &bin_points, &alpha_points})
+      report_.knobs.insert(report_.knobs.end(), list->begin(), list->end());
+  }
+
+  void fidelity_levels() {
+    const std::filesystem::path tree_file = o_.out_dir / "runs" / "tree.bvh";
+    std::filesystem::create_directories(o_.out_dir / "runs");
+    save_bvh(tree_file, *main_tree_, scene_, main_params_);
+    const char* levels[] = {"functional", "lt", "cycle"};
+    Progress progress("accuracy: fidelity levels", o_.fidelity_resolutions.size() * 3, "runs");
+    for (uint32_t res : o_.fidelity_resolutions) {
+      std::vector<FidelityPoint> points;
+      std::vector<nlohmann::json> stats;
+      for (const char* level : levels) {
+        const std::string name = std::string(level) + "-" + std::to_string(res);
+        const std::filesystem::path dir = o_.out_dir / "runs" / name;
+        const std::string command =
+            shell_quote(o_.rtsim_binary.string()) + " simulate --scene " + shell_quote(o_.scene) +
+            " --bvh " + shell_quote(tree_file.string()) + " --camera " + shell_quote(camera_.name) +
+            " --fidelity " + level + " --config " + shell_quote(o_.hardware) + " --res " +
+            std::to_string(res) + "x" + std::to_string(res) + " --ao " +
+            std::to_string(report_.scene_ao_samples) + " --seed " + std::to_string(o_.seed) + " --out " +
+            shell_quote(dir.string()) + " > " + shell_quote((o_.out_dir / "runs" / (name + ".log")).string()) +
+            " 2>&1";
+        const auto start = Clock::now();
+        if (std::system(command.c_str()) != 0)
+          throw std::runtime_error("fidelity run failed (" + command + ")");
+        FidelityPoint p;
+        p.process_seconds = seconds_since(start);
+        p.level = level;
+        p.resolution = res;
+        const nlohmann::json s = read_json(dir / "stats.json"), host = read_json(dir / "host.json");
+        p.rays = uint64_t(stat_value(s, {"rays", "total"}));
+        p.cycles = stat_value(s, {"time", "cycles"});
+        p.dram_bytes = stat_value(s, {"dram", "bytes"});
+        p.ops_per_ray = stat_value(s, {"ops", "per_ray"});
+        p.host_seconds = stat_value(host, {"host_seconds"});
+        p.cpu_seconds = stat_value(host, {"cpu_seconds"});
+        p.rays_per_host_second = stat_value(host, {"rays_per_host_second"});
+        p.rays_per_cpu_second = stat_value(host, {"rays_per_cpu_second"});
+        points.push_back(p);
+        stats.push_back(s);
+        progress.advance();
+      }
+      const FidelityPoint& cycle = points.back();
+      const nlohmann::json& cs = stats.back();
+      for (size_t i = 0; i < points.size(); ++i) {
+        points[i].cycle_error = relative(points[i].cycles, cycle.cycles);
+        points[i].dram_error = relative(points[i].dram_bytes, cycle.dram_bytes);
+        // The model's invariant: one functional core, so the counts agree at every level.
+        points[i].counts_match_cycle = stat_value(stats[i], {"ops", "trv"}) == stat_value(cs, {"ops", "trv"}) &&
+                                       stat_value(stats[i], {"ops", "ist"}) == stat_value(cs, {"ops", "ist"}) &&
+                                       points[i].rays == cycle.rays;
+      }
+      report_.fidelity.insert(report_.fidelity.end(), points.begin(), points.end());
+    }
+  }
+
+  // AO image error over the pixels whose primary ray hit (the others are black in every image).
+  static std::vector<uint8_t> hit_mask(const FrameRun& run) {
+    std::vector<uint8_t> mask(size_t(run.width) * run.height, 0);
+    for (size_t i = 0; i < run.rays.size(); ++i)
+      if (run.rays[i].type == RayType::Primary && run.rays[i].pixel < mask.size() && run.results[i].hit.hit())
+        mask[run.rays[i].pixel] = 1;
+    return mask;
+  }
+
+  void ao_samples() {
+    Progress progress("accuracy: AO rays per pixel", o_.ao_samples.size() + 1, "frames");
+    std::vector<uint32_t> counts = o_.ao_samples;
+    counts.push_back(o_.ao_samples_reference);
+    std::vector<float> reference;
+    std::vector<uint8_t> mask;
+    std::vector<AoSamplesPoint> points(counts.size());
+    // Reference first. AO rays are keyed by (seed, pixel, sample, bounce, k), so the
+    // first n rays of every pixel are the same at every count: the error measured is
+    // how far n rays are from what the reference image shows (nested estimates).
+    for (size_t i = counts.size(); i-- > 0;) {
+      Frame f = trace_frame(scene_, *main_tree_, camera_,
+                            frame_settings(o_.ao_image_resolution, o_.seed, int(counts[i])));
+      const Image image = ao_image(f.run);
+      std::vector<float> grey(image.pixels.size());
+      for (size_t p = 0; p < grey.size(); ++p) grey[p] = image.pixels[p].x;
+      AoSamplesPoint& point = points[i];
+      point.samples = counts[i];
+      point.reference = i + 1 == counts.size();
+      point.rays = f.run.total.rays;
+      point.seconds = f.seconds;
+      point.cpu_seconds = f.cpu_seconds;
+      point.ops_per_ray = ops_per_ray(f.run);
+      const CounterTotals& ao = f.run.per_type[ray_type_index(RayType::Ao)];
+      point.ao_ops_per_ray = ao.per_ray(ao.ops());
+      if (point.reference) {
+        reference = grey;
+        mask = hit_mask(f.run);
+        write_image_data("ao_reference.f32", grey);
+      } else {
+        double sum = 0;
+        size_t n = 0;
+        for (size_t p = 0; p < grey.size(); ++p)
+          if (mask[p]) sum += double(grey[p] - reference[p]) * double(grey[p] - reference[p]), ++n;
+        point.image_rmse = n ? std::sqrt(sum / double(n)) : 0.0;
+        write_image_data("ao_" + std::to_string(counts[i]) + ".f32", grey);
+      }
+      progress.advance();
+    }
+    report_.ao = points;
+  }
+
+  void write_image_data(const std::string& name, const std::vector<float>& values) const {
+    std::filesystem::create_directories(o_.out_dir / "data");
+    write_file_atomic(o_.out_dir / "data" / name, [&](std::ostream& out) {
+      out.write(reinterpret_cast<const char*>(values.data()), std::streamsize(values.size() * sizeof(float)));
+    });
+  }
+
+  void resolution_stability() {
+    std::vector<uint32_t> resolutions = o_.resolutions;
+    std::sort(resolutions.begin(), resolutions.end());
+    resolutions.erase(std::unique(resolutions.begin(), resolutions.end()), resolutions.end());
+    Progress progress("accuracy: resolution", resolutions.size() * o_.seeds.size(), "frames");
+    std::vector<ResolutionPoint> points;
+    for (uint32_t res : resolutions)
+      for (uint64_t seed : o_.seeds) {
+        Frame f = trace_frame(scene_, *main_tree_, camera_, frame_settings(res, seed, -1));
+        ResolutionPoint p;
+        p.resolution = res;
+        p.seed = seed;
+        p.rays = f.run.total.rays;
+        p.seconds = f.seconds;
+        p.cpu_seconds = f.cpu_seconds;
+        p.ops_per_ray = ops_per_ray(f.run);
+        points.push_back(p);
+        progress.advance();
+      }
+    // Reference: the mean over seeds at the highest resolution.
+    double sum = 0;
+    size_t n = 0;
+    for (const ResolutionPoint& p : points)
+      if (p.resolution == resolutions.back()) sum += p.ops_per_ray, ++n;
+    const double reference = n ? sum / double(n) : 0.0;
+    for (ResolutionPoint& p : points) p.error = relative(p.ops_per_ray, reference);
+    // Needed: the smallest resolution from which on every seed stays within the tolerance.
+    uint32_t needed = resolutions.back();
+    for (size_t i = resolutions.size(); i-- > 0;) {
+      bool all_within = true;
+      for (const ResolutionPoint& p : points)
+        if (p.resolution == resolutions[i] && !(std::fabs(p.error) <= o_.tolerance)) all_within = false;
+      if (!all_within) break;
+      needed = resolutions[i];
+    }
+    uint64_t rays = 0;
+    size_t count = 0;
+    for (const ResolutionPoint& p : points)
+      if (p.resolution == needed) rays += p.rays, ++count;
+    report_.resolution = points;
+    report_.resolution_reference_ops = reference;
+    report_.resolution_needed = needed;
+    report_.rays_needed = count ? rays / count : 0;
+  }
+
+  const AccuracyOptions& o_;
+  Scene scene_;
+  const Camera& camera_;
+  AccuracyReport report_;
+  std::unique_ptr<Bvh> main_tree_;
+  BuildParams main_params_;
+};
+
+}  // namespace
+
+AccuracyReport run_accuracy(const AccuracyOptions& options) {
+  if (options.rtsim_binary.empty()) throw std::logic_error("accuracy: rtsim_binary is required for the fidelity runs");
+  AccuracyRun run(options);
+  return run.run();
+}
+
+}  // namespace rtsim

@@ -1,0 +1,251 @@
+// The recommendations of `rtsim accuracy`, derived from the measured numbers:
+// every rule picks the cheapest setting whose error stays inside a stated tolerance.
+#include <rtsim/reports/accuracy.h>
+#include <rtsim/reports/text_table.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+namespace rtsim {
+
+namespace {
+
+// format_number keeps a fixed number of decimals below 1 (0.0012 -> "0.00"); small
+// times and errors need their significant digits.
+std::string num(double v, int digits = 4) {
+  if (v == 0 || std::fabs(v) >= 1 || !std::isfinite(v)) return format_number(v, digits);
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
+}
+std::string pct(double fraction, int digits = 3) { return num(100.0 * fraction, digits) + "%"; }
+std::string secs(double s) { return num(s, 3) + " s"; }
+std::string integer(double v) { return std::to_string(static_cast<long long>(std::llround(v))); }
+std::string alpha(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+std::vector<const KnobPoint*> family(const AccuracyReport& r, const std::string& name) {
+  std::vector<const KnobPoint*> out;
+  for (const KnobPoint& k : r.knobs)
+    if (k.family == name) out.push_back(&k);
+  return out;
+}
+
+const KnobPoint* reference_of(const std::vector<const KnobPoint*>& points) {
+  for (const KnobPoint* p : points)
+    if (p->reference) return p;
+  return nullptr;
+}
+
+void fidelity_recommendations(const AccuracyReport& r, std::vector<Recommendation>& out) {
+  if (r.fidelity.empty()) return;
+  uint32_t largest = 0;
+  for (const FidelityPoint& p : r.fidelity) largest = std::max(largest, p.resolution);
+  std::map<std::string, const FidelityPoint*> at_largest;
+  std::map<std::string, double> worst_cycles, worst_dram;
+  bool counts_match = true;
+  for (const FidelityPoint& p : r.fidelity) {
+    counts_match &= p.counts_match_cycle;
+    worst_cycles[p.level] = std::max(worst_cycles[p.level], std::fabs(p.cycle_error));
+    worst_dram[p.level] = std::max(worst_dram[p.level], std::fabs(p.dram_error));
+    if (p.resolution == largest) at_largest[p.level] = &p;
+  }
+  const FidelityPoint* functional = at_largest["functional"];
+  const FidelityPoint* cycle = at_largest["cycle"];
+  if (!functional || !cycle) return;
+  const double speedup = functional->rays_per_cpu_second / std::max(cycle->rays_per_cpu_second, 1e-9);
+
+  Recommendation counts;
+  counts.topic = "ops/ray, node fetches (Table 1 counts)";
+  if (counts_match) {
+    counts.setting = "fidelity functional";
+    counts.why = "TRV, IST and ray counts were identical at all three levels in every run (one functional "
+                 "core), and functional simulated " + num(functional->rays_per_cpu_second, 3) +
+                 " rays per CPU second against " + num(cycle->rays_per_cpu_second, 3) +
+                 " for cycle at " + std::to_string(largest) + "x" + std::to_string(largest) + " (" +
+                 num(speedup, 3) + "x faster).";
+  } else {
+    counts.setting = "fidelity cycle";
+    counts.why = "the counts differed between levels in at least one run (a model bug): only the cycle "
+                 "level can be trusted until that is fixed.";
+  }
+  out.push_back(counts);
+
+  // Cycles and DRAM bytes: the fastest level whose worst error over all resolutions is
+  // inside the tolerance; cycle itself is the reference and always qualifies.
+  std::string best = "cycle";
+  for (const char* level : {"lt", "functional"}) {
+    const FidelityPoint* p = at_largest[level];
+    if (!p) continue;
+    if (worst_cycles[level] <= r.options.fidelity_tolerance && worst_dram[level] <= r.options.fidelity_tolerance &&
+        p->rays_per_cpu_second > at_largest[best]->rays_per_cpu_second)
+      best = level;
+  }
+  Recommendation timing;
+  timing.topic = "cycles and DRAM bytes";
+  timing.setting = "fidelity " + best;
+  std::string errors;
+  for (const char* level : {"functional", "lt"})
+    errors += std::string(errors.empty() ? "" : "; ") + level + ": worst cycle error " + pct(worst_cycles[level]) +
+              ", worst DRAM error " + pct(worst_dram[level]) + ", " +
+              num(at_largest[level] ? at_largest[level]->rays_per_cpu_second : 0, 3) + " rays per CPU second";
+  timing.why = "tolerance " + pct(r.options.fidelity_tolerance, 2) + " of the cycle level (" +
+               num(cycle->rays_per_cpu_second, 3) + " rays per CPU second at " + std::to_string(largest) + "x" +
+               std::to_string(largest) + "): " + errors + ". " +
+               (best == "cycle" ? "No faster level stays inside the tolerance."
+                                : "The fastest level inside the tolerance wins; use cycle for final numbers "
+                                  "that must match the detailed model exactly.");
+  out.push_back(timing);
+}
+
+void knob_recommendations(const AccuracyReport& r, std::vector<Recommendation>& out) {
+  const double tol = r.options.tolerance;
+  // AO rays per primitive: the smallest K from which on every larger K stays within tolerance.
+  const auto ks = family(r, "ao_rays");
+  if (const KnobPoint* ref = reference_of(ks)) {
+    const KnobPoint* chosen = ref;
+    for (size_t i = ks.size(); i-- > 0;) {
+      if (!(std::fabs(ks[i]->ops_error) <= tol)) break;
+      chosen = ks[i];
+    }
+    Recommendation rec;
+    rec.topic = "AO-BVH rays per primitive (K)";
+    rec.setting = "--ao-rays " + integer(chosen->value);
+    rec.why = "from K=" + integer(chosen->value) + " on, the tree's ops/ray stays within " + pct(tol, 2) +
+              " of K=" + integer(ref->value) + " (" + num(ref->ops_per_ray) + " ops/ray; K=" +
+              integer(chosen->value) + ": " + num(chosen->ops_per_ray) + ", occlusion RMSE " +
+              num(chosen->occlusion_rmse, 3) + ") while estimating + building takes " +
+              secs(chosen->cpu_seconds) + " of CPU instead of " + secs(ref->cpu_seconds) +
+              ". The occlusion values converge as 1/sqrt(K), the tree much sooner: the SAH only needs the "
+              "weights' ranking.";
+    out.push_back(rec);
+  }
+  const auto bins = family(r, "sah_bins");
+  if (const KnobPoint* ref = reference_of(bins)) {
+    const KnobPoint* binned = nullptr;
+    for (const KnobPoint* p : bins)
+      if (!p->reference) binned = p;
+    if (binned) {
+      Recommendation rec;
+      rec.topic = "SAH split search";
+      const bool good = std::fabs(binned->ops_error) <= tol;
+      rec.setting = good ? "--bins " + integer(binned->value) : "--bins 0 (full sweep)";
+      rec.why = binned->label + ": " + num(binned->ops_per_ray) + " ops/ray (" + pct(binned->ops_error) +
+                " against the full sweep's " + num(ref->ops_per_ray) + "), SAH cost " +
+                num(binned->sah_cost) + " vs " + num(ref->sah_cost) + ", build " +
+                secs(binned->cpu_seconds) + " vs " + secs(ref->cpu_seconds) + " of CPU; " +
+                (good ? "inside the " + pct(tol, 2) + " tolerance, so binning's speed is free."
+                      : "outside the " + pct(tol, 2) + " tolerance, so the full sweep is worth its time.");
+      out.push_back(rec);
+    }
+  }
+  auto alphas = family(r, "sbvh_alpha");
+  if (const KnobPoint* ref = reference_of(alphas)) {
+    // Largest alpha (fewest splits, fastest) inside the tolerance.
+    std::sort(alphas.begin(), alphas.end(), [](const KnobPoint* a, const KnobPoint* b) { return a->value > b->value; });
+    const KnobPoint* chosen = ref;
+    for (const KnobPoint* p : alphas)
+      if (std::fabs(p->ops_error) <= tol) {
+        chosen = p;
+        break;
+      }
+    Recommendation rec;
+    rec.topic = "SBVH alpha";
+    rec.setting = "--sbvh-alpha " + alpha(chosen->value);
+    rec.why = "the largest alpha whose ops/ray is within " + pct(tol, 2) + " of alpha=" + alpha(ref->value) +
+              " (" + num(ref->ops_per_ray) + " ops/ray, " + std::to_string(ref->references) +
+              " references, build " + secs(ref->cpu_seconds) + " of CPU): " + num(chosen->ops_per_ray) +
+              " ops/ray, " + std::to_string(chosen->references) + " references, build " +
+              secs(chosen->cpu_seconds) + " of CPU.";
+    out.push_back(rec);
+  }
+}
+
+void ao_recommendations(const AccuracyReport& r, std::vector<Recommendation>& out) {
+  if (r.ao.size() < 2) return;
+  const AoSamplesPoint& ref = r.ao.back();
+  const double target = r.options.image_rmse_target;
+  const AoSamplesPoint* image_choice = nullptr;
+  for (const AoSamplesPoint& p : r.ao)
+    if (!p.reference && p.image_rmse <= target) {
+      image_choice = &p;
+      break;
+    }
+  Recommendation image;
+  image.topic = "AO rays per pixel, for pictures";
+  const AoSamplesPoint& most = r.ao[r.ao.size() - 2];
+  if (image_choice) {
+    image.setting = "--ao " + std::to_string(image_choice->samples);
+    image.why = "the fewest AO rays whose image RMSE (" + num(image_choice->image_rmse, 3) +
+                ") is at most " + num(target, 3) + " against the " + std::to_string(ref.samples) +
+                "-ray reference; the frame took " + secs(image_choice->cpu_seconds) + " of CPU vs " +
+                secs(ref.cpu_seconds) + ".";
+  } else {
+    // Monte Carlo noise falls as 1/sqrt(n): extrapolate from the largest measured count.
+    const double needed = most.samples * std::pow(most.image_rmse / target, 2.0);
+    image.setting = "--ao " + std::to_string(uint32_t(std::ceil(needed)));
+    image.why = "no measured count reached RMSE " + num(target, 3) + " (" + std::to_string(most.samples) +
+                " rays: " + num(most.image_rmse, 3) + "); 1/sqrt(n) extrapolates to about " +
+                num(needed, 3) + " rays (the nested reference makes this an underestimate near " +
+                std::to_string(ref.samples) + ").";
+  }
+  out.push_back(image);
+
+  // For the counts, what matters is whether the AO rays' ops/ray is already stable.
+  const AoSamplesPoint* counts_choice = &ref;
+  for (size_t i = r.ao.size(); i-- > 0;) {
+    if (!(std::fabs(r.ao[i].ao_ops_per_ray - ref.ao_ops_per_ray) <= r.options.tolerance * ref.ao_ops_per_ray)) break;
+    counts_choice = &r.ao[i];
+  }
+  Recommendation counts;
+  counts.topic = "AO rays per pixel, for ops/ray";
+  counts.setting = "--ao " + std::to_string(counts_choice->samples);
+  counts.why = "from " + std::to_string(counts_choice->samples) + " AO rays per pixel on, the AO rays' ops/ray (" +
+               num(counts_choice->ao_ops_per_ray) + ") stays within " + pct(r.options.tolerance, 2) +
+               " of the " + std::to_string(ref.samples) + "-ray value (" + num(ref.ao_ops_per_ray) +
+               "); more rays only cost time. The combined ops/ray mixes primary and AO rays in the ratio 1:n, "
+               "so compare it only at one AO count.";
+  out.push_back(counts);
+}
+
+void resolution_recommendation(const AccuracyReport& r, std::vector<Recommendation>& out) {
+  if (r.resolution.empty()) return;
+  double worst = 0, spread_lo = HUGE_VAL, spread_hi = -HUGE_VAL;
+  for (const ResolutionPoint& p : r.resolution)
+    if (p.resolution == r.resolution_needed) {
+      worst = std::max(worst, std::fabs(p.error));
+      spread_lo = std::min(spread_lo, p.ops_per_ray);
+      spread_hi = std::max(spread_hi, p.ops_per_ray);
+    }
+  const uint32_t highest = r.resolution.back().resolution;
+  Recommendation rec;
+  rec.topic = "rays per campaign job (resolution)";
+  rec.setting = "--res " + std::to_string(r.resolution_needed) + "x" + std::to_string(r.resolution_needed);
+  rec.why = std::to_string(r.resolution_needed) + "x" + std::to_string(r.resolution_needed) + " (" +
+            std::to_string(r.rays_needed) + " rays per frame) is the smallest resolution from which every seed (" +
+            std::to_string(r.options.seeds.size()) + " seeds) stays within " + pct(r.options.tolerance, 2) +
+            " of the " + std::to_string(highest) + "x" + std::to_string(highest) + " mean (" +
+            num(r.resolution_reference_ops) + " ops/ray); worst there " + pct(worst) +
+            ", seeds spread " + num(spread_lo) + ".." + num(spread_hi) + " ops/ray." +
+            (r.resolution_needed == highest ? " Only the highest resolution qualified: the answer is a lower bound."
+                                            : "");
+  out.push_back(rec);
+}
+
+}  // namespace
+
+std::vector<Recommendation> recommend(const AccuracyReport& report) {
+  std::vector<Recommendation> out;
+  fidelity_recommendations(report, out);
+  knob_recommendations(report, out);
+  ao_recommendations(report, out);
+  resolution_recommendation(report, out);
+  return out;
+}
+
+}  // namespace rtsim
