@@ -1,5 +1,6 @@
 // rtsim build: build one BVH (or every builder with --all) for a scene, check it,
 // print its quality report and optionally save it; --load reads a saved tree back.
+#include "build_options.h"
 #include "commands.h"
 
 #include <rtsim/builder/build.h>
@@ -170,32 +171,10 @@ void add_build_command(CLI::App& root) {
   cmd->add_flag("--all", o->all, "build every builder and print them side by side");
   cmd->add_option("--load", o->load, "load a saved tree (checked against the scene) and report it");
   cmd->add_flag("--no-epo", o->no_epo, "skip the end-point overlap (the slowest metric)");
-  BuildParams& p = o->params;
-  cmd->add_option("--t1", p.t1, "cost of one ray-node test")->capture_default_str();
-  cmd->add_option("--t2", p.t2, "cost of one ray-triangle test")->capture_default_str();
-  cmd->add_option("--max-leaf-size", p.max_leaf_size, "max triangles per leaf")->capture_default_str();
-  cmd->add_option("--max-depth", p.max_depth, "max leaf depth (root = 0)")->capture_default_str();
-  cmd->add_option("--bins", p.bins, "SAH bins (0 = full sweep)")->capture_default_str();
-  cmd->add_option("--seed", p.seed, "seed for AO rays")->capture_default_str();
-  cmd->add_option("--threads", p.threads, "threads (0 = all); never changes the tree")->capture_default_str();
-  cmd->add_option("--sbvh-alpha", p.sbvh_alpha, "sbvh: overlap threshold x root area")->capture_default_str();
-  cmd->add_option("--sbvh-budget", p.sbvh_reference_budget, "sbvh: references <= budget x N")->capture_default_str();
-  cmd->add_option("--osah-w", p.osah_w, "osah: visibility weight in mixed nodes")->capture_default_str();
-  cmd->add_option("--osah-resolution", p.osah_width, "osah: primary rays per side")->capture_default_str();
-  cmd->add_option("--ao-rays", p.ao_rays, "aobvh: AO rays per triangle (K)")->capture_default_str();
-  cmd->add_option("--ao-cutoff", p.ao_cutoff_relative,
-                  "aobvh: AO ray length x scene diagonal (< 0: the scene's setting, default 0.05)")
-      ->capture_default_str();
-  cmd->add_option("--ao-floor", p.ao_weight_floor, "aobvh: weight floor, w = floor + (1-floor) x value")
-      ->capture_default_str();
-  cmd->add_flag("--ao-both-sides", p.ao_both_sides, "aobvh: cast AO rays from both triangle sides");
-  cmd->add_option("--ao-normalise", p.ao_normalise,
-                  "aobvh: on = weights scaled to mean 1 (equal values give the SAH tree); off = the\n"
-                  "patent's literal sum of occlusion values in place of the count, same T2")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, bool>{{"on", true}, {"off", false}}))
-      ->default_str("on");
+  add_build_options(cmd, o->params);
+  cmd->add_option("--seed", o->params.seed, "same as --build-seed");
   cmd->callback([o] {
-    o->params.osah_height = o->params.osah_width;
+    finish_build_options(o->params);
     run_build(*o);
   });
 }

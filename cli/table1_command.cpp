@@ -1,4 +1,5 @@
 // rtsim table1: the patent's Table 1 on a scene's two cameras (the README's main job).
+#include "build_options.h"
 #include "commands.h"
 
 #include <rtsim/reports/table1.h>
@@ -110,11 +111,11 @@ void add_table1_command(CLI::App& root) {
       ->check(CLI::Range(1u, 256u))->capture_default_str();
   cmd->add_option("--out-dir", o->table.out_dir, "Where table1.{md,csv,json} and the pictures go")
       ->capture_default_str();
-  cmd->add_option("--ao-rays", o->table.build.ao_rays, "AO-BVH: AO rays per primitive (K)")
-      ->check(CLI::Range(1u, 4096u))->capture_default_str();
+  add_build_options(cmd, o->table.build);
   cmd->add_flag("--json", o->json, "Print table1.json to stdout instead of the text table");
   cmd->callback([o] {
     parse_resolution(o->resolution, o->table.width, o->table.height);
+    finish_build_options(o->table.build);
     o->table.cycle_level = !o->no_cycle;
     o->table.rtsim_binary = std::filesystem::read_symlink("/proc/self/exe");
     if (o->all_scenes) {
