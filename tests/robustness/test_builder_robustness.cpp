@@ -132,13 +132,11 @@ TEST(RobustBuilders, FlatAndPointScenesGiveValidTreesWithFiniteCosts) {
     }
 }
 
-// Property: a mesh with NaN, +-Inf and 1e30 vertices follows the documented load
-// policy (scene.h: triangles with a non-finite vertex are dropped and counted;
-// 1e30 is finite and kept), every builder then gives a valid tree, and rays at
-// the ordinary triangles hit exactly what the double reference hits.
-// (The 1e30 triangles themselves are never hit by the float core: its edge
-// functions multiply two ~1e30 coordinates, overflow to inf and give NaN. Noted
-// in the issue 5 report; the rays here start below the upper huge triangle.)
+// Property: a mesh with NaN, +-Inf, 1e30 and 1e17 vertices follows the
+// documented load policy (scene.h: triangles with a non-finite vertex are
+// dropped and counted, so are those beyond +-1e18; 1e17 is kept), every builder
+// then gives a valid tree, and rays at the ordinary triangles hit exactly what
+// the double reference hits.
 TEST(RobustBuilders, NonFiniteAndHugeVerticesFollowThePolicyAndTheRestStillHits) {
   Scene scene = bare_scene("poisoned");
   const float nan = kNaN, inf = kInf;
@@ -155,11 +153,16 @@ TEST(RobustBuilders, NonFiniteAndHugeVerticesFollowThePolicyAndTheRestStillHits)
     add_triangle(scene, bad, vec3(0.5f, 0.5f, 1), vec3(0.6f, 0.5f, 1));
     add_triangle(scene, vec3(0.5f, 0.5f, 1), bad, vec3(0.6f, 0.5f, 1));
   }
-  // Huge but finite: kept; their boxes' areas overflow float (1e30^2 = inf).
+  // Huge but finite, beyond the policy's range: dropped (areas overflow float, and
+  // Embree aborts on them - found by this suite).
   add_triangle(scene, vec3(1e30f, 0, 5), vec3(1e30f, 1e30f, 5), vec3(-1e30f, 0, 5));
   add_triangle(scene, vec3(0, -1e30f, -5), vec3(1e30f, 1e30f, -5), vec3(-1e30f, 1e30f, -5));
+  // Huge within the range: kept, one above and one below the rays' origins.
+  add_triangle(scene, vec3(1e17f, 0, 5), vec3(1e17f, 1e17f, 5), vec3(-1e17f, 0, 5));
+  add_triangle(scene, vec3(0, -1e17f, -5), vec3(1e17f, 1e17f, -5), vec3(-1e17f, 1e17f, -5));
   validate_scene(scene);
   EXPECT_EQ(scene.validation.dropped_non_finite, 8u);
+  EXPECT_EQ(scene.validation.dropped_out_of_range, 2u);
   EXPECT_EQ(scene.triangle_count(), good_triangles + 2);
 
   std::vector<Ray> rays;

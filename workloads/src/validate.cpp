@@ -24,10 +24,15 @@ void validate_scene(Scene& scene) {
 
   ValidationReport report;
   report.input_triangles = scene.triangles.size();
+  // Per vertex: 1 usable, 0 non-finite, 2 finite but beyond kMaxSceneCoordinate.
   std::vector<char> vertex_finite(scene.vertices.size());
   for (size_t i = 0; i < scene.vertices.size(); ++i) {
-    vertex_finite[i] = is_finite(scene.vertices[i]);
-    report.non_finite_vertices += !vertex_finite[i];
+    const vec3& v = scene.vertices[i];
+    const bool finite = is_finite(v);
+    const bool in_range = std::fabs(v.x) <= kMaxSceneCoordinate &&
+                          std::fabs(v.y) <= kMaxSceneCoordinate && std::fabs(v.z) <= kMaxSceneCoordinate;
+    vertex_finite[i] = !finite ? 0 : in_range ? 1 : 2;
+    report.non_finite_vertices += !finite;
   }
 
   size_t kept = 0;
@@ -40,6 +45,10 @@ void validate_scene(Scene& scene) {
     }
     if (!vertex_finite[t.x] || !vertex_finite[t.y] || !vertex_finite[t.z]) {
       ++report.dropped_non_finite;
+      continue;
+    }
+    if (vertex_finite[t.x] == 2 || vertex_finite[t.y] == 2 || vertex_finite[t.z] == 2) {
+      ++report.dropped_out_of_range;
       continue;
     }
     uint32_t material = scene.material_ids[i];

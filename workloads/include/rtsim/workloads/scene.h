@@ -51,12 +51,18 @@ struct AoSettings {
 };
 
 // What validation found, reported by `rtsim scenes info`. Policy: triangles with a
-// non-finite vertex or an out-of-range index are dropped; zero-area (degenerate)
-// triangles are kept and counted, because a mesh may legitimately contain them
-// and the traversal must cope with them anyway.
+// non-finite vertex or an out-of-range index are dropped; so are triangles with a
+// coordinate beyond +-kMaxSceneCoordinate (1e18): Embree, the oracle and reference
+// builder, aborts on geometry and rays past its range (1.844e18), and beyond ~1e19
+// a triangle's area overflows float. Zero-area (degenerate) triangles are kept and
+// counted, because a mesh may legitimately contain them and the traversal must
+// cope with them anyway.
+constexpr float kMaxSceneCoordinate = 1e18f;
+
 struct ValidationReport {
   uint64_t input_triangles = 0;
   uint64_t dropped_non_finite = 0;
+  uint64_t dropped_out_of_range = 0;  // finite, but a coordinate beyond kMaxSceneCoordinate
   uint64_t dropped_bad_index = 0;
   uint64_t degenerate_kept = 0;
   uint64_t non_finite_vertices = 0;
