@@ -36,7 +36,7 @@ void add_accuracy_command(CLI::App& root) {
     write_accuracy(report);
     std::fputs(accuracy_text(report).c_str(), stdout);
     std::fflush(stdout);  // before the stderr line, so a shared log reads in order
-    std::fprintf(stderr, "wrote %s/accuracy.{md,json,csv} and accuracy_tradeoffs.png\n",
+    std::fprintf(stderr, "wrote %s/accuracy.{md,json,csv}, accuracy_tradeoffs.png and accuracy_ao_images.png\n",
                  options.out_dir.string().c_str());
   });
 }

@@ -221,6 +221,31 @@ def main(out_dir):
                  % (data["scene"], data["triangles"], ", quick sizes" if data.get("quick") else ""))
     fig.tight_layout()
     save(fig, os.path.join(out_dir, "accuracy_tradeoffs.png"))
+    ao_images(out_dir, data)
+
+
+def ao_images(out_dir, data):
+    """The AO images behind the RMSE numbers, side by side (white = open)."""
+    import numpy as np
+    n = data["ao_image_resolution"]
+    pts = data.get("ao_rays_per_pixel", [])
+    images = []
+    for p in pts:
+        name = "ao_reference.f32" if p["reference"] else "ao_%d.f32" % p["samples"]
+        path = os.path.join(out_dir, "data", name)
+        if os.path.exists(path):
+            images.append((p, np.fromfile(path, dtype=np.float32).reshape(n, n)))
+    if not images:
+        return
+    fig, axes = plt.subplots(1, len(images), figsize=(2.6 * len(images), 3.0), squeeze=False)
+    for ax, (p, image) in zip(axes[0], images):
+        ax.imshow(image, cmap="gray", vmin=0, vmax=1)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        ax.set_title("%d AO rays%s" % (p["samples"], " (reference)" if p["reference"] else
+                                        "\nRMSE %.3g" % p["image_rmse"]), fontsize=9)
+    fig.suptitle("AO images on %s, %dx%d" % (data["scene"], n, n), fontsize=10)
+    save(fig, os.path.join(out_dir, "accuracy_ao_images.png"))
 
 
 if __name__ == "__main__":

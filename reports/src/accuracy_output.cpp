@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 
@@ -229,11 +230,14 @@ void write_accuracy(const AccuracyReport& r) {
   std::string md = "# What accuracy costs in time: `" + r.scene_name + "`\n\n" + setup_text(r) + "\n\n";
   md += "## Recommended settings\n\n";
   for (const Recommendation& rec : r.recommendations)
-    md += "- **" + rec.topic + "**: `" + rec.setting + "`. " + rec.why + "\n";
+    md += "- **" + rec.topic + "**: `" + rec.setting + "`. " +
+          (rec.why.empty() ? "" : std::string(1, char(std::toupper(static_cast<unsigned char>(rec.why[0]))))) +
+          (rec.why.empty() ? "" : rec.why.substr(1)) + "\n";
   md += "\n![Trade-offs](accuracy_tradeoffs.png)\n\n";
   md += "## 1. Fidelity levels\n\n" + std::string(kFidelityNote) + "\n\n" + fidelity_table(r).markdown() + "\n";
   md += "## 2. Builder knobs\n\n" + std::string(kKnobNote) + "\n\n" + knob_table(r).markdown() + "\n";
-  md += "## 3. AO rays per pixel\n\n" + std::string(kAoNote) + "\n\n" + ao_table(r).markdown() + "\n";
+  md += "## 3. AO rays per pixel\n\n" + std::string(kAoNote) + "\n\n" + ao_table(r).markdown() +
+        "\n![AO images](accuracy_ao_images.png)\n\n";
   md += "## 4. Resolution against the stability of ops/ray\n\n" + std::string(kResolutionNote) + "\n\n" +
         resolution_table(r).markdown() + "\nReference " + num(r.resolution_reference_ops, 6) +
         " ops/ray; within " + pct(r.options.tolerance) + " from " + res(r.resolution_needed) + " (" +

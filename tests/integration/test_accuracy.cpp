@@ -32,7 +32,8 @@ TEST(Accuracy, QuickRunOnCornellWritesASaneReport) {
   EXPECT_NE(r.output.find("Recommended settings"), std::string::npos) << r.output;
 
   // Every output is there, whole, and no temporary file was left behind.
-  for (const char* name : {"accuracy.md", "accuracy.json", "accuracy.csv", "accuracy_tradeoffs.png"})
+  for (const char* name :
+       {"accuracy.md", "accuracy.json", "accuracy.csv", "accuracy_tradeoffs.png", "accuracy_ao_images.png"})
     ASSERT_TRUE(std::filesystem::is_regular_file(dir / name)) << name;
   for (const auto& entry : std::filesystem::directory_iterator(dir))
     EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos) << entry.path();

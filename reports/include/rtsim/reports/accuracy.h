@@ -130,7 +130,7 @@ AccuracyReport run_accuracy(const AccuracyOptions& options);
 // Derives the recommendations from the measured numbers (run_accuracy calls it).
 std::vector<Recommendation> recommend(const AccuracyReport& report);
 
-// accuracy.md, accuracy.json, accuracy.csv and accuracy_tradeoffs.png (via
+// accuracy.md, accuracy.json, accuracy.csv, accuracy_tradeoffs.png and accuracy_ao_images.png (via
 // reports/scripts/accuracy_plots.py) in options.out_dir, each written atomically.
 void write_accuracy(const AccuracyReport& report);
 
