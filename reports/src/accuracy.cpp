@@ -5,6 +5,7 @@
 #include <rtsim/builder/memory_image.h>
 #include <rtsim/builder/metrics.h>
 #include <rtsim/model/core/functional_tracer.h>
+#include <rtsim/model/sim/config.h>
 #include <rtsim/reports/accuracy.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
@@ -191,6 +192,8 @@ class AccuracyRun {
     if (o_.seeds.empty()) throw InputError("seeds", "needs at least one seed");
     if (!(o_.tolerance > 0) || !(o_.fidelity_tolerance > 0) || !(o_.image_rmse_target > 0))
       throw InputError("tolerance", "must be > 0");
+    // Bad hardware input must fail here, naming the cause, not as a failed child run later.
+    sim::load_hardware_config(o_.hardware);
     bool known = false;
     for (const std::string& b : builder_names()) known |= b == o_.builder;
     if (!known) throw InputError("--builder", "unknown builder '" + o_.builder + "'");

@@ -119,7 +119,7 @@ TEST(Accuracy, QuickRunOnCornellWritesASaneReport) {
   std::filesystem::remove_all(dir);
 }
 
-TEST(Accuracy, BadSceneOrCameraExitsTwoAndNamesIt) {
+TEST(Accuracy, BadSceneCameraOrHardwareExitsTwoAndNamesIt) {
   const auto dir = std::filesystem::temp_directory_path() / "rtsim_accuracy_bad";
   CliResult r = run_rtsim("accuracy --quick --scene no-such-scene --out-dir " + dir.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
@@ -127,6 +127,9 @@ TEST(Accuracy, BadSceneOrCameraExitsTwoAndNamesIt) {
   r = run_rtsim("accuracy --quick --scene cornell --camera no-such-camera --out-dir " + dir.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("no-such-camera"), std::string::npos) << r.output;
+  r = run_rtsim("accuracy --quick --scene cornell --config no-such-preset --out-dir " + dir.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("no-such-preset"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir / "accuracy.json"));
   std::filesystem::remove_all(dir);
 }
