@@ -1,0 +1,12 @@
+// Ray files (read_ray_file takes a path).
+#include "fuzz_support.h"
+
+#include <rtsim/model/core/ray_file.h>
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  using namespace rtsim::fuzz;
+  const std::filesystem::path file = scratch_dir() / "fuzz.rays";
+  write_bytes(file, data, size);
+  expect_only_input_errors([&] { rtsim::read_ray_file(file); });
+  return 0;
+}
