@@ -7,6 +7,7 @@
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
 #include <rtsim/workloads/progress.h>
+#include <rtsim/workloads/scene_registry.h>
 
 #include <cstdio>
 #include <fstream>
@@ -26,7 +27,25 @@ struct CampaignArgs {
   std::string dir;
   std::string database;
   std::string binary;
+  std::string tree_cache;
+  bool no_tree_cache = false;
 };
+
+void add_tree_cache(CLI::App* cmd, CampaignArgs& a) {
+  cmd->add_option("--tree-cache", a.tree_cache,
+                  "folder of built trees shared across jobs and campaigns (default: "
+                  "<scene cache>/trees when the jobs run this rtsim)");
+  cmd->add_flag("--no-tree-cache", a.no_tree_cache, "every job builds its own tree");
+}
+
+// Trees are shared only when the job binary is known to have `build` and
+// `simulate --bvh`: this rtsim, or any binary given with an explicit --tree-cache.
+fs::path tree_cache_of(const CampaignArgs& a) {
+  if (a.no_tree_cache) return {};
+  if (!a.tree_cache.empty()) return fs::absolute(a.tree_cache);
+  if (!a.binary.empty()) return {};
+  return scene_cache_dir() / "trees";
+}
 
 void add_common(CLI::App* cmd, CampaignArgs& a) {
   cmd->add_option("file", a.file, "campaign file (.toml or .json)")->required();
@@ -79,6 +98,7 @@ void add_campaign_command(CLI::App& root) {
         "run", "run the campaign's missing jobs, one process each; resumable at any moment");
     add_common(cmd, *a);
     cmd->add_option("-j,--jobs", *parallel, "jobs at once")->check(CLI::Range(1, 1024));
+    add_tree_cache(cmd, *a);
     cmd->add_flag("--retry-failed", *retry_failed, "rerun jobs recorded as failed");
     cmd->add_flag("--force", *force, "rerun every job, even finished ones");
     cmd->add_option("--timeout", *timeout, "seconds per job before it is killed (0: none)")
@@ -93,6 +113,7 @@ void add_campaign_command(CLI::App& root) {
       o.binary = job_binary(*a);
       o.timeout_seconds = *timeout;
       o.progress = Progress::enabled();
+      o.tree_cache = tree_cache_of(*a);
       const RunSummary s = run_campaign(c, paths, o);
       ResultsStore store(paths.database);
       const CampaignStatus st = campaign_status(c, paths, store);
@@ -198,6 +219,8 @@ void add_campaign_command(CLI::App& root) {
                     "the rtsim that runs `campaign job` on the compute nodes (default: this one)");
     cmd->add_flag("--retry-failed", o->retry_failed, "also list jobs recorded as failed");
     cmd->add_flag("--all", o->all, "list every job, finished or not");
+    cmd->add_flag("--no-tree-cache", o->no_tree_cache,
+                  "tasks build their own trees (use when nodes share no cache folder)");
     cmd->add_option("--timeout", o->timeout_seconds, "seconds per job (0: none)")
         ->check(CLI::NonNegativeNumber);
     cmd->callback([=] {
@@ -254,6 +277,7 @@ void add_campaign_command(CLI::App& root) {
         "job", "run one job by key and write its result file (no database access)");
     add_common(cmd, *a);
     cmd->add_option("--key", *key, "the job key (`rtsim campaign list`)")->required();
+    add_tree_cache(cmd, *a);
     cmd->add_flag("--force", *force, "rerun even if its result file says ok");
     cmd->add_option("--timeout", *timeout, "seconds before the job is killed (0: none)")
         ->check(CLI::NonNegativeNumber);
@@ -263,7 +287,8 @@ void add_campaign_command(CLI::App& root) {
       if (!job)
         throw InputError("--key " + *key, "no job with this key in " + c.file.string() +
                                               " at revision " + c.revision);
-      const RunRecord r = run_one_job(c, *job, paths_of(c, *a), job_binary(*a), *timeout, *force);
+      const RunRecord r = run_one_job(c, *job, paths_of(c, *a), job_binary(*a), *timeout, *force,
+                                      tree_cache_of(*a));
       std::printf("%s %s %s (%.2f s)\n", r.job_key.c_str(), r.status.c_str(), r.label.c_str(),
                   r.host_seconds);
       if (r.status != "ok") throw ExitStatus(1, "job failed: " + r.error);

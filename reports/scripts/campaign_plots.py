@@ -209,10 +209,12 @@ def base_figures(base, scene, fidelity, save):
         ax.grid(axis="y", alpha=0.3)
     ax1.set_ylabel("operations per ray [ops/ray]")
     ax1.set_title("Ops per ray (TRV + IST) by ray type")
-    ax1.legend(fontsize=7)
+    if types:  # runs that report per-ray-type counts
+        ax1.legend(fontsize=7)
     ax2.set_ylabel("node fetches per ray [fetches/ray]")
     ax2.set_title("Node fetches per ray by ray type")
-    ax2.legend(fontsize=7)
+    if types:
+        ax2.legend(fontsize=7)
     save(fig, "ops_and_fetches", "Ops and node fetches per ray",
          "Left: TRV ops (one ray x one node) and IST ops (one ray-triangle test) per ray, "
          "stacked, by ray type; right: BVH node fetches issued by TRV per ray (before the "

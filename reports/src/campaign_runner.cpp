@@ -171,13 +171,43 @@ fs::path fresh_job_dir(const CampaignPaths& paths, const std::string& key) {
   return dir;
 }
 
-// A clean job directory with the job's hardware file; returns simulate's arguments.
-std::vector<std::string> prepare_job(const CampaignPaths& paths, const CampaignJob& job) {
+// What a job process executes: the binary and its arguments.
+struct JobCommand {
+  fs::path program;
+  std::vector<std::string> args;
+};
+
+// A clean job directory with the job's hardware file, and the command: `simulate`
+// directly, or with a tree cache a small shell step that builds the shared tree once
+// (under flock, so concurrent jobs wait for one build) and then execs `simulate --bvh`.
+JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, const CampaignJob& job,
+                       const fs::path& binary, const fs::path& tree_cache) {
   const fs::path dir = fresh_job_dir(paths, job.key);
-  if (job.hardware_toml.empty()) return job.simulate_arguments(dir);
-  const fs::path hardware = dir / "hardware.toml";
-  write_file_atomic(hardware, "# " + job.label + "\n" + job.hardware_toml);
-  return job.simulate_arguments(dir, hardware);
+  std::vector<std::string> args;
+  if (job.hardware_toml.empty()) {
+    args = job.simulate_arguments(dir);
+  } else {
+    const fs::path hardware = dir / "hardware.toml";
+    write_file_atomic(hardware, "# " + job.label + "\n" + job.hardware_toml);
+    args = job.simulate_arguments(dir, hardware);
+  }
+  if (tree_cache.empty()) return {binary, args};
+  const fs::path tree = cached_tree(tree_cache, campaign, job);
+  fs::create_directories(tree_cache);
+  std::string build = shell_quote(binary.string()) + " build --scene " +
+                      shell_quote(job.scene_path.empty() ? job.scene : job.scene_path.string()) +
+                      " --builder " + shell_quote(job.builder) + " --seed " +
+                      std::to_string(job.seed) + " --out \"$T\"";
+  if (!job.camera.empty()) build += " --camera " + shell_quote(job.camera);
+  std::string simulate = "exec " + shell_quote(binary.string());
+  for (const std::string& a : args) simulate += " " + shell_quote(a);
+  simulate += " --bvh \"$T\"";
+  // Inside flock: "$0" is the tree, "$@" the build command; rebuilt only if still absent.
+  const std::string script = "T=" + shell_quote(tree.string()) +
+                             "\nif [ ! -s \"$T\" ]; then\n"
+                             "  flock \"$T.lock\" sh -c '[ -s \"$0\" ] || exec \"$@\"' \"$T\" " +
+                             build + " || exit $?\nfi\n" + simulate + "\n";
+  return {"/bin/sh", {"-c", script}};
 }
 
 std::atomic<int> g_stop_signal{0};
@@ -254,8 +284,19 @@ CampaignPaths campaign_paths(const Campaign& campaign, const fs::path& dir_optio
   return p;
 }
 
+fs::path cached_tree(const fs::path& cache, const Campaign& campaign, const CampaignJob& job) {
+  json identity = {{"scene", job.scene},
+                   {"scene_file_hash", job.resolved.value("scene_file_hash", "")},
+                   {"builder", job.builder},
+                   {"camera", job.camera},
+                   {"seed", job.seed},
+                   {"revision", campaign.revision}};
+  return cache / (content_hash_hex(identity.dump()) + ".bvh");
+}
+
 RunRecord run_one_job(const Campaign& campaign, const CampaignJob& job, const CampaignPaths& paths,
-                      const fs::path& binary, double timeout_seconds, bool force) {
+                      const fs::path& binary, double timeout_seconds, bool force,
+                      const fs::path& tree_cache) {
   if (!force && fs::exists(paths.result_file(job.key))) {
     try {
       RunRecord done = RunRecord::from_json(json::parse(read_text(paths.result_file(job.key))),
@@ -265,8 +306,8 @@ RunRecord run_one_job(const Campaign& campaign, const CampaignJob& job, const Ca
       // An unreadable result file is rerun.
     }
   }
-  const std::vector<std::string> args = prepare_job(paths, job);
-  Child c = spawn(binary, args, paths.job_dir(job.key) / "log.txt");
+  const JobCommand command = prepare_job(campaign, paths, job, binary, tree_cache);
+  Child c = spawn(command.program, command.args, paths.job_dir(job.key) / "log.txt");
   int status = 0;
   bool timed_out = false;
   for (;;) {
@@ -383,8 +424,8 @@ RunSummary run_campaign(const Campaign& campaign, const CampaignPaths& paths,
     if (g_stop_signal) break;
     while (running.size() < size_t(parallel) && next < todo.size()) {
       const CampaignJob* job = todo[next++];
-      const std::vector<std::string> args = prepare_job(paths, *job);
-      Child c = spawn(binary, args, paths.job_dir(job->key) / "log.txt");
+      const JobCommand command = prepare_job(campaign, paths, *job, binary, options.tree_cache);
+      Child c = spawn(command.program, command.args, paths.job_dir(job->key) / "log.txt");
       running.emplace(c.pid, std::make_pair(job, c));
     }
     int status = 0;
@@ -532,6 +573,7 @@ std::string job_command(const Campaign& campaign, const CampaignPaths& paths,
     cmd += " --rtsim " + shell_quote(options.binary.string());
   if (options.timeout_seconds > 0)
     cmd += " --timeout " + json(options.timeout_seconds).dump();
+  if (options.no_tree_cache) cmd += " --no-tree-cache";
   return cmd;
 }
 

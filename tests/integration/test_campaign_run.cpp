@@ -209,6 +209,35 @@ TEST(CampaignRun, ReportHasEveryFigureWithCaptionAndTheFailedJobs) {
                std::exception);
 }
 
+// With the real simulator: jobs sharing a tree build it once (rtsim build --out into the
+// cache, simulate --bvh) and give byte-identical stats to jobs that build their own.
+TEST(CampaignRun, SharedTreesAreBuiltOnceAndChangeNoResult) {
+  const fs::path dir = test::fresh_folder("trees");
+  const fs::path campaign = test::write_text(
+      dir / "c.toml",
+      "[campaign]\nname = \"trees\"\n[sweep]\nscene = \"cornell\"\nbuilder = \"sah\"\n"
+      "preset = [\"mobile\", \"desktop\"]\nresolution = \"12x12\"\n"
+      "set.l2.size_bytes = [131072, 262144]\n");
+  const std::string rtsim = shell_quote(RTSIM_BINARY) + " campaign run " + shell_quote(campaign.string());
+  ASSERT_EQ(shell(rtsim + " -j 2 --dir " + shell_quote((dir / "shared").string()) +
+                  " --tree-cache " + shell_quote((dir / "cache").string()) + " >/dev/null"), 0);
+  ASSERT_EQ(shell(rtsim + " -j 2 --no-tree-cache --dir " + shell_quote((dir / "own").string()) +
+                  " >/dev/null"), 0);
+  size_t trees = 0;
+  for (const auto& e : fs::directory_iterator(dir / "cache")) trees += e.path().extension() == ".bvh";
+  EXPECT_EQ(trees, 1u);  // 4 jobs, one (scene, builder, camera, seed)
+  ResultsStore shared(dir / "shared" / "results.sqlite"), own(dir / "own" / "results.sqlite");
+  const auto a = shared.rows("trees"), b = own.rows("trees");
+  ASSERT_EQ(a.size(), 4u);
+  ASSERT_EQ(b.size(), 4u);
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i]["job_key"], b[i]["job_key"]);
+    EXPECT_EQ(a[i]["stats_json"], b[i]["stats_json"]) << a[i]["label"];
+    const json config = json::parse(a[i]["config_json"].get<std::string>());
+    EXPECT_EQ(fs::path(config["inputs"]["bvh_file"].get<std::string>()).parent_path(), dir / "cache");
+  }
+}
+
 TEST(CampaignRun, BadCampaignFileExitsWithTwoAndNamesTheKey) {
   const Fixture f = make_fixture("bad", 1);
   test::write_text(f.campaign, "[sweep]\nscene = \"interior\"\nbuilder = \"sah\"\nseeds = 3\n");

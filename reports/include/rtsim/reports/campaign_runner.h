@@ -44,7 +44,16 @@ struct RunOptions {
   double timeout_seconds = 0;  // per job, 0 = none; a job over it is killed and recorded failed
   bool progress = false;       // live one-line progress on stderr
   std::vector<std::string> only_keys;  // non-empty: run just these jobs
+  // Built trees shared by content hash across jobs and campaigns (empty: every job
+  // builds its own). A job's tree is built once by `rtsim build --out` under a file
+  // lock, then every job needing it runs `simulate --bvh`.
+  std::filesystem::path tree_cache;
 };
+
+// The tree a job replays from the cache: <cache>/<hash of scene, builder, camera, seed,
+// revision>.bvh.
+std::filesystem::path cached_tree(const std::filesystem::path& cache, const Campaign& campaign,
+                                  const CampaignJob& job);
 
 struct RunSummary {
   size_t total = 0, already_ok = 0, skipped_failed = 0, ran = 0, ok = 0, failed = 0;
@@ -62,7 +71,8 @@ RunSummary run_campaign(const Campaign& campaign, const CampaignPaths& paths,
 // Slurm or GNU parallel task on another machine). A result file that is already "ok"
 // makes this a no-op unless `force`.
 RunRecord run_one_job(const Campaign& campaign, const CampaignJob& job, const CampaignPaths& paths,
-                      const std::filesystem::path& binary, double timeout_seconds, bool force);
+                      const std::filesystem::path& binary, double timeout_seconds, bool force,
+                      const std::filesystem::path& tree_cache = {});
 
 struct CollectSummary {
   size_t files = 0, inserted = 0, replaced = 0, unchanged = 0, kept_ok = 0, stale = 0, bad = 0;
@@ -94,6 +104,7 @@ struct EmitOptions {
   bool all = false;              // list every job, finished or not
   std::vector<std::string> sbatch_options;  // extra "#SBATCH" lines, e.g. "--partition=x"
   double timeout_seconds = 0;
+  bool no_tree_cache = false;    // the tasks build their own trees
 };
 // DIR/slurm/campaign.sbatch + DIR/slurm/jobs.txt; returns the sbatch script path and
 // fills `count` with the number of array tasks (0: nothing left to run).
