@@ -1,4 +1,5 @@
 // rtsim scenes list|info|render|fetch
+#include "cli_util.h"
 #include "commands.h"
 
 #include <rtsim/workloads/error.h>
@@ -28,11 +29,7 @@ nlohmann::json scene_summary(const Scene& scene, double load_seconds) {
   j["vertices"] = scene.vertices.size();
   j["bounds"] = {{"lo", {box.lo.x, box.lo.y, box.lo.z}}, {"hi", {box.hi.x, box.hi.y, box.hi.z}}};
   j["diagonal"] = box.diagonal();
-  j["content_hash"] = [&] {
-    char buf[17];
-    std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)scene.content_hash());
-    return std::string(buf);
-  }();
+  j["content_hash"] = hex64(scene.content_hash());
   j["validation"] = {{"input_triangles", scene.validation.input_triangles},
                      {"dropped_non_finite", scene.validation.dropped_non_finite},
                      {"dropped_bad_index", scene.validation.dropped_bad_index},

@@ -3,6 +3,7 @@
 // configuration; writes DIR/config.json (resolved configuration and inputs),
 // DIR/stats.json (deterministic, hierarchical) and DIR/host.json (host time,
 // throughput, memory: kept apart so that stats.json is byte-identical across runs).
+#include "cli_util.h"
 #include "commands.h"
 
 #include <rtsim/builder/bvh_file.h>
@@ -36,46 +37,6 @@ struct SimulateOptions {
   uint64_t seed = 1;
   bool json = false;
 };
-
-uint64_t fnv1a(const void* data, size_t bytes, uint64_t h = 1469598103934665603ull) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
-  return h;
-}
-
-std::string hex(uint64_t v) {
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
-  return buf;
-}
-
-uint64_t bvh_hash(const Bvh& bvh) {
-  uint64_t h = fnv1a(bvh.prim_refs.data(), bvh.prim_refs.size() * sizeof(uint32_t));
-  for (const BvhNode& n : bvh.nodes) {
-    h = fnv1a(&n.bounds, sizeof n.bounds, h);
-    h = fnv1a(&n.index, sizeof n.index, h);
-    h = fnv1a(&n.count, sizeof n.count, h);
-  }
-  return h;
-}
-
-uint64_t file_hash(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  const std::string text = s.str();
-  return fnv1a(text.data(), text.size());
-}
-
-void parse_resolution(const std::string& text, uint32_t& w, uint32_t& h) {
-  unsigned a = 0, b = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%u%c%u%c", &a, &x, &b, &extra) != 3 || (x != 'x' && x != 'X') ||
-      a == 0 || b == 0 || a > 16384 || b > 16384)
-    throw InputError("--res", "expected WxH with 1..16384 each, got '" + text + "'");
-  w = a;
-  h = b;
-}
 
 void run_simulate(const SimulateOptions& o) {
   sim::SimulationRequest request;
@@ -111,7 +72,7 @@ void run_simulate(const SimulateOptions& o) {
       throw InputError(o.rays_in, "scene hash: the rays were made for another scene");
     if (set.rays.empty()) throw InputError(o.rays_in, "holds no rays");
     request.rays = std::move(set.rays);
-    rays_hash = file_hash(o.rays_in);
+    rays_hash = file_content_hash(o.rays_in);
   }
   // Progress: the total grows with spawned rays; primary rays x (1 + AO) is the estimate.
   const EffectPlan plan = plan_effects(scene, request.settings);
@@ -140,11 +101,11 @@ void run_simulate(const SimulateOptions& o) {
   out["inputs"] = {
       {"scene", scene.name},
       {"scene_source", scene.source},
-      {"scene_hash", hex(scene.content_hash())},
+      {"scene_hash", hex64(scene.content_hash())},
       {"triangles", scene.triangle_count()},
       {"builder", params.builder},
       {"bvh_file", o.bvh_in},
-      {"bvh_hash", hex(bvh_hash(bvh))},
+      {"bvh_hash", hex64(bvh_content_hash(bvh))},
       {"bvh_nodes", bvh.nodes.size()},
       {"camera", camera.name},
       {"resolution", {request.settings.width, request.settings.height}},
@@ -152,10 +113,10 @@ void run_simulate(const SimulateOptions& o) {
       {"ao", o.ao},
       {"max_depth", o.max_depth},
       {"config_source", o.config},
-      {"config_hash", std::filesystem::is_regular_file(o.config) ? hex(file_hash(o.config))
+      {"config_hash", std::filesystem::is_regular_file(o.config) ? hex64(file_content_hash(o.config))
                                                                   : std::string("preset")},
       {"rays_file", o.rays_in},
-      {"rays_hash", o.rays_in.empty() ? std::string() : hex(rays_hash)}};
+      {"rays_hash", o.rays_in.empty() ? std::string() : hex64(rays_hash)}};
   for (RayType t : kAllRayTypes)
     out["effects"][ray_type_name(t)] = {{"on", result.plan.on(t)},
                                         {"why", result.plan.reason[ray_type_index(t)]}};

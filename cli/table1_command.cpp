@@ -1,5 +1,6 @@
 // rtsim table1: the patent's Table 1 on a scene's two cameras (the README's main job).
 #include "build_options.h"
+#include "cli_util.h"
 #include "commands.h"
 
 #include <rtsim/reports/table1.h>
@@ -25,16 +26,6 @@ struct Table1CommandOptions {
   std::string resolution = "256x256";
   bool all_scenes = false, no_cycle = false, json = false;
 };
-
-void parse_resolution(const std::string& text, uint32_t& width, uint32_t& height) {
-  unsigned w = 0, h = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%u%c%u%c", &w, &x, &h, &extra) != 3 || x != 'x' || w == 0 ||
-      h == 0 || w > 8192 || h > 8192)
-    throw InputError("--res", "expected WxH with 1..8192 each, not '" + text + "'");
-  width = w;
-  height = h;
-}
 
 Table1 run_one(Table1Options options, bool print) {
   const Table1 table = run_table1(options);

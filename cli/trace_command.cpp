@@ -1,6 +1,7 @@
 // rtsim trace: run primary rays (and the secondary rays the scene calls for)
 // through the functional ray core; print ops/ray, fetches, bytes, cache hit
 // rates and throughput; write pictures; optionally validate against Embree.
+#include "cli_util.h"
 #include "commands.h"
 
 #include <rtsim/builder/build.h>
@@ -35,16 +36,6 @@ struct TraceOptions {
   float heat_max = 150.0f;
   bool json = false, validate = false;
 };
-
-void parse_resolution(const std::string& text, uint32_t& w, uint32_t& h) {
-  unsigned a = 0, b = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%u%c%u%c", &a, &x, &b, &extra) != 3 || (x != 'x' && x != 'X') ||
-      a == 0 || b == 0 || a > 16384 || b > 16384)
-    throw InputError("--res", "expected WxH with 1..16384 each, got '" + text + "'");
-  w = a;
-  h = b;
-}
 
 nlohmann::json totals_json(const CounterTotals& t, uint64_t all_ops) {
   return {{"rays", t.rays},

@@ -74,8 +74,10 @@ std::string format_number(double value, int digits) {
   const double magnitude = std::fabs(value);
   if (magnitude != 0.0 && (magnitude >= 1e9 || magnitude < 1e-3))
     std::snprintf(buf, sizeof buf, "%.*e", std::max(digits - 1, 0), value);
+  else if (magnitude < 1.0)
+    std::snprintf(buf, sizeof buf, "%.*g", std::max(digits, 1), value);  // 0.001234 keeps its digits
   else {
-    const int int_digits = magnitude >= 1.0 ? int(std::floor(std::log10(magnitude))) + 1 : 1;
+    const int int_digits = int(std::floor(std::log10(magnitude))) + 1;
     std::snprintf(buf, sizeof buf, "%.*f", std::max(digits - int_digits, 0), value);
   }
   return buf;

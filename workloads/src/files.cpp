@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <iterator>
 #include <stdexcept>
 #include <unistd.h>
 
@@ -37,6 +38,13 @@ void write_file_atomic(const std::filesystem::path& path,
 
 void write_file_atomic(const std::filesystem::path& path, const std::string& contents) {
   write_file_atomic(path, [&](std::ostream& out) { out.write(contents.data(), contents.size()); });
+}
+
+uint64_t file_content_hash(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path.string() + ": cannot open for reading");
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return hash_bytes(0x46494C45ull, bytes.data(), bytes.size());
 }
 
 }  // namespace rtsim

@@ -44,20 +44,6 @@ const Camera& Scene::camera(const std::string& camera_name) const {
                    "no camera named '" + camera_name + "' (cameras: " + names + ")");
 }
 
-namespace {
-uint64_t hash_bytes(uint64_t h, const void* data, size_t size) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  size_t i = 0;
-  for (; i + 8 <= size; i += 8) {
-    uint64_t w;
-    std::memcpy(&w, p + i, 8);
-    h = mix64(h ^ w);
-  }
-  uint64_t tail = 0;
-  std::memcpy(&tail, p + i, size - i);
-  return mix64(h ^ tail ^ (uint64_t(size) << 56));
-}
-}  // namespace
 
 uint64_t Scene::content_hash() const {
   uint64_t h = 0x5254'5349'4D00'0001ull;

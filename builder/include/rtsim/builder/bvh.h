@@ -25,4 +25,7 @@ struct Bvh {
   bool empty() const { return nodes.empty(); }
 };
 
+// Content hash of the tree (nodes and references): names a tree in result files.
+uint64_t bvh_content_hash(const Bvh& bvh);
+
 }  // namespace rtsim

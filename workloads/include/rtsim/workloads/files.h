@@ -1,6 +1,7 @@
 #pragma once
 // Output files are written to a temporary name and renamed into place, so a
 // crash or a kill never leaves a half-written result behind.
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <ostream>
@@ -13,5 +14,8 @@ namespace rtsim {
 void write_file_atomic(const std::filesystem::path& path,
                        const std::function<void(std::ostream&)>& write);
 void write_file_atomic(const std::filesystem::path& path, const std::string& contents);
+
+// Content hash of a file's bytes (rtsim::hash_bytes); throws std::runtime_error if unreadable.
+uint64_t file_content_hash(const std::filesystem::path& path);
 
 }  // namespace rtsim

@@ -1,0 +1,17 @@
+#include <rtsim/builder/bvh.h>
+#include <rtsim/workloads/random.h>
+
+namespace rtsim {
+
+uint64_t bvh_content_hash(const Bvh& bvh) {
+  uint64_t h = hash_bytes(0x425648ull, bvh.prim_refs.data(), bvh.prim_refs.size() * sizeof(uint32_t));
+  for (const BvhNode& n : bvh.nodes) {
+    const float box[6] = {n.bounds.lo.x, n.bounds.lo.y, n.bounds.lo.z, n.bounds.hi.x, n.bounds.hi.y, n.bounds.hi.z};
+    h = hash_bytes(h, box, sizeof box);
+    const uint32_t links[2] = {n.index, n.count};
+    h = hash_bytes(h, links, sizeof links);
+  }
+  return h;
+}
+
+}  // namespace rtsim
