@@ -48,7 +48,7 @@ const rtsim::Scene& fuzz_scene() {
 }
 }  // namespace
 
-extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+RTSIM_FUZZ_TARGET(bvh_file) {
   using namespace rtsim::fuzz;
   const std::filesystem::path file = scratch_dir() / "fuzz.bvh";
   std::vector<uint8_t> bytes(data, data + size);

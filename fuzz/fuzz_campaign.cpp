@@ -5,7 +5,7 @@
 #include <rtsim/reports/campaign.h>
 #include <rtsim/workloads/config_reader.h>
 
-extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+RTSIM_FUZZ_TARGET(campaign) {
   using namespace rtsim::fuzz;
   if (size == 0) return 0;
   const bool toml = data[0] & 1;

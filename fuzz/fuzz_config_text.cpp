@@ -4,7 +4,7 @@
 
 #include <rtsim/workloads/config_reader.h>
 
-extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+RTSIM_FUZZ_TARGET(config_text) {
   if (size == 0) return 0;
   // First byte picks the syntax, the rest is the document.
   const bool toml = data[0] & 1;

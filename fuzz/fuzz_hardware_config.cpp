@@ -3,12 +3,12 @@
 
 #include <rtsim/model/sim/config.h>
 
-extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+RTSIM_FUZZ_TARGET(hardware_config) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   rtsim::fuzz::expect_only_input_errors([&] {
-    const rtsim::HardwareConfig config = rtsim::parse_hardware_config(text, "fuzz.toml");
-    rtsim::validate(config);
-    (void)rtsim::to_json(config);
+    const rtsim::sim::HardwareConfig config = rtsim::sim::parse_hardware_config(text, "fuzz.toml");
+    rtsim::sim::validate(config);
+    (void)rtsim::sim::to_json(config);
   });
   return 0;
 }

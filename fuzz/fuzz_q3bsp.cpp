@@ -3,7 +3,7 @@
 
 #include <rtsim/workloads/mesh_loader.h>
 
-extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+RTSIM_FUZZ_TARGET(q3bsp) {
   const std::vector<uint8_t> bytes(data, data + size);
   rtsim::MeshOptions options;
   options.bsp_patch_level = 3;  // keep patch tessellation cheap per input

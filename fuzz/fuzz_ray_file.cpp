@@ -3,7 +3,7 @@
 
 #include <rtsim/model/core/ray_file.h>
 
-extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+RTSIM_FUZZ_TARGET(ray_file) {
   using namespace rtsim::fuzz;
   const std::filesystem::path file = scratch_dir() / "fuzz.rays";
   write_bytes(file, data, size);

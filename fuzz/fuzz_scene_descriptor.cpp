@@ -4,7 +4,7 @@
 
 #include <rtsim/workloads/descriptor.h>
 
-extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+RTSIM_FUZZ_TARGET(scene_descriptor) {
   using namespace rtsim::fuzz;
   if (size == 0) return 0;
   static const bool mesh_written = [] {

@@ -3,7 +3,7 @@
 
 #include <rtsim/workloads/mesh_loader.h>
 
-extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+RTSIM_FUZZ_TARGET(spm) {
   const std::vector<uint8_t> bytes(data, data + size);
   rtsim::fuzz::expect_only_input_errors([&] { rtsim::parse_spm(bytes, "fuzz.spm"); });
   return 0;

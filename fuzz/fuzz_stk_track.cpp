@@ -5,7 +5,7 @@
 
 #include <rtsim/workloads/mesh_loader.h>
 
-extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+RTSIM_FUZZ_TARGET(stk_track) {
   using namespace rtsim::fuzz;
   static const std::filesystem::path track = [] {
     const std::filesystem::path dir = scratch_dir() / "track";

@@ -46,3 +46,20 @@ void expect_only_input_errors(F&& fn) {
 }
 
 }  // namespace rtsim::fuzz
+
+// RTSIM_FUZZ_TARGET(name) { body using data, size } defines rtsim_fuzz_<name>()
+// and, unless RTSIM_FUZZ_REPLAY is defined, the libFuzzer entry point calling it.
+// tests/robustness/test_fuzz_regressions.cpp defines RTSIM_FUZZ_REPLAY and
+// includes every target, so saved inputs replay through the very same code.
+#ifdef RTSIM_FUZZ_REPLAY
+#define RTSIM_FUZZ_ENTRY(name)
+#else
+#define RTSIM_FUZZ_ENTRY(name)                                                  \
+  extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {   \
+    return rtsim_fuzz_##name(data, size);                                       \
+  }
+#endif
+#define RTSIM_FUZZ_TARGET(name)                          \
+  int rtsim_fuzz_##name(const uint8_t* data, size_t size); \
+  RTSIM_FUZZ_ENTRY(name)                                 \
+  int rtsim_fuzz_##name(const uint8_t* data, size_t size)
