@@ -85,12 +85,10 @@ void print_table(const std::string& scene, const std::vector<BvhMetrics>& all,
 void run_build(const BuildOptions& o) {
   const Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene);
   BuildParams base = o.params;
-  if (!o.camera.empty()) {
-    scene.camera(o.camera);  // throws InputError naming the cameras
-    base.camera = o.camera;
-  } else if (!scene.find_camera(base.camera) && !scene.cameras.empty()) {
-    base.camera = scene.cameras.front().name;
-  }
+  // OSAH needs a camera; the named one (InputError naming the cameras if absent) or
+  // the scene's default. A scene without cameras still builds every other tree.
+  if (!o.camera.empty()) base.camera = scene.camera(o.camera).name;
+  else if (!scene.cameras.empty()) base.camera = scene.default_camera().name;
 
   std::vector<BvhMetrics> metrics;
   std::vector<bool> valid;

@@ -51,8 +51,7 @@ void run_simulate(const SimulateOptions& o) {
   request.settings.max_depth = o.max_depth;
 
   const Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene);
-  if (scene.cameras.empty()) throw InputError("scene '" + scene.name + "'", "has no cameras");
-  const Camera& camera = o.camera.empty() ? scene.cameras.front() : scene.camera(o.camera);
+  const Camera& camera = o.camera.empty() ? scene.default_camera() : scene.camera(o.camera);
   BuildParams params;
   params.builder = o.builder;
   params.seed = o.seed;
@@ -153,7 +152,7 @@ void add_simulate_command(CLI::App& root) {
       "simulate", "Run the accelerator model (functional | lt | cycle) and write config/stats JSON");
   cmd->add_option("--scene", opts->scene, "scene name or file (default: interior)");
   cmd->add_option("--builder", opts->builder, "BVH builder")->capture_default_str();
-  cmd->add_option("--camera", opts->camera, "camera name (default: the scene's first)");
+  cmd->add_option("--camera", opts->camera, "camera name (default: view1, else the scene's first)");
   cmd->add_option("--fidelity", opts->fidelity, "functional | lt | cycle")->capture_default_str();
   cmd->add_option("--config", opts->config, "hardware preset (mobile | desktop) or TOML file")
       ->capture_default_str();

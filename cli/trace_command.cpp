@@ -75,8 +75,7 @@ void run_trace(const TraceOptions& o) {
   settings.max_depth = o.max_depth;
 
   const Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene);
-  if (scene.cameras.empty()) throw InputError("scene '" + scene.name + "'", "has no cameras");
-  const Camera& camera = o.camera.empty() ? scene.cameras.front() : scene.camera(o.camera);
+  const Camera& camera = o.camera.empty() ? scene.default_camera() : scene.camera(o.camera);
   BuildParams params;
   params.builder = o.builder;
   params.seed = o.seed;
@@ -213,7 +212,7 @@ void add_trace_command(CLI::App& root) {
       "trace", "Trace primary rays and the secondary rays the scene calls for through the functional core");
   cmd->add_option("--scene", options->scene, "scene name or file (default: the default scene)");
   cmd->add_option("--builder", options->builder, "BVH builder")->capture_default_str();
-  cmd->add_option("--camera", options->camera, "camera name (default: the scene's first)");
+  cmd->add_option("--camera", options->camera, "camera name (default: view1, else the scene's first)");
   cmd->add_option("--ao", options->ao, "AO rays per primary hit (0: off; default: the scene's)");
   cmd->add_option("--res", options->resolution, "image resolution WxH")->capture_default_str();
   cmd->add_option("--spp", options->spp, "samples per pixel")->capture_default_str();

@@ -34,3 +34,10 @@ execute_process(COMMAND git rev-parse --short=12 HEAD
 if(NOT RTSIM_GIT_REVISION)
   set(RTSIM_GIT_REVISION "unknown")
 endif()
+# Reconfigure when HEAD moves, so the revision in results (and campaign job keys)
+# follows the code rather than the last manual configure.
+foreach(git_file .git/HEAD .git/refs/heads/main .git/packed-refs)
+  if(EXISTS ${CMAKE_SOURCE_DIR}/${git_file})
+    set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/${git_file})
+  endif()
+endforeach()

@@ -45,6 +45,12 @@ const Camera& Scene::camera(const std::string& camera_name) const {
 }
 
 
+const Camera& Scene::default_camera() const {
+  if (const Camera* c = find_camera("view1")) return *c;
+  if (cameras.empty()) throw InputError("scene '" + name + "'", "has no cameras");
+  return cameras.front();
+}
+
 uint64_t Scene::content_hash() const {
   uint64_t h = 0x5254'5349'4D00'0001ull;
   h = hash_bytes(h, vertices.data(), vertices.size() * sizeof(vec3));

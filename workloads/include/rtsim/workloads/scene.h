@@ -91,6 +91,10 @@ struct Scene {
   float ao_cutoff() const { return ao.cutoff_relative * diagonal(); }
   const Camera* find_camera(const std::string& camera_name) const;
   const Camera& camera(const std::string& camera_name) const;  // throws InputError
+  // The camera a command uses when none is named: view1 if there is one, else the
+  // first; InputError if the scene has none. One rule everywhere, so that a tree
+  // built for a camera (OSAH) and the rays traced through it agree.
+  const Camera& default_camera() const;
   // A 64-bit hash of geometry and materials: keys caches and BVH files to a scene.
   uint64_t content_hash() const;
 };
