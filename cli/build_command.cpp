@@ -122,7 +122,7 @@ void run_build(const BuildOptions& o) {
       nlohmann::json j = nlohmann::json::parse(metrics_json(m));
       j["valid"] = v.ok();
       j["parameters"] = nlohmann::json::parse(build_params_json(params));
-      if (name == "aobvh") j["mean_occlusion"] = r.mean_occlusion, j["ao_rays"] = r.ao_rays;
+      if (name == "aobvh" || name == "aosbvh") j["mean_occlusion"] = r.mean_occlusion, j["ao_rays"] = r.ao_rays;
       if (name == "osah") j["visible_triangles"] = r.visible_triangles;
       if (!o.out.empty()) {
         const std::filesystem::path file =

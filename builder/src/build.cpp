@@ -78,14 +78,15 @@ void with_threads(uint32_t threads, F&& fn) {
 }  // namespace
 
 std::vector<std::string> builder_names() {
-  return {"sah", "median", "sbvh", "osah", "aobvh", "embree", "embree-sbvh"};
+  return {"sah", "median", "sbvh", "osah", "aobvh", "aosbvh", "embree", "embree-sbvh"};
 }
 
 BvhLimits limits_for(const BuildParams& params) {
   BvhLimits limits;
   limits.max_leaf_size = params.max_leaf_size;
   limits.max_depth = params.max_depth;
-  limits.split_references = params.builder == "sbvh" || params.builder == "embree-sbvh";
+  limits.split_references =
+      params.builder == "sbvh" || params.builder == "aosbvh" || params.builder == "embree-sbvh";
   // embree-sbvh fills up to ~2 x N references (its capacity); ours keeps the budget.
   limits.reference_budget = params.builder == "embree-sbvh" ? 2.0 : params.sbvh_reference_budget;
   return limits;
@@ -137,7 +138,10 @@ Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report
     bvh = detail::build_weighted_sah(scene, config, &stats);
     r.build_seconds = seconds_since(build_start);
     copy_stats(stats, &r);
-  } else if (name == "aobvh") {
+  } else if (name == "aobvh" || name == "aosbvh") {
+    // aosbvh: the same occlusion weights with SBVH's spatial splits, to ask whether
+    // the two reductions add up (the patent compares them, it does not combine them).
+    config.spatial_splits = name == "aosbvh";
     const auto start = std::chrono::steady_clock::now();
     std::vector<float> values;
     if (!params.occlusion_values.empty()) {

@@ -88,7 +88,7 @@ std::string build_params_json(const BuildParams& p) {
   j["max_depth"] = p.max_depth;
   j["bins"] = p.bins;
   j["seed"] = p.seed;
-  if (p.builder == "sbvh") {
+  if (p.builder == "sbvh" || p.builder == "aosbvh") {
     j["sbvh_alpha"] = p.sbvh_alpha;
     j["sbvh_reference_budget"] = p.sbvh_reference_budget;
     j["sbvh_split_limit"] = p.sbvh_split_limit;
@@ -99,7 +99,7 @@ std::string build_params_json(const BuildParams& p) {
     j["osah_width"] = p.osah_width;
     j["osah_height"] = p.osah_height;
   }
-  if (p.builder == "aobvh") {
+  if (p.builder == "aobvh" || p.builder == "aosbvh") {
     j["ao_rays"] = p.ao_rays;
     j["ao_cutoff_relative"] = p.ao_cutoff_relative;
     j["ao_weight_floor"] = p.ao_weight_floor;

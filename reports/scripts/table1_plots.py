@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 NAMES = {"median": "BVH (median)", "sah": "BVH (SAH)", "sbvh": "SBVH", "osah": "OSAH",
-         "aobvh": "AO-BVH"}
+         "aobvh": "AO-BVH", "aosbvh": "AO-SBVH"}
 
 
 def save(fig, path):

@@ -166,6 +166,7 @@ const char* display(const std::string& builder) {
   if (builder == "sbvh") return "SBVH";
   if (builder == "osah") return "OSAH";
   if (builder == "aobvh") return "AO-BVH";
+  if (builder == "aosbvh") return "AO-SBVH";
   return builder.c_str();
 }
 

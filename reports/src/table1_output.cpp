@@ -27,6 +27,7 @@ const char* display_name(const std::string& builder) {
   if (builder == "sbvh") return "SBVH";
   if (builder == "osah") return "OSAH";
   if (builder == "aobvh") return "AO-BVH";
+  if (builder == "aosbvh") return "AO-SBVH (ours)";
   return builder.c_str();
 }
 

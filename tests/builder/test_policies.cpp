@@ -74,6 +74,27 @@ TEST(Policies, EqualOcclusionValuesGiveExactlyTheSahTree) {
   }
 }
 
+TEST(Policies, EqualOcclusionValuesGiveExactlyTheSbvhTreeWithSpatialSplits) {
+  // aosbvh = the AO-BVH weights on the SBVH policy: equal weights must reduce it to sbvh.
+  const Scene scene = test::triangle_soup(20000, 9, 0.1f);
+  const Bvh sbvh = build(scene, "sbvh");
+  for (float value : {0.0f, 0.37f, 1.0f}) {
+    BuildParams p;
+    p.builder = "aosbvh";
+    p.occlusion_values.assign(scene.triangle_count(), value);
+    EXPECT_TRUE(same_tree(build_bvh(scene, p), sbvh)) << "value " << value;
+  }
+  // Unequal values change it, and it stays within the SBVH reference budget.
+  BuildParams p;
+  p.builder = "aosbvh";
+  p.occlusion_values.resize(scene.triangle_count());
+  for (size_t i = 0; i < p.occlusion_values.size(); ++i)
+    p.occlusion_values[i] = scene.triangle_bounds(uint32_t(i)).centre().x < 0.3f ? 0.0f : 1.0f;
+  const Bvh weighted = build_bvh(scene, p);
+  EXPECT_FALSE(same_tree(weighted, sbvh));
+  expect_valid(weighted, scene, p);
+}
+
 TEST(Policies, UniformVisibilityGivesExactlyTheSahTree) {
   const Scene scene = test::triangle_soup(20000, 9, 0.1f);
   const Bvh sah = build(scene, "sah");

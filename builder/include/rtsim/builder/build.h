@@ -11,7 +11,7 @@
 namespace rtsim {
 
 struct BuildParams {
-  std::string builder = "sah";  // sah | median | sbvh | osah | aobvh | embree | embree-sbvh
+  std::string builder = "sah";  // sah | median | sbvh | osah | aobvh | aosbvh | embree | embree-sbvh
   float t1 = 1.0f;              // cost of one ray-node test
   float t2 = 1.0f;              // cost of one ray-triangle test
   uint32_t max_leaf_size = 4;   // must fit the hardware leaf count field
