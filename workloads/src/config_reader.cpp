@@ -51,7 +51,9 @@ nlohmann::json parse_config_text(const std::string& text, const std::string& fil
   }
   try {
     return nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {
+    // parse_error, and out_of_range for a number too large for a double (found by
+    // fuzzing: it escaped as a non-InputError).
     throw InputError(file_name, std::string("JSON syntax error: ") + e.what());
   }
 }
