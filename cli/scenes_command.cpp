@@ -33,6 +33,7 @@ nlohmann::json scene_summary(const Scene& scene, double load_seconds) {
   j["validation"] = {{"input_triangles", scene.validation.input_triangles},
                      {"dropped_non_finite", scene.validation.dropped_non_finite},
                      {"dropped_bad_index", scene.validation.dropped_bad_index},
+                     {"dropped_out_of_range", scene.validation.dropped_out_of_range},
                      {"degenerate_kept", scene.validation.degenerate_kept},
                      {"non_finite_vertices", scene.validation.non_finite_vertices}};
   for (const Material& m : scene.materials)
@@ -66,10 +67,11 @@ void print_summary(const nlohmann::json& j) {
               j["vertices"].get<unsigned long long>());
   const auto& v = j["validation"];
   std::printf("validation   input %llu, dropped non-finite %llu, dropped bad index %llu, "
-              "degenerate kept %llu\n",
+              "dropped beyond 1e18 %llu, degenerate kept %llu\n",
               v["input_triangles"].get<unsigned long long>(),
               v["dropped_non_finite"].get<unsigned long long>(),
               v["dropped_bad_index"].get<unsigned long long>(),
+              v["dropped_out_of_range"].get<unsigned long long>(),
               v["degenerate_kept"].get<unsigned long long>());
   std::printf("bounds       %s (diagonal %.4g)\n", j["bounds"].dump().c_str(),
               j["diagonal"].get<double>());
