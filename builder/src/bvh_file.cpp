@@ -17,18 +17,8 @@ constexpr char kMagic[8] = {'R', 'T', 'S', 'I', 'M', 'B', 'V', 'H'};
 constexpr size_t kNodeBytes = 32;
 constexpr uint32_t kMaxTextBytes = 1u << 20;
 
-uint64_t checksum(const char* data, size_t size) {
-  uint64_t h = 0x4256'4846'494C'4531ull;
-  size_t i = 0;
-  for (; i + 8 <= size; i += 8) {
-    uint64_t w;
-    std::memcpy(&w, data + i, 8);
-    h = mix64(h ^ w);
-  }
-  uint64_t tail = 0;
-  std::memcpy(&tail, data + i, size - i);
-  return mix64(h ^ tail ^ (uint64_t(size) << 40));
-}
+// The file's checksum: the shared content hash over every byte before it.
+uint64_t checksum(const char* data, size_t size) { return hash_bytes(0x4256'4846'494C'4531ull, data, size); }
 
 template <class T>
 void put(std::string& out, const T& value) {
