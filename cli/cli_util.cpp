@@ -1,6 +1,8 @@
 #include "cli_util.h"
 
+#include <rtsim/builder/bvh_file.h>
 #include <rtsim/workloads/error.h>
+#include <rtsim/workloads/scene_registry.h>
 
 #include <cstdio>
 
@@ -21,6 +23,26 @@ std::string hex64(uint64_t value) {
   char buf[17];
   std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(value));
   return buf;
+}
+
+void load_workload(Workload& out, const std::string& scene, const std::string& camera,
+                   const std::string& builder, uint64_t seed, const std::string& bvh_file) {
+  out.scene = load_scene(scene.empty() ? default_scene_name() : scene);
+  out.camera = camera.empty() ? &out.scene.default_camera() : &out.scene.camera(camera);
+  out.params = BuildParams{};
+  out.params.builder = builder;
+  out.params.seed = seed;
+  out.params.camera = out.camera->name;
+  out.report = BuildReport{};
+  if (bvh_file.empty()) {
+    out.bvh = build_bvh(out.scene, out.params, &out.report);
+  } else {
+    // A saved tree (rtsim build --out) is replayed as it is, so that campaign and
+    // table1 runs use exactly the tree that was measured.
+    BvhFileHeader header;
+    out.bvh = load_bvh(bvh_file, &out.scene, &header);
+    out.params.builder = header.builder;
+  }
 }
 
 }  // namespace rtsim::cli

@@ -50,17 +50,12 @@ void run_simulate(const SimulateOptions& o) {
   request.settings.seed = o.seed;
   request.settings.max_depth = o.max_depth;
 
-  const Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene);
-  const Camera& camera = o.camera.empty() ? scene.default_camera() : scene.camera(o.camera);
-  BuildParams params;
-  params.builder = o.builder;
-  params.seed = o.seed;
-  params.camera = camera.name;
-  // A saved tree (rtsim build --out) is replayed as it is, so that runs of a campaign
-  // or of table1 simulate exactly the tree that was measured; it must belong to the scene.
-  BvhFileHeader bvh_header;
-  const Bvh bvh = o.bvh_in.empty() ? build_bvh(scene, params) : load_bvh(o.bvh_in, &scene, &bvh_header);
-  if (!o.bvh_in.empty()) params.builder = bvh_header.builder;
+  Workload workload;
+  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in);
+  const Scene& scene = workload.scene;
+  const Camera& camera = *workload.camera;
+  const BuildParams& params = workload.params;
+  const Bvh& bvh = workload.bvh;
   request.scene = &scene;
   request.bvh = &bvh;
   request.camera = &camera;

@@ -28,7 +28,7 @@ namespace rtsim::cli {
 namespace {
 
 struct TraceOptions {
-  std::string scene, builder = "sah", camera, resolution = "256x256", out_dir, rays_in, rays_out;
+  std::string scene, builder = "sah", camera, resolution = "256x256", out_dir, rays_in, rays_out, bvh_in;
   std::string node_layout = "wide";
   int ao = -1;
   uint32_t spp = 1, threads = 0, max_depth = 2, stack_limit = 128;
@@ -74,14 +74,12 @@ void run_trace(const TraceOptions& o) {
   settings.ao_samples = o.ao;
   settings.max_depth = o.max_depth;
 
-  const Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene);
-  const Camera& camera = o.camera.empty() ? scene.default_camera() : scene.camera(o.camera);
-  BuildParams params;
-  params.builder = o.builder;
-  params.seed = o.seed;
-  params.camera = camera.name;
-  BuildReport build_report;
-  const Bvh bvh = build_bvh(scene, params, &build_report);
+  Workload workload;
+  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in);
+  const Scene& scene = workload.scene;
+  const Camera& camera = *workload.camera;
+  const Bvh& bvh = workload.bvh;
+  const BuildReport& build_report = workload.report;
   MemoryLayoutConfig layout;
   layout.node_layout = o.node_layout == "wide" ? NodeLayout::Bvh2Wide64 : NodeLayout::SingleBox32;
   const MemoryImage image(bvh, scene.triangle_count(), layout);
@@ -104,7 +102,7 @@ void run_trace(const TraceOptions& o) {
   nlohmann::json j;
   j["scene"] = scene.name;
   j["triangles"] = scene.triangle_count();
-  j["builder"] = o.builder;
+  j["builder"] = workload.params.builder;
   j["camera"] = camera.name;
   j["resolution"] = {settings.width, settings.height};
   j["spp"] = settings.spp;
@@ -160,7 +158,7 @@ void run_trace(const TraceOptions& o) {
     std::cout << j.dump(2) << "\n";
   } else {
     std::printf("scene %s (%zu triangles), builder %s (%zu nodes), camera %s, %ux%u x %u spp, %s nodes (%u B)\n",
-                scene.name.c_str(), scene.triangle_count(), o.builder.c_str(), bvh.nodes.size(),
+                scene.name.c_str(), scene.triangle_count(), workload.params.builder.c_str(), bvh.nodes.size(),
                 camera.name.c_str(), settings.width, settings.height, settings.spp,
                 o.node_layout.c_str(), image.node_bytes());
     std::printf("\n%-11s %9s %9s %8s %8s %8s %9s %9s %9s %7s\n", "ray type", "rays", "ops/ray",
@@ -227,6 +225,7 @@ void add_trace_command(CLI::App& root) {
   cmd->add_option("--out-dir", options->out_dir, "write ops_heatmap.png, ao.png, shaded.png here");
   cmd->add_option("--rays-out", options->rays_out, "write every traced ray to this ray file");
   cmd->add_option("--rays-in", options->rays_in, "replay the rays of this ray file instead of a camera");
+  cmd->add_option("--bvh", options->bvh_in, "trace this saved tree (rtsim build --out) instead of building one");
   cmd->add_flag("--json", options->json, "print JSON");
   cmd->add_flag("--validate", options->validate, "trace every ray with Embree too; exit 1 on any disagreement");
   cmd->callback([options] { run_trace(*options); });
