@@ -6,6 +6,7 @@
 #include <rtsim/builder/metrics.h>
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
+#include <rtsim/reports/child_process.h>
 #include <rtsim/reports/accuracy.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
@@ -62,26 +63,10 @@ double relative(double value, double reference) {
   return reference != 0 ? (value - reference) / reference : (value == 0 ? 0.0 : HUGE_VAL);
 }
 
-std::string shell_quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
 nlohmann::json read_json(const std::filesystem::path& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path.string() + ": missing after the run");
   return nlohmann::json::parse(in);
-}
-
-// stats.json / host.json leaves are {"value", "unit", "description"} objects.
-double stat_value(const nlohmann::json& stats, std::initializer_list<const char*> path) {
-  const nlohmann::json* node = &stats;
-  for (const char* key : path) {
-    if (!node->is_object() || !node->contains(key)) return -1;
-    node = &(*node)[key];
-  }
-  return node->is_object() && node->contains("value") ? (*node)["value"].get<double>() : -1;
 }
 
 EffectSettings frame_settings(uint32_t resolution, uint64_t seed, int ao_samples) {

@@ -246,12 +246,6 @@ class CampaignLock {
 
 }  // namespace
 
-std::string shell_quote(const std::string& word) {
-  std::string out = "'";
-  for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
 fs::path self_executable() { return fs::read_symlink("/proc/self/exe"); }
 
 std::string binary_revision(const fs::path& binary) {

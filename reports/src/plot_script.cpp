@@ -1,17 +1,10 @@
+#include <rtsim/reports/child_process.h>
 #include <rtsim/reports/plot_script.h>
 
 #include <cstdlib>
 #include <stdexcept>
 
 namespace rtsim {
-
-namespace {
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-}  // namespace
 
 std::filesystem::path plot_scripts_dir() {
   if (const char* dir = std::getenv("RTSIM_SCRIPTS_DIR"); dir && *dir) return dir;
@@ -24,8 +17,8 @@ std::string plot_python() {
 }
 
 void run_plot_script(const std::string& script, const std::vector<std::string>& args) {
-  std::string command = quote(plot_python()) + " " + quote((plot_scripts_dir() / script).string());
-  for (const std::string& a : args) command += " " + quote(a);
+  std::string command = shell_quote(plot_python()) + " " + shell_quote((plot_scripts_dir() / script).string());
+  for (const std::string& a : args) command += " " + shell_quote(a);
   if (std::system(command.c_str()) != 0)
     throw std::runtime_error("drawing the pictures failed (" + command +
                              "); is python3-matplotlib installed? Tables written before stay valid.");

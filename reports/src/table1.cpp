@@ -2,6 +2,7 @@
 #include <rtsim/builder/memory_image.h>
 #include <rtsim/builder/metrics.h>
 #include <rtsim/model/core/functional_tracer.h>
+#include <rtsim/reports/child_process.h>
 #include <rtsim/reports/table1.h>
 #include <rtsim/reports/text_table.h>
 #include <rtsim/workloads/error.h>
@@ -55,21 +56,6 @@ Table1Counts counts_of(const CounterTotals& t) {
 // OSAH trees depend on the camera; the others are built once per scene.
 std::string tree_key(const std::string& builder, const std::string& camera) {
   return builder == "osah" ? builder + "-" + camera : builder;
-}
-
-std::string shell_quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-double stat_value(const nlohmann::json& stats, std::initializer_list<const char*> path) {
-  const nlohmann::json* node = &stats;
-  for (const char* key : path) {
-    if (!node->is_object() || !node->contains(key)) return -1;
-    node = &(*node)[key];
-  }
-  return node->is_object() && node->contains("value") ? (*node)["value"].get<double>() : -1;
 }
 
 double dram_bytes_of_type(const nlohmann::json& stats, const char* type) {

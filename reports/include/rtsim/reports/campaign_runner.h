@@ -5,6 +5,7 @@
 // store, so a runner killed at any moment (kill -9 included) resumes by running only
 // the jobs with neither. The same per-job result files are what Slurm array tasks and
 // GNU parallel jobs write; `collect` merges them into the store idempotently.
+#include <rtsim/reports/child_process.h>
 #include <rtsim/reports/campaign.h>
 #include <rtsim/reports/results_store.h>
 
@@ -116,7 +117,5 @@ std::filesystem::path emit_parallel(const Campaign& campaign, const CampaignPath
                                     const ResultsStore& store, const EmitOptions& options,
                                     size_t& count);
 
-// Single-quotes a word for a POSIX shell.
-std::string shell_quote(const std::string& word);
 
 }  // namespace rtsim
