@@ -272,20 +272,15 @@ bool core_verdict(const vec3& o, const vec3& d, const vec3& a, const vec3& b, co
 // A ray lying exactly in the plane of its triangle (inputs dyadic with few bits,
 // so "in the plane" holds exactly in float): the double reference's determinant
 // is exactly 0, i.e. no hit.
-// Property, axis-aligned plane (the shear d[kx]/d[kz] is exact): the core gives
-// the double verdict, no hit, for every ray.
-// Tilted plane x + y + z = 1: the shear d[kx]/d[kz] (e.g. -1/9) is rounded, so
-// the sheared triangle is no longer exactly flat and the core may report a
-// "contact" although the double determinant is 0 - at a point up to ~2e-3 off
-// the triangle (measured; t = scaled_t / det with a det made of rounding error).
-// NOT fixed (see the issue 5 note): the property asserted here is only that such
-// results are finite (no NaN, no infinite t); the count and the largest distance
-// off the triangle are recorded as test properties.
-TEST(RobustIntersection, RayInTheTrianglePlaneGivesTheDoubleVerdictWhereTheShearIsExact) {
+// Property: the core gives the double verdict, no hit, for every ray, both in
+// an axis-aligned plane (where the shear d[kx]/d[kz] is exact) and in the tilted
+// plane x + y + z = 1, where the shear (e.g. -1/9) is rounded and the float
+// edge functions are pure rounding error: they fall within their error bounds,
+// so the core decides in double.
+TEST(RobustIntersection, RayInTheTrianglePlaneGivesTheDoubleVerdict) {
   const vec3 tilted[3] = {vec3(1, 0, 0), vec3(0, 1, 0), vec3(0, 0, 1)};
   const vec3 flat[3] = {vec3(0, 0, 0.5f), vec3(2, 0, 0.5f), vec3(0, 2, 0.5f)};
-  uint64_t cases = 0, tilted_contacts = 0;
-  double largest_off_triangle = 0.0;
+  uint64_t cases = 0;
   for (uint32_t i = 0; i < 4000; ++i) {
     KeyedRng rng(71, {i});
     auto dyadic = [&] { return float(int(rng.next_u64() % 33) - 16) / 8.0f; };  // k/8 in [-2, 2]
@@ -293,58 +288,84 @@ TEST(RobustIntersection, RayInTheTrianglePlaneGivesTheDoubleVerdictWhereTheShear
     if (p == 0.0f && q == 0.0f) continue;
     // Axis-aligned plane z = 0.5, with signed zero z components.
     const vec3 o2(oa, ob, 0.5f), d2(p, q, (i % 2) ? 0.0f : -0.0f);
-    const bool ref2 = reference_intersect(o2, d2, flat[0], flat[1], flat[2]).hit;
-    EXPECT_FALSE(ref2);
-    EXPECT_EQ(core_verdict(o2, d2, flat[0], flat[1], flat[2]), ref2) << i;
+    ASSERT_FALSE(reference_intersect(o2, d2, flat[0], flat[1], flat[2]).hit);
+    EXPECT_FALSE(core_verdict(o2, d2, flat[0], flat[1], flat[2])) << "flat " << i;
     // Tilted: o and d satisfy x + y + z = 1 and dx + dy + dz = 0 exactly.
     const vec3 o1(oa, ob, 1.0f - oa - ob), d1(p, q, -p - q);
-    EXPECT_FALSE(reference_intersect(o1, d1, tilted[0], tilted[1], tilted[2]).hit);
-    TriangleHit th;
-    if (intersect_triangle(RayTrianglePrecompute(o1, d1), tilted[0], tilted[1], tilted[2], 0.0f, kInf, &th)) {
-      ++tilted_contacts;
-      ASSERT_TRUE(std::isfinite(th.t) && std::isfinite(th.u) && std::isfinite(th.v)) << i;
-      const dvec3 hit_point = dvec3(o1) + double(th.t) * dvec3(d1);
-      // The hit point's coordinates are its barycentrics for this triangle.
-      const double off = std::max({-hit_point.x, -hit_point.y, -hit_point.z, 0.0});
-      largest_off_triangle = std::max(largest_off_triangle, off);
-    }
+    ASSERT_FALSE(reference_intersect(o1, d1, tilted[0], tilted[1], tilted[2]).hit);
+    EXPECT_FALSE(core_verdict(o1, d1, tilted[0], tilted[1], tilted[2]))
+        << "tilted " << i << ": o " << o1.x << "," << o1.y << "," << o1.z << " d " << d1.x << ","
+        << d1.y << "," << d1.z;
     cases += 2;
   }
   EXPECT_GT(cases, 7000u);
-  RecordProperty("tilted_in_plane_contacts", int(tilted_contacts));
-  RecordProperty("tilted_largest_off_triangle", std::to_string(largest_off_triangle));
 }
 
-// Property: rays grazing a triangle at 0.5 degrees give the double verdict
-// wherever the aim point is at least 1e-3 of the triangle (in barycentrics) away
-// from an edge - inside or outside. (Closer to an edge, float rounding of the
-// shear may decide either way; watertightness, not exactness, is promised there.)
+// Rays in the plane of randomly oriented triangles, up to float rounding: the
+// origin and direction are rounded from points and vectors of the plane, so the
+// double determinant is tiny but rarely zero, and the verdict is decided by a
+// few ulps (hits and misses both occur).
+// Property: the core's verdict equals the double reference's on every ray.
+TEST(RobustIntersection, RaysAlmostInTheTrianglePlaneGiveTheDoubleVerdict) {
+  uint64_t hits = 0, misses = 0;
+  for (uint32_t i = 0; i < 20000; ++i) {
+    KeyedRng rng(73, {i});
+    const vec3 centre = (vec3(rng.next_float(), rng.next_float(), rng.next_float()) - 0.5f) * 50.0f;
+    const vec3 e1 = random_unit(rng), n = glm::normalize(glm::cross(e1, random_unit(rng)));
+    const vec3 e2 = glm::normalize(glm::cross(n, e1));
+    const float size = 0.5f + 2.0f * rng.next_float();
+    const vec3 a = centre, b = centre + size * e1, c = centre + size * (0.3f * e1 + e2);
+    // Aim at a point of the triangle's plane (inside or outside) from another.
+    const float b1 = 1.6f * rng.next_float() - 0.3f, b2 = 1.6f * rng.next_float() - 0.3f;
+    const vec3 target = a + b1 * (b - a) + b2 * (c - a);
+    const float phi = 6.2831853f * rng.next_float();
+    const vec3 d = std::cos(phi) * e1 + std::sin(phi) * e2;
+    const vec3 o = target - (1.0f + 5.0f * rng.next_float()) * d;
+    const bool ref = reference_intersect(o, d, a, b, c).hit;
+    EXPECT_EQ(core_verdict(o, d, a, b, c), ref) << "case " << i;
+    (ref ? hits : misses) += 1;
+  }
+  EXPECT_GT(hits, 100u);
+  EXPECT_GT(misses, 1000u);
+  RecordProperty("almost_in_plane_hits", int(hits));
+}
+
+// Property: rays grazing a triangle at 0.5 degrees give the double verdict,
+// inside or outside, also where the aim point lies within 1e-6 (in
+// barycentrics) of an edge, where the float edge function alone may round
+// either way.
 TEST(RobustIntersection, GrazingRaysAtHalfADegreeGiveTheDoubleVerdict) {
   const float grazing = 0.5f * 3.14159265f / 180.0f;
   uint64_t hits = 0, misses = 0;
-  for (uint32_t i = 0; i < 20000; ++i) {
+  for (uint32_t i = 0; i < 40000; ++i) {
     KeyedRng rng(81, {i});
     const vec3 centre = (vec3(rng.next_float(), rng.next_float(), rng.next_float()) - 0.5f) * 20.0f;
     const vec3 e1 = random_unit(rng), n = glm::normalize(glm::cross(e1, random_unit(rng)));
     const vec3 e2 = glm::normalize(glm::cross(n, e1));
     const float size = 0.5f + 2.0f * rng.next_float();
     const vec3 a = centre, b = centre + size * e1, c = centre + size * (0.3f * e1 + e2);
-    // Aim point by barycentrics in [-0.3, 1.3]; skip those within 1e-3 of an edge line.
-    const float b1 = 1.6f * rng.next_float() - 0.3f, b2 = 1.6f * rng.next_float() - 0.3f;
-    const float b0 = 1.0f - b1 - b2;
-    if (std::fabs(b0) < 1e-3f || std::fabs(b1) < 1e-3f || std::fabs(b2) < 1e-3f) continue;
+    // Aim point by barycentrics in [-0.3, 1.3]; every other case within 1e-6 of an edge line.
+    float b1 = 1.6f * rng.next_float() - 0.3f, b2 = 1.6f * rng.next_float() - 0.3f;
+    if (i % 2) {
+      const float near_edge = 2e-6f * rng.next_float() - 1e-6f;
+      switch (rng.next_u64() % 3) {
+        case 0: b1 = near_edge; break;
+        case 1: b2 = near_edge; break;
+        default: b2 = 1.0f - b1 - near_edge; break;
+      }
+    }
     const vec3 target = a + b1 * (b - a) + b2 * (c - a);
     // Direction: 0.5 degrees out of the plane, random azimuth in it.
     const float phi = 6.2831853f * rng.next_float();
     const vec3 in_plane = std::cos(phi) * e1 + std::sin(phi) * e2;
-    const vec3 d = std::cos(grazing) * in_plane - std::sin(grazing) * n * ((i % 2) ? 1.0f : -1.0f);
+    const vec3 d = std::cos(grazing) * in_plane - std::sin(grazing) * n * ((i % 4 < 2) ? 1.0f : -1.0f);
     const vec3 o = target - (1.0f + 5.0f * rng.next_float()) * d;
     const bool ref = reference_intersect(o, d, a, b, c).hit;
     EXPECT_EQ(core_verdict(o, d, a, b, c), ref) << "case " << i;
     (ref ? hits : misses) += 1;
   }
-  EXPECT_GT(hits, 1000u);
-  EXPECT_GT(misses, 1000u);
+  EXPECT_GT(hits, 2000u);
+  EXPECT_GT(misses, 2000u);
 }
 
 // Property: rays through vertices and edge points, where the float edge

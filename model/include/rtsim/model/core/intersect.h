@@ -61,11 +61,12 @@ inline bool intersect_box(const RayBoxPrecompute& r, const Aabb& box, float tmin
 // permuted so its dominant axis is z, then sheared onto +z.
 struct RayTrianglePrecompute {
   vec3 origin{0.0f};
+  vec3 direction{0.0f, 0.0f, 1.0f};
   int kx = 0, ky = 1, kz = 2;
   float shear_x = 0.0f, shear_y = 0.0f, shear_z = 1.0f;
 
   RayTrianglePrecompute() = default;
-  RayTrianglePrecompute(const vec3& o, const vec3& d) : origin(o) {
+  RayTrianglePrecompute(const vec3& o, const vec3& d) : origin(o), direction(d) {
     const vec3 ad = glm::abs(d);
     kz = (ad.x > ad.y) ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
     kx = (kz + 1) % 3;
@@ -81,38 +82,98 @@ struct TriangleHit {
   float t, u, v;  // u, v: weights of v1, v2 (Embree's convention)
 };
 
+namespace triangle_detail {
+
+// A vertex in the ray's sheared 2D frame (origin at the ray), with the
+// magnitudes of the terms that formed each coordinate, for error bounds.
+struct ShearedVertex {
+  const vec3* vertex;
+  vec3 p;      // vertex - origin, rounded to float
+  float x, y;  // sheared coordinates
+  float mx, my;
+};
+
+inline ShearedVertex shear(const RayTrianglePrecompute& r, const vec3& vertex) {
+  const vec3 p = vertex - r.origin;
+  const float sx = r.shear_x * p[r.kz], sy = r.shear_y * p[r.kz];
+  return {&vertex, p, p[r.kx] - sx, p[r.ky] - sy, std::fabs(p[r.kx]) + std::fabs(sx),
+          std::fabs(p[r.ky]) + std::fabs(sy)};
+}
+
+// The edge function of the directed edge (p, q): its sign says on which side of
+// the edge the ray passes. The float value stands when its sign is certain,
+// i.e. |value| exceeds a bound on its rounding error (the difference from the
+// origin, the rounded shear, the products and their difference: gamma(14) by
+// pbrt's rules, taken as gamma(18) so that rounding in the bound itself cannot
+// undercut it). Otherwise it is recomputed in double from the unsheared
+// vectors as det[p - o, q - o, d] / |d_kz|, which the sheared value equals in
+// exact arithmetic; so a ray in or near the triangle's plane, or through an
+// edge, gets the double verdict instead of a sign made of rounding error.
+// Watertightness needs a shared edge to get one sign (negated) from both of its
+// triangles: every input here belongs to the edge alone, each expression is
+// exactly antisymmetric in (p, q) under IEEE rounding, and the bound symmetric.
+[[gnu::noinline, gnu::cold]] inline float edge_function_in_double(const RayTrianglePrecompute& r,
+                                                                  const vec3& p, const vec3& q) {
+  const dvec3 o(r.origin);
+  const double triple = glm::dot(glm::cross(dvec3(p) - o, dvec3(q) - o), dvec3(r.direction));
+  return float(triple / std::fabs(double(r.direction[r.kz])));
+}
+
+inline float edge_function(const RayTrianglePrecompute& r, const ShearedVertex& p,
+                           const ShearedVertex& q, float* bound) {
+  const float value = p.x * q.y - p.y * q.x;
+  *bound = float_gamma(18) * (p.mx * q.my + p.my * q.mx);
+  if (std::fabs(value) > *bound) return value;
+  return edge_function_in_double(r, *p.vertex, *q.vertex);
+}
+
+// The distance to the triangle's plane, computed in double; false when the ray
+// is parallel to it in double or the distance is outside [tmin, tmax].
+[[gnu::noinline, gnu::cold]] inline bool plane_distance_in_double(
+    const RayTrianglePrecompute& r, const vec3& v0, const vec3& v1, const vec3& v2, float tmin,
+    float tmax, float* t) {
+  const dvec3 n = glm::cross(dvec3(v1) - dvec3(v0), dvec3(v2) - dvec3(v0));
+  const double denominator = glm::dot(n, dvec3(r.direction));
+  if (denominator == 0.0) return false;
+  const double td = glm::dot(n, dvec3(v0) - dvec3(r.origin)) / denominator;
+  if (!(td >= double(tmin) && td <= double(tmax))) return false;
+  *t = float(td);  // rounding keeps it within [tmin, tmax]; it may overflow (see caller)
+  return true;
+}
+
+}  // namespace triangle_detail
+
 // Watertight: a ray through a shared edge or vertex hits at least one of the
 // triangles sharing it. Both windings hit (no culling). A degenerate triangle
 // (zero determinant) never hits. Hits with t in [tmin, tmax] only.
+// Where float rounding could decide the verdict (an edge function, or the
+// determinant, within its error bound) the decision is taken in double, so the
+// verdict is that of double precision (see edge_function); the common case
+// stays in float.
 inline bool intersect_triangle(const RayTrianglePrecompute& r, const vec3& v0, const vec3& v1,
                                const vec3& v2, float tmin, float tmax, TriangleHit* out) {
-  const vec3 a = v0 - r.origin, b = v1 - r.origin, c = v2 - r.origin;
-  const float ax = a[r.kx] - r.shear_x * a[r.kz], ay = a[r.ky] - r.shear_y * a[r.kz];
-  const float bx = b[r.kx] - r.shear_x * b[r.kz], by = b[r.ky] - r.shear_y * b[r.kz];
-  const float cx = c[r.kx] - r.shear_x * c[r.kz], cy = c[r.ky] - r.shear_y * c[r.kz];
-  float u = cx * by - cy * bx;
-  float v = ax * cy - ay * cx;
-  float w = bx * ay - by * ax;
-  if (u == 0.0f || v == 0.0f || w == 0.0f) {
-    // An edge function that rounds to exactly zero in float may have the wrong
-    // sign; products of floats are exact in double, so redo all three there.
-    const double ud = double(cx) * double(by) - double(cy) * double(bx);
-    const double vd = double(ax) * double(cy) - double(ay) * double(cx);
-    const double wd = double(bx) * double(ay) - double(by) * double(ax);
-    if ((ud < 0.0 || vd < 0.0 || wd < 0.0) && (ud > 0.0 || vd > 0.0 || wd > 0.0)) return false;
-    u = float(ud);
-    v = float(vd);
-    w = float(wd);
-  } else if ((u < 0.0f || v < 0.0f || w < 0.0f) && (u > 0.0f || v > 0.0f || w > 0.0f)) {
-    return false;
-  }
+  using namespace triangle_detail;
+  const ShearedVertex a = shear(r, v0), b = shear(r, v1), c = shear(r, v2);
+  float bound_u, bound_v, bound_w;
+  const float u = edge_function(r, c, b, &bound_u);
+  const float v = edge_function(r, a, c, &bound_v);
+  const float w = edge_function(r, b, a, &bound_w);
+  if ((u < 0.0f || v < 0.0f || w < 0.0f) && (u > 0.0f || v > 0.0f || w > 0.0f)) return false;
   const float det = u + v + w;
   if (det == 0.0f) return false;
-  const float az = r.shear_z * a[r.kz], bz = r.shear_z * b[r.kz], cz = r.shear_z * c[r.kz];
-  const float scaled_t = u * az + v * bz + w * cz;
   const float inv_det = 1.0f / det;
-  const float t = scaled_t * inv_det;
-  if (!(t >= tmin && t <= tmax)) return false;  // also rejects NaN
+  float t;
+  // The float t = scaled_t / det is only as good as det; where det is within
+  // 256 times its error bound (the ray nearly parallel to the plane), take the
+  // plane distance in double, and no hit when the ray is parallel in double.
+  if (std::fabs(det) > 256.0f * (bound_u + bound_v + bound_w)) {
+    const float az = r.shear_z * a.p[r.kz], bz = r.shear_z * b.p[r.kz], cz = r.shear_z * c.p[r.kz];
+    t = (u * az + v * bz + w * cz) * inv_det;
+    if (!(t >= tmin && t <= tmax)) return false;  // also rejects NaN
+  } else if (!plane_distance_in_double(r, v0, v1, v2, tmin, tmax, &t)) {
+    return false;
+  }
+  if (std::isinf(t)) return false;  // a distance beyond float range (tmax = inf) is no hit
   out->t = t;
   out->u = v * inv_det;
   out->v = w * inv_det;
