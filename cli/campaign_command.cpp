@@ -182,11 +182,11 @@ void add_campaign_command(CLI::App& root) {
   // ---- export
   {
     auto a = std::make_shared<CampaignArgs>();
-    auto csv = std::make_shared<bool>(false);
     auto out = std::make_shared<std::string>();
     CLI::App* cmd = campaign->add_subcommand("export", "the results as CSV");
     add_common(cmd, *a);
-    cmd->add_flag("--csv", *csv, "comma-separated values (the one format so far)")->required();
+    // Unbound: CSV is the one format so far, so nothing needs to keep its value.
+    cmd->add_flag("--csv", "comma-separated values (the one format so far)")->required();
     cmd->add_option("-o,--output", *out, "file to write (default: standard output)");
     cmd->callback([=] {
       const Campaign c = load(*a);
