@@ -1,24 +1,13 @@
 #!/usr/bin/env bash
-# CI's sanitizer pass: builds the "asan" preset (AddressSanitizer + UBSan, into
-# build-asan) and runs the unit and robustness tests under it once.
-#   scripts/test-sanitizers.sh            # the labels CI runs
-#   RTSIM_ASAN_LABELS='robustness' scripts/test-sanitizers.sh
-# Only the test programs of those labels are built, to keep CI within its budget
-# (the measured timings are in the issue 5 note).
+# CI's sanitizer pass: builds the "asan" preset (clang, AddressSanitizer + UBSan,
+# the libraries instrumented for libFuzzer, into build-asan) and runs the whole
+# test suite under it. The same build holds the fuzz targets (scripts/fuzz.sh).
+#   scripts/test-sanitizers.sh                # every test
+#   scripts/test-sanitizers.sh -L robustness  # extra arguments go to ctest
 set -euo pipefail
 cd "$(dirname "$0")/.."
-labels=${RTSIM_ASAN_LABELS:-robustness workloads builder model}
-jobs=$(nproc)
-
 cmake --preset asan >/dev/null
-targets=(rtsim)
-for label in $labels; do
-  for source in tests/"$label"/test_*.cpp; do
-    [ -f "$source" ] && targets+=("${label}_$(basename "$source" .cpp)")
-  done
-done
-cmake --build --preset asan -j "$jobs" --target "${targets[@]}"
-regex=$(echo "$labels" | tr ' ' '|')
+cmake --build --preset asan -j "$(nproc)"
 # The sanitizer environment is in the "asan" test preset (detect_leaks=0: Embree,
 # TBB and SystemC keep process-lifetime allocations; every other report aborts).
-ctest --preset asan -L "^($regex)\$" -j "$jobs" ${RTSIM_ASAN_EXCLUDE:+-E "$RTSIM_ASAN_EXCLUDE"}
+ctest --preset asan -j "$(nproc)" "$@"
