@@ -111,6 +111,37 @@ TEST(RobustIntersection, ClosedFarSphereFromInsideNeverMissesWithEveryBuilder) {
   }
 }
 
+// Rays from inside the far sphere aimed exactly at its vertices (where up to
+// six triangles meet and every edge function is near zero, so the core decides
+// in double) and at the float-rounded midpoints of its edges.
+// Property: 0 misses with every builder - the double fallback keeps a shared
+// edge's sign consistent between its two triangles.
+TEST(RobustIntersection, RaysAtTheVerticesAndEdgesOfAFarSphereNeverMiss) {
+  Scene s = bare_scene("sphere");
+  const float radius = 50.0f;
+  MeshBuilder mb{s};
+  mb.sphere(kFar, radius, 48, 96);
+  s.material_ids.resize(s.triangles.size(), 0);
+  std::vector<vec3> targets(s.vertices.begin(), s.vertices.end());
+  for (const uvec3& t : s.triangles)
+    for (int k = 0; k < 3; ++k) targets.push_back(0.5f * (s.vertices[t[k]] + s.vertices[t[(k + 1) % 3]]));
+  std::vector<Ray> rays;
+  rays.reserve(targets.size());
+  for (size_t i = 0; i < targets.size(); ++i) {
+    KeyedRng rng(13, {i});
+    const vec3 jitter(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f);
+    const vec3 o = kFar + jitter * radius;
+    rays.push_back(make_ray(o, targets[i] - o));
+  }
+  ASSERT_GT(rays.size(), 30000u);
+  for (const std::string& builder : builder_names()) {
+    TracedScene ts(s, builder);
+    uint64_t misses = 0;
+    for (const TraceResult& r : ts.trace(rays)) misses += r.hit.hit() ? 0 : 1;
+    EXPECT_EQ(misses, 0u) << builder;
+  }
+}
+
 // A square split at random interior points (each split replaces a triangle by
 // three sharing the new vertex, so the mesh stays conforming: no T-junctions).
 // 2 + 2k triangles after k splits; thin slivers accumulate.
