@@ -56,13 +56,7 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
       throw InputError("bvh: prim_ref " + std::to_string(r), "triangle index out of range");
   triangles_.resize(tri_count);
   for (uint32_t t = 0; t < tri_count; ++t) {
-    const vec3 v0 = scene.vertex(t, 0), v1 = scene.vertex(t, 1), v2 = scene.vertex(t, 2);
-    // A zero-area triangle (collinear vertices, exact in double) must never be
-    // hit, but the float shear of the watertight test can turn it into a tiny
-    // sliver that registers a contact. Collapsed to one point, its edge
-    // functions are exactly zero and the test rejects it (the IST op still counts).
-    const dvec3 n = glm::cross(dvec3(v1) - dvec3(v0), dvec3(v2) - dvec3(v0));
-    triangles_[t] = glm::dot(n, n) == 0.0 ? PackedTriangle{v0, v0, v0} : PackedTriangle{v0, v1, v2};
+    triangles_[t] = PackedTriangle{scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2)};
   }
 }
 
