@@ -330,6 +330,26 @@ TEST(RobustIntersection, RayInTheTrianglePlaneGivesTheDoubleVerdict) {
   EXPECT_GT(cases, 7000u);
 }
 
+// A randomly oriented triangle with corner a within +-spread/2 of the origin,
+// edge a-b along the unit vector e1, and (e1, e2, n) orthonormal.
+struct RandomTriangle {
+  vec3 a, b, c, e1, e2, n;
+  RandomTriangle(KeyedRng& rng, float spread) {
+    a = (vec3(rng.next_float(), rng.next_float(), rng.next_float()) - 0.5f) * spread;
+    e1 = random_unit(rng);
+    n = glm::normalize(glm::cross(e1, random_unit(rng)));
+    e2 = glm::normalize(glm::cross(n, e1));
+    const float size = 0.5f + 2.0f * rng.next_float();
+    b = a + size * e1;
+    c = a + size * (0.3f * e1 + e2);
+  }
+  vec3 at(float b1, float b2) const { return a + b1 * (b - a) + b2 * (c - a); }
+  vec3 in_plane_direction(KeyedRng& rng) const {
+    const float phi = 6.2831853f * rng.next_float();
+    return std::cos(phi) * e1 + std::sin(phi) * e2;
+  }
+};
+
 // Rays in the plane of randomly oriented triangles, up to float rounding: the
 // origin and direction are rounded from points and vectors of the plane, so the
 // double determinant is tiny but rarely zero, and the verdict is decided by a
@@ -339,16 +359,12 @@ TEST(RobustIntersection, RaysAlmostInTheTrianglePlaneGiveTheDoubleVerdict) {
   uint64_t hits = 0, misses = 0;
   for (uint32_t i = 0; i < 20000; ++i) {
     KeyedRng rng(73, {i});
-    const vec3 centre = (vec3(rng.next_float(), rng.next_float(), rng.next_float()) - 0.5f) * 50.0f;
-    const vec3 e1 = random_unit(rng), n = glm::normalize(glm::cross(e1, random_unit(rng)));
-    const vec3 e2 = glm::normalize(glm::cross(n, e1));
-    const float size = 0.5f + 2.0f * rng.next_float();
-    const vec3 a = centre, b = centre + size * e1, c = centre + size * (0.3f * e1 + e2);
+    const RandomTriangle tri(rng, 50.0f);
+    const vec3 &a = tri.a, &b = tri.b, &c = tri.c;
     // Aim at a point of the triangle's plane (inside or outside) from another.
     const float b1 = 1.6f * rng.next_float() - 0.3f, b2 = 1.6f * rng.next_float() - 0.3f;
-    const vec3 target = a + b1 * (b - a) + b2 * (c - a);
-    const float phi = 6.2831853f * rng.next_float();
-    const vec3 d = std::cos(phi) * e1 + std::sin(phi) * e2;
+    const vec3 target = tri.at(b1, b2);
+    const vec3 d = tri.in_plane_direction(rng);
     const vec3 o = target - (1.0f + 5.0f * rng.next_float()) * d;
     const bool ref = reference_intersect(o, d, a, b, c).hit;
     EXPECT_EQ(core_verdict(o, d, a, b, c), ref) << "case " << i;
@@ -368,11 +384,8 @@ TEST(RobustIntersection, GrazingRaysAtHalfADegreeGiveTheDoubleVerdict) {
   uint64_t hits = 0, misses = 0;
   for (uint32_t i = 0; i < 40000; ++i) {
     KeyedRng rng(81, {i});
-    const vec3 centre = (vec3(rng.next_float(), rng.next_float(), rng.next_float()) - 0.5f) * 20.0f;
-    const vec3 e1 = random_unit(rng), n = glm::normalize(glm::cross(e1, random_unit(rng)));
-    const vec3 e2 = glm::normalize(glm::cross(n, e1));
-    const float size = 0.5f + 2.0f * rng.next_float();
-    const vec3 a = centre, b = centre + size * e1, c = centre + size * (0.3f * e1 + e2);
+    const RandomTriangle tri(rng, 20.0f);
+    const vec3 &a = tri.a, &b = tri.b, &c = tri.c;
     // Aim point by barycentrics in [-0.3, 1.3]; every other case within 1e-6 of an edge line.
     float b1 = 1.6f * rng.next_float() - 0.3f, b2 = 1.6f * rng.next_float() - 0.3f;
     if (i % 2) {
@@ -383,11 +396,10 @@ TEST(RobustIntersection, GrazingRaysAtHalfADegreeGiveTheDoubleVerdict) {
         default: b2 = 1.0f - b1 - near_edge; break;
       }
     }
-    const vec3 target = a + b1 * (b - a) + b2 * (c - a);
+    const vec3 target = tri.at(b1, b2);
     // Direction: 0.5 degrees out of the plane, random azimuth in it.
-    const float phi = 6.2831853f * rng.next_float();
-    const vec3 in_plane = std::cos(phi) * e1 + std::sin(phi) * e2;
-    const vec3 d = std::cos(grazing) * in_plane - std::sin(grazing) * n * ((i % 4 < 2) ? 1.0f : -1.0f);
+    const vec3 d = std::cos(grazing) * tri.in_plane_direction(rng) -
+                   std::sin(grazing) * tri.n * ((i % 4 < 2) ? 1.0f : -1.0f);
     const vec3 o = target - (1.0f + 5.0f * rng.next_float()) * d;
     const bool ref = reference_intersect(o, d, a, b, c).hit;
     EXPECT_EQ(core_verdict(o, d, a, b, c), ref) << "case " << i;
