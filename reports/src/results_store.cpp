@@ -6,7 +6,9 @@
 
 #include <sqlite3.h>
 
+#include <chrono>
 #include <stdexcept>
+#include <thread>
 
 namespace rtsim {
 
@@ -193,6 +195,21 @@ void exec(sqlite3* db, const char* sql) {
   }
 }
 
+// Switching a new database to WAL takes an exclusive lock, and SQLite answers
+// SQLITE_BUSY at once, without the busy handler, when waiting could deadlock
+// (two new writers racing on the first open). So this one statement retries,
+// for as long as the busy timeout would have waited.
+void enable_wal(sqlite3* db, int timeout_ms) {
+  for (int waited_ms = 0;; waited_ms += 10) {
+    const int rc = sqlite3_exec(db, "PRAGMA journal_mode=WAL", nullptr, nullptr, nullptr);
+    if (rc == SQLITE_OK) return;
+    if ((rc != SQLITE_BUSY && rc != SQLITE_LOCKED) || waited_ms >= timeout_ms)
+      throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db) +
+                               " in: PRAGMA journal_mode=WAL");
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
 // Bumped when columns change; an older database is refused with a clear message.
 constexpr int kSchemaVersion = 1;
 
@@ -250,8 +267,9 @@ ResultsStore::ResultsStore(const fs::path& file) : file_(file) {
   }
   try {
     // Writers queue for up to a minute instead of failing with "database is locked".
-    sqlite3_busy_timeout(db_, 60000);
-    exec(db_, "PRAGMA journal_mode=WAL");
+    constexpr int kBusyTimeoutMs = 60000;
+    sqlite3_busy_timeout(db_, kBusyTimeoutMs);
+    enable_wal(db_, kBusyTimeoutMs);
     // WAL + NORMAL: a killed process never loses a committed run (only power loss could).
     exec(db_, "PRAGMA synchronous=NORMAL");
     exec(db_, "BEGIN IMMEDIATE");
