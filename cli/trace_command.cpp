@@ -43,6 +43,8 @@ nlohmann::json totals_json(const CounterTotals& t, uint64_t all_ops) {
           {"ops_per_ray", t.per_ray(t.ops())},
           {"trv_ops_per_ray", t.per_ray(t.trv_ops)},
           {"ist_ops_per_ray", t.per_ray(t.ist_ops)},
+          {"ist_exact_steps_per_million_ist_ops",
+           t.ist_ops ? 1e6 * double(t.ist_exact_steps) / double(t.ist_ops) : 0.0},
           {"box_tests_per_ray", t.per_ray(t.box_tests)},
           {"node_fetches_per_ray", t.per_ray(t.node_fetches)},
           {"prim_ref_fetches_per_ray", t.per_ray(t.prim_ref_fetches)},

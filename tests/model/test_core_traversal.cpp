@@ -113,6 +113,29 @@ TEST(CoreTriangle, DegenerateAndBehindAndNonFiniteNeverHit) {
   EXPECT_FALSE(intersect_triangle(RayTrianglePrecompute(o, d), vec3(0, 0, 0), vec3(1, 0, 0), vec3(0, 1, 0), 0.0f, 0.5f, &th));
 }
 
+// Property: the double-precision steps are counted where, and only where, float
+// rounding could decide: none for a ray through the middle of a triangle; all
+// three edge functions for a ray lying in a tilted triangle's plane (each float
+// value is rounding error); at least the two edges through the vertex for a ray
+// aimed exactly at a vertex.
+TEST(CoreTriangle, CountsTheStepsItTakesInDouble) {
+  const vec3 a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
+  TriangleHit th;
+  uint32_t steps = 0;
+  EXPECT_TRUE(intersect_triangle(RayTrianglePrecompute(vec3(0.3f, 0.3f, 1), vec3(0, 0, -1)), a, b, c,
+                                 0.0f, kInf, &th, &steps));
+  EXPECT_EQ(steps, 0u);
+  const vec3 ta(1, 0, 0), tb(0, 1, 0), tc(0, 0, 1);  // the plane x + y + z = 1
+  steps = 0;
+  EXPECT_FALSE(intersect_triangle(RayTrianglePrecompute(vec3(-1, 0.5f, 1.5f), vec3(1, -0.125f, -0.875f)),
+                                  ta, tb, tc, 0.0f, kInf, &th, &steps));
+  EXPECT_EQ(steps, 3u);
+  steps = 0;
+  EXPECT_TRUE(intersect_triangle(RayTrianglePrecompute(vec3(1, 0, 2), vec3(0, 0, -1)), a, b, c, 0.0f,
+                                 kInf, &th, &steps));
+  EXPECT_GE(steps, 2u);
+}
+
 namespace {
 struct SphereScene {
   Scene scene;

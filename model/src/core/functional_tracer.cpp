@@ -16,6 +16,7 @@ void CounterTotals::add(const RayCounters& c, bool hit) {
   trv_ops += c.trv_ops;
   box_tests += c.box_tests;
   ist_ops += c.ist_ops;
+  ist_exact_steps += c.ist_exact_steps;
   node_fetches += c.node_fetches;
   prim_ref_fetches += c.prim_ref_fetches;
   triangle_fetches += c.triangle_fetches;
@@ -33,6 +34,7 @@ void CounterTotals::add(const CounterTotals& o) {
   trv_ops += o.trv_ops;
   box_tests += o.box_tests;
   ist_ops += o.ist_ops;
+  ist_exact_steps += o.ist_exact_steps;
   node_fetches += o.node_fetches;
   prim_ref_fetches += o.prim_ref_fetches;
   triangle_fetches += o.triangle_fetches;

@@ -222,7 +222,8 @@ void RayTraversal::process_triangle() {
   const uint32_t prim = context_->bvh().prim_refs[leaf_first_ + leaf_cursor_];
   const PackedTriangle& tri = context_->triangle(prim);
   TriangleHit th;
-  if (intersect_triangle(tri_ray_, tri.v0, tri.v1, tri.v2, ray_.tmin, tfar_, &th)) {
+  if (intersect_triangle(tri_ray_, tri.v0, tri.v1, tri.v2, ray_.tmin, tfar_, &th,
+                         &counters_.ist_exact_steps)) {
     hit_.t = th.t;
     hit_.prim = prim;
     hit_.u = th.u;

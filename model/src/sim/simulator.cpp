@@ -58,6 +58,9 @@ void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCou
   s.set("rays.total", total.rays, "rays", "rays simulated, all types");
   s.set("ops.trv", total.trv_ops, "ops", "TRV ops: BVH nodes processed");
   s.set("ops.ist", total.ist_ops, "ops", "IST ops: ray-triangle tests");
+  s.set("ops.ist_exact_steps", total.ist_exact_steps, "steps",
+        "IST edge functions and plane distances redone in double because float rounding "
+        "could have decided them (a hardware unit's slow path)");
   s.set("ops.box_tests", total.box_tests, "tests", "ray-box slab tests");
   s.set_real("ops.per_ray", total.per_ray(total.ops()), "ops/ray", "(TRV + IST ops) / rays");
   s.set("fetches.node", total.node_fetches, "fetches", "node records read by TRV (before caches)");

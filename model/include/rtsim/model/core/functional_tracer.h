@@ -20,7 +20,7 @@ struct TraceResult {
 // Sums of per-ray counters.
 struct CounterTotals {
   uint64_t rays = 0, hits = 0;
-  uint64_t trv_ops = 0, box_tests = 0, ist_ops = 0;
+  uint64_t trv_ops = 0, box_tests = 0, ist_ops = 0, ist_exact_steps = 0;
   uint64_t node_fetches = 0, prim_ref_fetches = 0, triangle_fetches = 0;
   uint64_t node_bytes = 0, prim_ref_bytes = 0, triangle_bytes = 0;
   uint64_t stack_overflows = 0, stack_refills = 0;

@@ -84,54 +84,69 @@ struct TriangleHit {
 
 namespace triangle_detail {
 
-// A vertex in the ray's sheared 2D frame (origin at the ray), with the
-// magnitudes of the terms that formed each coordinate, for error bounds.
+// A vertex in the ray's sheared 2D frame (origin at the ray), with what the
+// error bounds need: |x|, |y|, and the magnitudes of the terms that formed each
+// coordinate.
 struct ShearedVertex {
   const vec3* vertex;
   vec3 p;      // vertex - origin, rounded to float
   float x, y;  // sheared coordinates
-  float mx, my;
+  float ax, ay;  // |x|, |y|
+  float mx, my;  // |p[kx]| + |shear_x p[kz]|, likewise for y
 };
 
 inline ShearedVertex shear(const RayTrianglePrecompute& r, const vec3& vertex) {
   const vec3 p = vertex - r.origin;
   const float sx = r.shear_x * p[r.kz], sy = r.shear_y * p[r.kz];
-  return {&vertex, p, p[r.kx] - sx, p[r.ky] - sy, std::fabs(p[r.kx]) + std::fabs(sx),
+  const float x = p[r.kx] - sx, y = p[r.ky] - sy;
+  return {&vertex,      p, x, y, std::fabs(x), std::fabs(y), std::fabs(p[r.kx]) + std::fabs(sx),
           std::fabs(p[r.ky]) + std::fabs(sy)};
 }
 
-// The edge function of the directed edge (p, q): its sign says on which side of
-// the edge the ray passes. The float value stands when its sign is certain,
-// i.e. |value| exceeds a bound on its rounding error (the difference from the
-// origin, the rounded shear, the products and their difference: gamma(14) by
-// pbrt's rules, taken as gamma(18) so that rounding in the bound itself cannot
-// undercut it). Otherwise it is recomputed in double from the unsheared
-// vectors as det[p - o, q - o, d] / |d_kz|, which the sheared value equals in
-// exact arithmetic; so a ray in or near the triangle's plane, or through an
-// edge, gets the double verdict instead of a sign made of rounding error.
-// Watertightness needs a shared edge to get one sign (negated) from both of its
-// triangles: every input here belongs to the edge alone, each expression is
-// exactly antisymmetric in (p, q) under IEEE rounding, and the bound symmetric.
 [[gnu::noinline, gnu::cold]] inline float edge_function_in_double(const RayTrianglePrecompute& r,
-                                                                  const vec3& p, const vec3& q) {
+                                                                  const vec3& p, const vec3& q,
+                                                                  uint32_t* exact_steps) {
+  if (exact_steps) ++*exact_steps;
   const dvec3 o(r.origin);
   const double triple = glm::dot(glm::cross(dvec3(p) - o, dvec3(q) - o), dvec3(r.direction));
   return float(triple / std::fabs(double(r.direction[r.kz])));
 }
 
+// The edge function of the directed edge (p, q): its sign says on which side of
+// the edge the ray passes. The float value stands when its sign is certain: its
+// magnitude exceeds a bound on its rounding error.
+//  - Each sheared coordinate is off by at most gamma(6) times its term magnitude
+//    m (the difference from the origin, the rounded shear, the product and the
+//    difference). So p.x q.y is off by at most
+//    gamma(6) (m_px |q.y| + |p.x| m_qy) + gamma(6)^2 m_px m_qy, likewise p.y q.x,
+//    plus the rounding of the products and of their difference. The constants
+//    below (gamma(16), gamma(8)^2) cover all that and the rounding of the bound.
+//  - The bound scales with the triangle's size times its distance, not with the
+//    distance squared, so small, far triangles stay on the float path.
+// Otherwise the value is recomputed in double from the unsheared vectors, as
+// det[p - o, q - o, d] / |d_kz|, which the sheared value equals in exact
+// arithmetic. So a ray in or near the triangle's plane, or through an edge, gets
+// the double verdict instead of a sign made of rounding error.
+// Watertightness needs a shared edge to get one sign (negated) from both of its
+// triangles. Every input here belongs to the edge alone, each expression is
+// exactly antisymmetric in (p, q) under IEEE rounding, and the bound is exactly
+// symmetric (its sums pair the same products, and float + and * commute).
 inline float edge_function(const RayTrianglePrecompute& r, const ShearedVertex& p,
-                           const ShearedVertex& q, float* bound) {
+                           const ShearedVertex& q, float* bound, uint32_t* exact_steps) {
   const float value = p.x * q.y - p.y * q.x;
-  *bound = float_gamma(18) * (p.mx * q.my + p.my * q.mx);
+  const float first_order = (p.mx * q.ay + p.ax * q.my) + (p.my * q.ax + p.ay * q.mx);
+  const float second_order = p.mx * q.my + p.my * q.mx;
+  *bound = float_gamma(16) * first_order + float_gamma(8) * float_gamma(8) * second_order;
   if (std::fabs(value) > *bound) return value;
-  return edge_function_in_double(r, *p.vertex, *q.vertex);
+  return edge_function_in_double(r, *p.vertex, *q.vertex, exact_steps);
 }
 
 // The distance to the triangle's plane, computed in double; false when the ray
 // is parallel to it in double or the distance is outside [tmin, tmax].
 [[gnu::noinline, gnu::cold]] inline bool plane_distance_in_double(
     const RayTrianglePrecompute& r, const vec3& v0, const vec3& v1, const vec3& v2, float tmin,
-    float tmax, float* t) {
+    float tmax, float* t, uint32_t* exact_steps) {
+  if (exact_steps) ++*exact_steps;
   const dvec3 n = glm::cross(dvec3(v1) - dvec3(v0), dvec3(v2) - dvec3(v0));
   const double denominator = glm::dot(n, dvec3(r.direction));
   if (denominator == 0.0) return false;
@@ -149,15 +164,18 @@ inline float edge_function(const RayTrianglePrecompute& r, const ShearedVertex& 
 // Where float rounding could decide the verdict (an edge function, or the
 // determinant, within its error bound) the decision is taken in double, so the
 // verdict is that of double precision (see edge_function); the common case
-// stays in float.
+// stays in float. `exact_steps`, when given, counts the steps taken in double
+// (edge functions and plane distances): how often a hardware IST unit would need
+// its slow path.
 inline bool intersect_triangle(const RayTrianglePrecompute& r, const vec3& v0, const vec3& v1,
-                               const vec3& v2, float tmin, float tmax, TriangleHit* out) {
+                               const vec3& v2, float tmin, float tmax, TriangleHit* out,
+                               uint32_t* exact_steps = nullptr) {
   using namespace triangle_detail;
   const ShearedVertex a = shear(r, v0), b = shear(r, v1), c = shear(r, v2);
   float bound_u, bound_v, bound_w;
-  const float u = edge_function(r, c, b, &bound_u);
-  const float v = edge_function(r, a, c, &bound_v);
-  const float w = edge_function(r, b, a, &bound_w);
+  const float u = edge_function(r, c, b, &bound_u, exact_steps);
+  const float v = edge_function(r, a, c, &bound_v, exact_steps);
+  const float w = edge_function(r, b, a, &bound_w, exact_steps);
   if ((u < 0.0f || v < 0.0f || w < 0.0f) && (u > 0.0f || v > 0.0f || w > 0.0f)) return false;
   const float det = u + v + w;
   if (det == 0.0f) return false;
@@ -170,7 +188,7 @@ inline bool intersect_triangle(const RayTrianglePrecompute& r, const vec3& v0, c
     const float az = r.shear_z * a.p[r.kz], bz = r.shear_z * b.p[r.kz], cz = r.shear_z * c.p[r.kz];
     t = (u * az + v * bz + w * cz) * inv_det;
     if (!(t >= tmin && t <= tmax)) return false;  // also rejects NaN
-  } else if (!plane_distance_in_double(r, v0, v1, v2, tmin, tmax, &t)) {
+  } else if (!plane_distance_in_double(r, v0, v1, v2, tmin, tmax, &t, exact_steps)) {
     return false;
   }
   if (std::isinf(t)) return false;  // a distance beyond float range (tmax = inf) is no hit

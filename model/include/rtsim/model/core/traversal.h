@@ -64,6 +64,7 @@ struct RayCounters {
   uint32_t trv_ops = 0;           // BVH nodes processed (fetch, box tests, stack update)
   uint32_t box_tests = 0;         // ray-box slab tests
   uint32_t ist_ops = 0;           // ray-triangle tests
+  uint32_t ist_exact_steps = 0;   // steps of those tests redone in double (see intersect.h)
   uint32_t node_fetches = 0;      // node records read (before caches)
   uint32_t prim_ref_fetches = 0;  // leaf prim-ref lists read (one per leaf visit)
   uint32_t triangle_fetches = 0;  // triangles read (one per IST op)
