@@ -107,7 +107,7 @@ void run_simulate(const SimulateOptions& o) {
       {"ao", o.ao},
       {"max_depth", o.max_depth},
       {"config_source", o.config},
-      {"config_hash", std::filesystem::is_regular_file(o.config) ? hex64(file_content_hash(o.config))
+      {"config_hash", is_file(o.config) ? hex64(file_content_hash(o.config))
                                                                   : std::string("preset")},
       {"rays_file", o.rays_in},
       {"rays_hash", o.rays_in.empty() ? std::string() : hex64(rays_hash)}};

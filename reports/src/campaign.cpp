@@ -3,6 +3,7 @@
 
 #include <rtsim/model/sim/config.h>
 #include <rtsim/workloads/config_reader.h>
+#include <rtsim/workloads/files.h>
 #include <rtsim/workloads/error.h>
 
 #include <algorithm>
@@ -279,7 +280,7 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
                            bool must_be_file) -> std::string {
     if (!must_be_file && !looks_like_path(value)) return "";
     fs::path p = fs::path(value).is_absolute() ? fs::path(value) : base_dir / value;
-    if (!fs::is_regular_file(p)) {
+    if (!is_file(p)) {
       if (!must_be_file) return "";
       throw InputError(where, "'" + value + "' is not a file (relative paths start at " +
                                   base_dir.string() + ")");

@@ -77,7 +77,7 @@ std::string markdown_table(const Table& t) {
 }  // namespace
 
 CampaignReportFiles write_campaign_report(const CampaignReportOptions& options) {
-  if (!fs::is_regular_file(options.database))
+  if (!is_file(options.database))
     throw InputError(options.database.string(), "no such results database");
   std::vector<json> rows;
   std::vector<std::string> campaigns;

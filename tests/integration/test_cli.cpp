@@ -6,6 +6,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <string>
+
+#include <unistd.h>
 
 TEST(Cli, HelpWorksForEverySubcommand) {
   const CliResult root = run_rtsim("--help");
@@ -27,6 +30,30 @@ TEST(Cli, UnknownSceneExitsTwoAndNamesIt) {
   const CliResult r = run_rtsim("scenes info no-such-scene");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("no-such-scene"), std::string::npos) << r.output;
+}
+
+// A path the file system cannot even look up (a component longer than NAME_MAX)
+// is an unknown scene, exit 2, not an internal error.
+TEST(Cli, SceneNameTooLongForTheFileSystemExitsTwoAndNamesIt) {
+  const std::string name = "scenes/" + std::string(300, 'x') + ".toml";
+  const CliResult r = run_rtsim("scenes info " + name);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(name), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
+}
+
+// The same for a campaign's preset file (found by fuzz_campaign: the file-system
+// error escaped as "internal error", exit 1).
+TEST(Cli, CampaignPresetNameTooLongForTheFileSystemExitsTwoAndNamesIt) {
+  const std::filesystem::path file =
+      std::filesystem::temp_directory_path() / ("rtsim-long-preset-" + std::to_string(::getpid()) + ".toml");
+  std::ofstream(file) << "[campaign]\nname = \"c\"\n[sweep]\nscene = \"cornell\"\n"
+                      << "builder = [\"sah\"]\npreset = [\"" << std::string(300, 'q') << ".toml\"]\n";
+  const CliResult r = run_rtsim("campaign list " + file.string());
+  std::filesystem::remove(file);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("preset"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
 }
 
 TEST(Cli, BadOptionExitsTwo) {

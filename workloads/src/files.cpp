@@ -47,4 +47,17 @@ uint64_t file_content_hash(const std::filesystem::path& path) {
   return hash_bytes(0x46494C45ull, bytes.data(), bytes.size());
 }
 
+bool path_exists(const std::filesystem::path& path) {
+  std::error_code ec;
+  return std::filesystem::exists(path, ec);
+}
+bool is_file(const std::filesystem::path& path) {
+  std::error_code ec;
+  return std::filesystem::is_regular_file(path, ec);
+}
+bool is_folder(const std::filesystem::path& path) {
+  std::error_code ec;
+  return std::filesystem::is_directory(path, ec);
+}
+
 }  // namespace rtsim

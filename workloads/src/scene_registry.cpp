@@ -1,5 +1,6 @@
 #include <rtsim/workloads/descriptor.h>
 #include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
 #include <rtsim/workloads/procedural.h>
 #include <rtsim/workloads/scene_registry.h>
 
@@ -21,11 +22,11 @@ std::string default_scene_name() { return "interior"; }
 Scene load_scene(const std::string& name_or_path) {
   if (is_procedural_scene(name_or_path)) return make_procedural_scene(name_or_path);
   const std::filesystem::path cached = scene_cache_dir() / name_or_path / "scene.toml";
-  if (name_or_path.find('/') == std::string::npos && std::filesystem::exists(cached))
+  if (name_or_path.find('/') == std::string::npos && path_exists(cached))
     return load_scene_descriptor(cached);
   const std::filesystem::path path(name_or_path);
-  if (std::filesystem::exists(path)) {
-    if (std::filesystem::is_directory(path) && std::filesystem::exists(path / "scene.toml"))
+  if (path_exists(path)) {
+    if (is_folder(path) && path_exists(path / "scene.toml"))
       return load_scene_descriptor(path / "scene.toml");
     const std::string ext = path.extension().string();
     if (ext == ".toml" || ext == ".json") return load_scene_descriptor(path);
@@ -48,7 +49,7 @@ std::vector<std::string> known_scene_names() {
   std::vector<std::string> names = procedural_scene_names();
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(scene_cache_dir(), ec))
-    if (std::filesystem::exists(entry.path() / "scene.toml"))
+    if (path_exists(entry.path() / "scene.toml"))
       names.push_back(entry.path().filename().string());
   return names;
 }

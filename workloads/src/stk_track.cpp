@@ -8,6 +8,7 @@
 // Track transforms are composed in Irrlicht space and conjugated by the mirror.
 #include "byte_reader.h"
 
+#include <rtsim/workloads/files.h>
 #include <rtsim/workloads/mesh_loader.h>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -195,7 +196,7 @@ class TrackFlattener {
           throw InputError(file, "libraries nested deeper than " + std::to_string(kMaxLibraryDepth) +
                                      " (a cycle?) at library '" + library + "'");
         const std::filesystem::path dir = library_dir_ / library;
-        if (!std::filesystem::exists(dir / "node.xml"))
+        if (!path_exists(dir / "node.xml"))
           throw InputError(file, "library '" + library + "' not found (" + (dir / "node.xml").string() + ")");
         flatten_scene(dir / "node.xml", dir, parent * object_transform(node, file), depth + 1);
       }
@@ -245,7 +246,7 @@ class TrackFlattener {
                  const std::string& referenced_by) {
     auto it = models_.find(path.string());
     if (it == models_.end()) {
-      if (!std::filesystem::exists(path))
+      if (!path_exists(path))
         throw InputError(referenced_by, "model '" + path.filename().string() + "' not found (" +
                                             path.string() + ")");
       it = models_.emplace(path.string(), std::make_unique<Mesh>(load_mesh(path))).first;
@@ -286,7 +287,7 @@ class TrackFlattener {
 // Cameras on the driveline: quad centres 2 units up, each looking a few quads ahead.
 std::vector<Camera> quad_cameras(const std::filesystem::path& quads_path) {
   std::vector<Camera> cameras;
-  if (!std::filesystem::exists(quads_path)) return cameras;
+  if (!path_exists(quads_path)) return cameras;
   pugi::xml_document doc;
   const pugi::xml_parse_result parsed = doc.load_file(quads_path.string().c_str());
   if (!parsed)
@@ -338,7 +339,7 @@ std::vector<Camera> quad_cameras(const std::filesystem::path& quads_path) {
 
 Mesh load_stk_track(const std::filesystem::path& track_dir) {
   const std::filesystem::path scene_xml = track_dir / "scene.xml";
-  if (!std::filesystem::exists(scene_xml)) throw InputError(track_dir.string(), "no scene.xml in this folder");
+  if (!path_exists(scene_xml)) throw InputError(track_dir.string(), "no scene.xml in this folder");
   TrackFlattener flattener(track_dir);
   flattener.flatten_scene(scene_xml, track_dir, glm::mat4(1.0f), 0);
   Mesh mesh = flattener.take();
