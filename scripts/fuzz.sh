@@ -7,7 +7,7 @@
 # unit and robustness tests scripts/test-sanitizers.sh runs; this script configures
 # and builds what it needs of it. Each target starts from its seeds (fuzz/seeds/<t>)
 # and saved regressions (tests/fuzz-regressions/<t>) and grows a corpus in
-# <build>/fuzz/corpus/<t>; a crash lands in <build>/fuzz/artifacts/<t>/. Prints one
+# <build>/fuzz-runs/corpus/<t>; a crash lands in <build>/fuzz-runs/artifacts/<t>/. Prints one
 # line per target (seconds, runs, exec/s, corpus size, findings), the log of any
 # target that found something, and exits 1 if any did.
 #   RTSIM_FUZZ_JOBS=N     targets run at once (default: nproc)
@@ -42,7 +42,7 @@ cmake --build "$build" -j "$(nproc)" --target "${targets[@]/#/fuzz_}" >/dev/null
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
-out="$build/fuzz"
+out="$build/fuzz-runs"
 mkdir -p "$out"
 
 # One target: its libFuzzer run, then a result line in $out/result-<t>.
