@@ -31,6 +31,7 @@ Table1 run_one(Table1Options options, bool print) {
   const Table1 table = run_table1(options);
   write_table1(table);
   if (print) std::fputs(table1_text(table).c_str(), stdout);
+  std::fflush(stdout);  // the table first, then the note on stderr, not interleaved
   std::fprintf(stderr, "wrote %s/table1.{md,csv,json}, table1_reductions.png, table1_heatmaps.png\n",
                options.out_dir.string().c_str());
   return table;

@@ -8,7 +8,7 @@
 # every deterministic column (all but host time and timestamps).
 #
 #   sudo apt-get install slurm-wlm munge sqlite3
-#   tests/integration/test_campaign_slurm.sh build/cli/rtsim
+#   tests/integration/test_campaign_slurm.sh build/rtsim
 set -euo pipefail
 
 rtsim=$(realpath "${1:?usage: $0 path/to/rtsim}")
