@@ -4,8 +4,8 @@
 #
 # The targets live in the sanitizer build (CMake preset "asan": clang, ASan + UBSan,
 # the libraries instrumented for libFuzzer, into build-asan), the same build whose
-# unit and robustness tests scripts/test-sanitizers.sh runs; this script configures
-# and builds what it needs of it. Each target starts from its seeds (fuzz/seeds/<t>)
+# tests scripts/test-sanitizers.sh runs; this script configures and builds what it
+# needs of it. Each target starts from its seeds (fuzz/seeds/<t>)
 # and saved regressions (tests/fuzz-regressions/<t>) and grows a corpus in
 # <build>/fuzz-runs/corpus/<t>; a crash lands in <build>/fuzz-runs/artifacts/<t>/. Prints one
 # line per target (seconds, runs, exec/s, corpus size, findings), the log of any
@@ -49,7 +49,9 @@ mkdir -p "$out"
 run_target() {
   local t=$1 corpus="$out/corpus/$1" artifacts="$out/artifacts/$1" log="$out/fuzz-$1.log"
   mkdir -p "$corpus" "$artifacts"
-  rm -f "$artifacts"/*
+  # Findings of this run are the artifacts newer than this marker; older ones stay.
+  local started="$out/started-$t"
+  touch "$started"
   local seeds=()
   for dir in "fuzz/seeds/$t" "tests/fuzz-regressions/$t"; do
     [ -d "$dir" ] && seeds+=("$dir")
@@ -63,9 +65,9 @@ run_target() {
   runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1)
   rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1)
   size=$(find "$corpus" -type f | wc -l)
-  findings=$(find "$artifacts" -type f | wc -l)
+  findings=$(find "$artifacts" -type f -newer "$started" | wc -l)
   if [ "$rc" -ne 0 ] || [ "$findings" -gt 0 ]; then
-    status="FOUND: $findings file(s) in $artifacts (exit $rc, log $log)"
+    status="FOUND: $findings new file(s) in $artifacts (exit $rc, log $log)"
   fi
   printf '%-17s %7s %11s %7s %7s  %s\n' "$t" "$seconds" "${runs:-?}" "${rate:-?}" "$size" "$status" \
     >"$out/result-$t"
