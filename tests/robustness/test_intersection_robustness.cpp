@@ -350,6 +350,14 @@ struct RandomTriangle {
   }
 };
 
+// Expects the core's verdict on the ray (o, d) against `tri` to equal the double
+// reference's; returns the reference verdict.
+bool expect_double_verdict(const vec3& o, const vec3& d, const RandomTriangle& tri, uint32_t i) {
+  const bool ref = reference_intersect(o, d, tri.a, tri.b, tri.c).hit;
+  EXPECT_EQ(core_verdict(o, d, tri.a, tri.b, tri.c), ref) << "case " << i;
+  return ref;
+}
+
 // Rays in the plane of randomly oriented triangles, up to float rounding: the
 // origin and direction are rounded from points and vectors of the plane, so the
 // double determinant is tiny but rarely zero, and the verdict is decided by a
@@ -360,15 +368,12 @@ TEST(RobustIntersection, RaysAlmostInTheTrianglePlaneGiveTheDoubleVerdict) {
   for (uint32_t i = 0; i < 20000; ++i) {
     KeyedRng rng(73, {i});
     const RandomTriangle tri(rng, 50.0f);
-    const vec3 &a = tri.a, &b = tri.b, &c = tri.c;
     // Aim at a point of the triangle's plane (inside or outside) from another.
     const float b1 = 1.6f * rng.next_float() - 0.3f, b2 = 1.6f * rng.next_float() - 0.3f;
     const vec3 target = tri.at(b1, b2);
     const vec3 d = tri.in_plane_direction(rng);
     const vec3 o = target - (1.0f + 5.0f * rng.next_float()) * d;
-    const bool ref = reference_intersect(o, d, a, b, c).hit;
-    EXPECT_EQ(core_verdict(o, d, a, b, c), ref) << "case " << i;
-    (ref ? hits : misses) += 1;
+    (expect_double_verdict(o, d, tri, i) ? hits : misses) += 1;
   }
   EXPECT_GT(hits, 100u);
   EXPECT_GT(misses, 1000u);
@@ -385,7 +390,6 @@ TEST(RobustIntersection, GrazingRaysAtHalfADegreeGiveTheDoubleVerdict) {
   for (uint32_t i = 0; i < 40000; ++i) {
     KeyedRng rng(81, {i});
     const RandomTriangle tri(rng, 20.0f);
-    const vec3 &a = tri.a, &b = tri.b, &c = tri.c;
     // Aim point by barycentrics in [-0.3, 1.3]; every other case within 1e-6 of an edge line.
     float b1 = 1.6f * rng.next_float() - 0.3f, b2 = 1.6f * rng.next_float() - 0.3f;
     if (i % 2) {
@@ -401,9 +405,7 @@ TEST(RobustIntersection, GrazingRaysAtHalfADegreeGiveTheDoubleVerdict) {
     const vec3 d = std::cos(grazing) * tri.in_plane_direction(rng) -
                    std::sin(grazing) * tri.n * ((i % 4 < 2) ? 1.0f : -1.0f);
     const vec3 o = target - (1.0f + 5.0f * rng.next_float()) * d;
-    const bool ref = reference_intersect(o, d, a, b, c).hit;
-    EXPECT_EQ(core_verdict(o, d, a, b, c), ref) << "case " << i;
-    (ref ? hits : misses) += 1;
+    (expect_double_verdict(o, d, tri, i) ? hits : misses) += 1;
   }
   EXPECT_GT(hits, 2000u);
   EXPECT_GT(misses, 2000u);
