@@ -3,6 +3,7 @@
 #include "commands.h"
 
 #include <rtsim/reports/accuracy.h>
+#include <rtsim/reports/child_process.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -31,7 +32,7 @@ void add_accuracy_command(CLI::App& root) {
   cmd->add_flag("--quick", o->quick, "Small sizes: a smoke run of well under a minute on small scenes");
   cmd->callback([o] {
     AccuracyOptions options = o->quick ? quick_accuracy_options(o->accuracy) : o->accuracy;
-    options.rtsim_binary = std::filesystem::read_symlink("/proc/self/exe");
+    options.rtsim_binary = self_executable();
     const AccuracyReport report = run_accuracy(options);
     write_accuracy(report);
     std::fputs(accuracy_text(report).c_str(), stdout);

@@ -3,6 +3,7 @@
 #include "cli_util.h"
 #include "commands.h"
 
+#include <rtsim/reports/child_process.h>
 #include <rtsim/reports/table1.h>
 #include <rtsim/reports/text_table.h>
 #include <rtsim/workloads/error.h>
@@ -115,7 +116,7 @@ void add_table1_command(CLI::App& root) {
     parse_resolution(o->resolution, o->table.width, o->table.height);
     finish_build_options(o->table.build);
     o->table.cycle_level = !o->no_cycle;
-    o->table.rtsim_binary = std::filesystem::read_symlink("/proc/self/exe");
+    o->table.rtsim_binary = self_executable();
     if (o->all_scenes) {
       run_all_scenes(*o);
       return;

@@ -246,8 +246,6 @@ class CampaignLock {
 
 }  // namespace
 
-fs::path self_executable() { return fs::read_symlink("/proc/self/exe"); }
-
 std::string binary_revision(const fs::path& binary) {
   if (access(binary.c_str(), X_OK) != 0)
     throw InputError(binary.string(), "the job binary is not an executable file");

@@ -2,6 +2,8 @@
 
 namespace rtsim {
 
+std::filesystem::path self_executable() { return std::filesystem::read_symlink("/proc/self/exe"); }
+
 std::string shell_quote(const std::string& word) {
   std::string out = "'";
   for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);

@@ -34,8 +34,6 @@ CampaignPaths campaign_paths(const Campaign& campaign, const std::filesystem::pa
 // ("0.1.0 (abc123)" -> "abc123"), else the whole first line. Throws InputError
 // naming the binary if it cannot be run.
 std::string binary_revision(const std::filesystem::path& binary);
-// The running executable (/proc/self/exe), the default job binary.
-std::filesystem::path self_executable();
 
 struct RunOptions {
   int parallel = 1;            // jobs at once

@@ -3,10 +3,14 @@
 // process) and read back their JSON results. The pieces every such report shares.
 #include <nlohmann/json.hpp>
 
+#include <filesystem>
 #include <initializer_list>
 #include <string>
 
 namespace rtsim {
+
+// The running executable (/proc/self/exe): the rtsim a report runs as its child.
+std::filesystem::path self_executable();
 
 // One shell word, single-quoted, safe for any path or name.
 std::string shell_quote(const std::string& word);
