@@ -26,8 +26,10 @@ std::string hex64(uint64_t value) {
 }
 
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
-                   const std::string& builder, uint64_t seed, const std::string& bvh_file) {
+                   const std::string& builder, uint64_t seed, const std::string& bvh_file,
+                   uint64_t shuffle_seed) {
   out.scene = load_scene(scene.empty() ? default_scene_name() : scene);
+  if (shuffle_seed != 0) shuffle_triangles(out.scene, shuffle_seed);
   out.camera = camera.empty() ? &out.scene.default_camera() : &out.scene.camera(camera);
   out.params = BuildParams{};
   out.params.builder = builder;

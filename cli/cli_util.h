@@ -25,7 +25,10 @@ struct Workload {
   Bvh bvh;
 };
 // scene/camera empty: the defaults. bvh_file non-empty: load instead of build.
+// shuffle_seed != 0: the scene's faces are permuted first (shuffle_triangles), a
+// check that no result depends on the file's face order.
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
-                   const std::string& builder, uint64_t seed, const std::string& bvh_file);
+                   const std::string& builder, uint64_t seed, const std::string& bvh_file,
+                   uint64_t shuffle_seed = 0);
 
 }  // namespace rtsim::cli

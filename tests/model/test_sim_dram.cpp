@@ -85,13 +85,13 @@ TEST_P(DramParts, LooselyTimedStreamIsCappedAtPeakBandwidth) {
   const DramConfig c = part(GetParam());
   DramModel dram(c, 64);
   uint64_t last = 0;
-  for (uint64_t i = 0; i < 10000; ++i) last = std::max(last, dram.lt_access(i * 64, 0));
+  for (uint64_t i = 0; i < 10000; ++i) last = std::max(last, dram.lt_access(i * 64, false, 0));
   const double achieved = 10000.0 * 64 / (double(last) * 1e-12);
   EXPECT_LE(achieved, dram.peak_bytes_per_second() * 1.0000001);
   EXPECT_GE(achieved, 0.95 * dram.peak_bytes_per_second());
   // One isolated access costs the closed-row latency.
   DramModel fresh(c, 64);
-  EXPECT_EQ(fresh.lt_access(0, 5000) - 5000, fresh.latency_ps(RowOutcome::Closed));
+  EXPECT_EQ(fresh.lt_access(0, false, 5000) - 5000, fresh.latency_ps(RowOutcome::Closed));
 }
 
 INSTANTIATE_TEST_SUITE_P(Parts, DramParts,

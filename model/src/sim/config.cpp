@@ -5,6 +5,7 @@
 #include <toml++/toml.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -59,7 +60,12 @@ void cache_parameters(const std::string& prefix, CacheConfig& c, const std::stri
       u32(prefix + ".hit_latency_cycles", c.hit_latency_cycles, 1, 10000, "cycles",
           "request to data on a hit"),
       u32(prefix + ".mshrs", c.mshrs, 1, 4096, "entries",
-          "distinct missing lines outstanding; requests to a missing line merge"),
+          "distinct missing lines outstanding; reads of a missing line merge (cycle level; "
+          "lt has no MSHR limit)"),
+      u32(prefix + ".ports", c.ports, 1, 64, "accesses/cycle",
+          "requests accepted per cycle (ports or banks); more wait for the next free slot"),
+      u32(prefix + ".fill_latency_cycles", c.fill_latency_cycles, 0, 10000, "cycles",
+          "next level's data arrival to the line installed and the data at the requester"),
   };
   for (auto& p : list) visit(p);
 }
@@ -72,6 +78,13 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
       u32("clock_mhz", c.clock_mhz, 1, 10000, "MHz", "accelerator clock; all *_cycles count it"),
       f64("raygen.rays_per_cycle", c.raygen_rays_per_cycle, 0.001, 64, "rays/cycle",
           "rate at which ray generation issues rays"),
+      text("raygen.order", c.raygen_order, {"scanline", "tiles", "morton"},
+           "issue order of primary rays: row by row, tile by tile (raygen.tile, rows within a "
+           "tile), or along a Morton curve"),
+      text("raygen.tile", c.raygen_tile, {}, "tile size WxH for raygen.order = tiles"),
+      text("raygen.secondary", c.raygen_secondary, {"behind", "after"},
+           "secondary rays (AO, shadow, mirror) go right behind their parent, ahead of new "
+           "primary rays, or after all primary rays"),
       u32("trv.units", c.trv_units, 1, 256, "units", "traversal units"),
       u32("trv.ray_slots", c.trv_ray_slots, 1, 4096, "rays",
           "rays in flight per TRV unit (hide memory latency)"),
@@ -88,6 +101,9 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
           "leaf jobs waiting per IST unit; a full queue stalls TRV"),
       u32("ist.test_latency", c.ist_test_latency, 1, 10000, "cycles",
           "triangle data arrival to the test result"),
+      u32("ist.triangles_in_flight", c.ist_triangles_in_flight, 1, 64, "triangles",
+          "triangles of a leaf fetched together (their fetches overlap), then tested in order; "
+          "an any-hit ray may fetch up to this many - 1 it does not test"),
       f64("ist.tests_per_cycle", c.ist_tests_per_cycle, 0.001, 64, "tests/cycle",
           "triangle-test pipeline throughput per unit"),
       u32("shading.latency", c.shading_latency, 1, 100000, "cycles",
@@ -96,10 +112,21 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
           "shading throughput"),
       text("memory.node_layout", c.node_layout, {"bvh2-64", "single-32"},
            "BVH node format in memory (64-byte two-box node or 32-byte one-box node)"),
+      text("memory.node_order", c.node_order, {"depth-first", "breadth-first"},
+           "order of node records and of leaf data in memory"),
+      text("memory.triangle_storage", c.triangle_storage, {"indexed", "inline"},
+           "indexed: a leaf's prim-ref list holds its triangles' record indices (one record per "
+           "triangle); inline: each leaf's triangle records stored in the leaf, no prim refs "
+           "(triangles in several leaves, as SBVH makes, are stored once per leaf)"),
+      text("memory.triangle_packing", c.triangle_packing, {"packed", "line"},
+           "packed: records at a stride of triangle_bytes; line: a record that would straddle an "
+           "L1 triangle-cache line starts at the next line"),
       u32("memory.triangle_bytes", c.triangle_bytes, 36, 256, "bytes",
-          "bytes one triangle occupies in memory"),
+          "bytes of one triangle record (36: three float3 vertices; more with padding or "
+          "precomputed data)"),
       u32("lt.quantum_cycles", c.lt_quantum_cycles, 1, 100000000, "cycles",
-          "global quantum of the loosely timed model (temporal decoupling)"),
+          "global quantum of the loosely timed model: how often its thread yields to the SystemC "
+          "kernel (temporal decoupling); results do not depend on it"),
   };
   for (auto& p : list) visit(p);
   cache_parameters("l1_node", c.l1_node, "each TRV unit's L1 node cache", visit);
@@ -172,13 +199,22 @@ HardwareConfig preset(const std::string& name) {
     c.ist_units = 4;
     c.l1_node = {32 * 1024, 64, 4, 2, 16};
     c.l1_triangle = {32 * 1024, 64, 4, 2, 16};
-    c.l2 = {2 * 1024 * 1024, 64, 16, 30, 64};
+    c.l2 = {2 * 1024 * 1024, 64, 16, 30, 64, 4, 1};
     apply_dram_part(c.dram, "ddr4-2400");
     c.dram.channels = 2;
   } else {
     throw InputError("preset", "unknown preset '" + name + "' (mobile | desktop)");
   }
   return c;
+}
+
+std::pair<uint32_t, uint32_t> parse_tile(const std::string& text) {
+  unsigned w = 0, h = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%ux%u%c", &w, &h, &tail) != 2 || w == 0 || h == 0 || w > 4096 ||
+      h > 4096 || text.find_first_not_of("0123456789x") != std::string::npos)
+    throw InputError("raygen.tile", "'" + text + "' is not WxH with 1..4096 each");
+  return {w, h};
 }
 
 namespace {
@@ -199,6 +235,12 @@ void check_cache(const std::string& key, const CacheConfig& c) {
 }  // namespace
 
 void validate(const HardwareConfig& c) {
+  parse_tile(c.raygen_tile);
+  if (c.triangle_packing == "line" && c.l1_triangle.line_bytes < c.triangle_bytes)
+    throw InputError("memory.triangle_packing", "'line' needs l1_triangle.line_bytes (" +
+                                                    std::to_string(c.l1_triangle.line_bytes) +
+                                                    ") >= memory.triangle_bytes (" +
+                                                    std::to_string(c.triangle_bytes) + ")");
   check_cache("l1_node", c.l1_node);
   check_cache("l1_triangle", c.l1_triangle);
   check_cache("l2", c.l2);

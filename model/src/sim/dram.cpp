@@ -212,7 +212,8 @@ void DramModel::advance(uint64_t now_ps, std::vector<DramCompletion>& issued) {
     if (!ch.queue.empty() && ch.next_decision_ps <= now_ps) schedule(ch, now_ps, issued);
 }
 
-uint64_t DramModel::lt_access(uint64_t address, uint64_t now_ps, uint64_t window_ps) {
+uint64_t DramModel::lt_access(uint64_t address, bool, uint64_t now_ps) {
+  const uint64_t window_ps = 0;
   Channel& ch = channels_[map_.decode(address).channel];
   const uint64_t ready = now_ps + uint64_t(config_.trcd + config_.tcl) * tck_;
   const uint64_t start =
@@ -226,7 +227,7 @@ uint64_t DramModel::lt_access(uint64_t address, uint64_t now_ps, uint64_t window
   return done;
 }
 
-void DramModel::count_access(uint64_t) {
+void DramModel::count_access(uint64_t, bool) {
   counters_.reads++;
   counters_.bytes += access_bytes_;
 }

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace rtsim::sim {
@@ -24,6 +25,8 @@ struct CacheConfig {
   uint32_t associativity = 4;
   uint32_t hit_latency_cycles = 2;  // accelerator cycles from request to data on a hit
   uint32_t mshrs = 8;               // outstanding distinct missing lines
+  uint32_t ports = 1;               // accesses accepted per cycle (ports or banks)
+  uint32_t fill_latency_cycles = 1; // next level's data arrival to data at the requester
   uint32_t sets() const { return size_bytes / (line_bytes * associativity); }
 };
 
@@ -53,6 +56,9 @@ struct HardwareConfig {
 
   // Ray generation
   double raygen_rays_per_cycle = 1.0;
+  std::string raygen_order = "tiles";      // primary issue order: scanline | tiles | morton
+  std::string raygen_tile = "8x8";         // tile size for raygen_order = tiles
+  std::string raygen_secondary = "behind";  // secondary rays: behind their parent | after all primaries
 
   // TRV
   uint32_t trv_units = 4;
@@ -66,6 +72,7 @@ struct HardwareConfig {
   uint32_t ist_units = 2;
   uint32_t ist_queue_entries = 16;    // leaf jobs waiting per unit (back-pressure to TRV)
   uint32_t ist_test_latency = 8;      // cycles per triangle test
+  uint32_t ist_triangles_in_flight = 4;  // triangles of a leaf fetched together, then tested in order
   double ist_tests_per_cycle = 1.0;   // throughput per unit
 
   // Shading
@@ -74,14 +81,18 @@ struct HardwareConfig {
 
   CacheConfig l1_node{16 * 1024, 64, 4, 2, 8};
   CacheConfig l1_triangle{16 * 1024, 64, 4, 2, 8};
-  CacheConfig l2{512 * 1024, 64, 8, 20, 32};
+  CacheConfig l2{512 * 1024, 64, 8, 20, 32, 2, 1};  // two banks
   DramConfig dram;
 
-  // Memory image layout
+  // Memory image layout (builder/memory_image.h)
   std::string node_layout = "bvh2-64";  // bvh2-64 | single-32
+  std::string node_order = "depth-first";  // depth-first | breadth-first
+  std::string triangle_storage = "indexed";  // indexed (via prim refs) | inline (in the leaf)
+  std::string triangle_packing = "packed";   // packed | line (no record straddles an L1 line)
   uint32_t triangle_bytes = 36;
 
-  // Loosely timed: the quantum keeper's global quantum
+  // Loosely timed: the quantum keeper's global quantum. It sets only how often the
+  // lt thread yields to the SystemC kernel, never a result.
   uint32_t lt_quantum_cycles = 1000;
 
   double clock_period_ps() const { return 1e6 / clock_mhz; }
@@ -113,6 +124,8 @@ HardwareConfig load_hardware_config(const std::string& preset_or_path);
 HardwareConfig parse_hardware_config(const std::string& toml_text, const std::string& source_name);
 // Cross-parameter checks (powers of two, line sizes, set counts); throws InputError.
 void validate(const HardwareConfig& config);
+// raygen.tile "WxH" -> (W, H); throws InputError naming raygen.tile.
+std::pair<uint32_t, uint32_t> parse_tile(const std::string& text);
 // The resolved configuration as a JSON object text, keys sorted.
 std::string to_json(const HardwareConfig& config);
 // A documented TOML listing of every parameter with its value (model/presets/*.toml).

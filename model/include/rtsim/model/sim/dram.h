@@ -47,6 +47,7 @@ struct DramRequest {
   uint64_t address = 0;
   uint64_t arrival_ps = 0;
   uint64_t tag = 0;  // the caller's id, returned with the completion
+  bool write = false;
 };
 
 struct DramCompletion {
@@ -74,9 +75,10 @@ class DramModel {
   // reserved for tBURST so that a stream never exceeds the peak bandwidth.
   // window_ps: requests may arrive out of time order by up to this much (the lt
   // quantum); they may then take a bus slot that far before the reservation end.
-  uint64_t lt_access(uint64_t address, uint64_t now_ps, uint64_t window_ps = 0);
-  // Functional level: counts the read, no time.
-  void count_access(uint64_t address);
+  uint64_t lt_access(uint64_t address, bool write, uint64_t now_ps);
+  // Functional level: counts the access, no time.
+  void count_access(uint64_t address, bool write);
+  void reset_counters() { counters_ = Counters{}; }
 
   uint64_t latency_ps(RowOutcome outcome) const;  // isolated access
   uint64_t transfer_ps() const { return transfer_ps_; }
