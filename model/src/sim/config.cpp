@@ -162,7 +162,8 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
       f64("dram.write_drain_low", d.write_drain_low, 0, 0.99, "ratio",
           "a write drain ends at this fraction of queue_entries when reads wait"),
       text("dram.address_mapping", d.address_mapping, {},
-           "fields row, rank, bank, column, channel from most to least significant, ':'-separated"),
+           "fields row, rank, bank, column, channel and optionally bankgroup from most to least "
+           "significant, ':'-separated; without bankgroup the group is the bank's top bits"),
   };
   for (auto& p : dram) visit(p);
 }
@@ -319,18 +320,18 @@ void validate(const HardwareConfig& c) {
     throw InputError("dram.trfc", "must be shorter than dram.trefi");
   if (d.write_drain_low >= d.write_drain_high)
     throw InputError("dram.write_drain_low", "must be below dram.write_drain_high");
-  // The mapping must name each field exactly once.
+  // The mapping must name each field exactly once; bankgroup is optional.
   std::set<std::string> seen;
   std::stringstream in(d.address_mapping);
   std::string field;
   while (std::getline(in, field, ':')) {
     if (field != "row" && field != "rank" && field != "bank" && field != "column" &&
-        field != "channel")
+        field != "channel" && field != "bankgroup")
       throw InputError("dram.address_mapping", "unknown field '" + field + "'");
     if (!seen.insert(field).second)
       throw InputError("dram.address_mapping", "field '" + field + "' appears twice");
   }
-  if (seen.size() != 5)
+  if (seen.size() - seen.count("bankgroup") != 5)
     throw InputError("dram.address_mapping",
                      "must name row, rank, bank, column and channel once each");
 }

@@ -80,7 +80,7 @@ LtDram::LtDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t 
 
 void LtDram::b_transport(int, tlm::tlm_generic_payload& p, sc_time& delay) {
   const uint64_t now = now_ps() + to_ps(delay);
-  const uint64_t done = model.lt_access(p.get_address(), now, window_ps_);
+  const uint64_t done = model.lt_access(p.get_address(), p.is_write(), now);
   delay += from_ps(done - now);
   p.set_response_status(tlm::TLM_OK_RESPONSE);
 }

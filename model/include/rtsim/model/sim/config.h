@@ -64,7 +64,7 @@ struct DramConfig {
   double write_drain_high = 0.5;   // writes queued (fraction of the queue) that start a drain
   double write_drain_low = 0.25;   // a drain stops at this many writes if reads wait
   // Address bits above the access offset, most significant first.
-  std::string address_mapping = "row:rank:bank:column:channel";
+  std::string address_mapping = "row:rank:bank:column:bankgroup:channel";
   uint32_t banks_per_group() const { return banks / bank_groups; }
 };
 
