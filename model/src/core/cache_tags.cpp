@@ -40,12 +40,17 @@ CacheTags::Way* CacheTags::find(uint64_t line) {
   return nullptr;
 }
 
-bool CacheTags::lookup(uint64_t address, bool make_dirty) {
+bool CacheTags::lookup(uint64_t address, bool make_dirty, uint64_t* ready_ps) {
   Way* way = find(address >> line_shift_);
   if (!way) return false;
   way->last_use = ++clock_;
   way->dirty = way->dirty || make_dirty;
+  if (ready_ps) *ready_ps = way->ready_ps;
   return true;
+}
+
+void CacheTags::set_ready(uint64_t address, uint64_t ready_ps) {
+  if (Way* way = find(address >> line_shift_)) way->ready_ps = ready_ps;
 }
 
 bool CacheTags::contains(uint64_t address) const {
@@ -71,6 +76,7 @@ Eviction CacheTags::insert(uint64_t address, bool dirty) {
   out.line = victim->tag << line_shift_;
   victim->tag = line;
   victim->last_use = ++clock_;
+  victim->ready_ps = 0;
   victim->dirty = dirty;
   return out;
 }

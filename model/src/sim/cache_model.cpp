@@ -64,41 +64,23 @@ Eviction CacheModel::install(uint64_t line, bool dirty) {
 
 CacheModel::Result CacheModel::access(const LineAccess& a, uint64_t now_ps) {
   Result r;
-  latest_now_ps_ = std::max(latest_now_ps_, now_ps);
-  if (tags_.lookup(a.line, a.write)) {
-    r.outcome = Outcome::Hit;
-    if (!arrival_.empty()) {
-      auto it = arrival_.find(a.line);
-      if (it != arrival_.end()) {
-        if (it->second > now_ps && !a.write) {
-          r.outcome = Outcome::Merged;
-          r.ready_ps = it->second;
-        } else if (it->second <= now_ps) {
-          arrival_.erase(it);
-        }
-      }
-    }
+  uint64_t ready = 0;
+  if (tags_.lookup(a.line, a.write, &ready)) {
+    // lt: a read of a line whose fill has not landed yet merges and waits for it.
+    r.outcome = ready > now_ps && !a.write ? Outcome::Merged : Outcome::Hit;
+    r.ready_ps = ready;
     count(a, r.outcome);
     return r;
   }
   r.outcome = Outcome::Miss;
   r.fetch = !a.write;
   if (r.fetch) filled_.add(a.ray_type, a.kind, config_.line_bytes);
-  arrival_.erase(a.line);  // a stale arrival of a line that was evicted meanwhile
   r.writeback = install(a.line, a.write);
   count(a, r.outcome);
   return r;
 }
 
-void CacheModel::set_arrival(uint64_t line, uint64_t ready_ps) {
-  // Keep the map to the lines still on their way: drop the landed ones now and then.
-  if (arrival_.size() >= prune_at_) {
-    for (auto it = arrival_.begin(); it != arrival_.end();)
-      it = it->second <= latest_now_ps_ ? arrival_.erase(it) : std::next(it);
-    prune_at_ = std::max<size_t>(4096, 2 * arrival_.size());
-  }
-  arrival_[line] = ready_ps;
-}
+void CacheModel::set_arrival(uint64_t line, uint64_t ready_ps) { tags_.set_ready(line, ready_ps); }
 
 CacheModel::Result CacheModel::request(const LineAccess& a) {
   Result r;
@@ -142,9 +124,29 @@ Eviction CacheModel::fill(uint64_t line) {
 }
 
 uint64_t CacheModel::reserve_port(uint64_t t_ps) {
-  const uint64_t start = std::max(t_ps, port_free_ps_);
+  // Port slots of one interval each. Requests come nearly in time order, but one
+  // that waited upstream (an MSHR, say) may come after later ones: it takes the
+  // first free slot from its own time on, not the slot after the latest taken.
+  uint64_t slot = t_ps / port_interval_ps_;
+  uint64_t start = t_ps;
+  if (taken_slots_.empty() || slot > taken_slots_.back()) {
+    taken_slots_.push_back(slot);
+  } else {
+    auto it = std::lower_bound(taken_slots_.begin(), taken_slots_.end(), slot);
+    while (it != taken_slots_.end() && *it == slot) ++slot, ++it;
+    if (slot * port_interval_ps_ > start) start = slot * port_interval_ps_;
+    taken_slots_.insert(it, slot);
+  }
+  // Slots long past are never asked for again.
+  constexpr uint64_t kHorizonPs = 8'000'000;
+  if (taken_slots_.size() > 4096) {
+    const uint64_t oldest = (taken_slots_.back() * port_interval_ps_ > kHorizonPs)
+                                ? (taken_slots_.back() * port_interval_ps_ - kHorizonPs) / port_interval_ps_
+                                : 0;
+    taken_slots_.erase(taken_slots_.begin(),
+                       std::lower_bound(taken_slots_.begin(), taken_slots_.end(), oldest));
+  }
   counters_.port_wait_ps += start - t_ps;
-  port_free_ps_ = start + port_interval_ps_;
   return start;
 }
 
@@ -170,7 +172,7 @@ void report_counters(StatsRegistry& s, const std::string& prefix, const CacheMod
   s.set_real(prefix + ".mshr_merge_rate", c.accesses ? double(c.mshr_merges) / accesses : 0.0,
              "ratio", "MSHR merges / accesses");
   s.set(prefix + ".mshr_full_stalls", c.mshr_full_stalls, "events",
-        "requests refused for a while because every MSHR was busy (cycle level)");
+        "misses that waited because every MSHR was busy");
   s.set(prefix + ".writes", c.writes, "requests", "write requests (stack spills, write-backs)");
   s.set(prefix + ".writebacks", c.writebacks, "lines", "dirty lines written to the next level");
   s.set(prefix + ".bytes_written_back", c.writebacks * line_bytes, "bytes",

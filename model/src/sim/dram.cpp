@@ -8,6 +8,11 @@
 namespace rtsim::sim {
 
 namespace {
+// lt: how far before the latest arrival a request may still be placed at its own time.
+constexpr uint64_t kLtHorizonPs = 4'000'000;
+}  // namespace
+
+namespace {
 uint32_t log2_exact(uint64_t v) {
   uint32_t bits = 0;
   while ((uint64_t(1) << bits) < v) ++bits;
@@ -155,8 +160,49 @@ double DramModel::peak_bytes_per_second() const {
 
 // ------------------------------------------------------------- timing rules
 
+uint64_t DramModel::lt_activate_fit(const Rank& r, uint32_t group, uint64_t t) const {
+  // Move t until it keeps tRRD_S/L to every placed activate of the rank and no four
+  // placed activates lie with it in one tFAW window (five consecutive span >= tFAW).
+  for (bool moved = true; moved;) {
+    moved = false;
+    for (const auto& [a, g] : r.lt_acts) {
+      const uint64_t rrd = g == group ? rrd_l_ : rrd_s_;
+      if (t < a + rrd && t + rrd > a) {
+        t = edge(a + rrd);
+        moved = true;
+      }
+    }
+    if (moved) continue;
+    const auto& acts = r.lt_acts;
+    const size_t at = size_t(std::lower_bound(acts.begin(), acts.end(), std::make_pair(t, 0u)) - acts.begin());
+    // The five-activate windows holding t: acts[at-4+k .. at+k] with t among them.
+    for (size_t k = 0; k < 5 && !moved; ++k) {
+      if (at + k < 4 || at + k - 4 + 4 > acts.size()) continue;
+      const size_t first = at + k - 4;               // the window's first placed activate
+      const size_t last = first + 3;                 // its last placed one (t makes five)
+      const uint64_t lo = std::min(acts[first].first, t), hi = std::max(acts[last].first, t);
+      if (hi - lo < faw_) {
+        t = edge(acts[first].first + faw_);
+        moved = true;
+      }
+    }
+  }
+  return t;
+}
+
 uint64_t DramModel::earliest_activate(Channel& ch, uint32_t rank, uint32_t bank, uint64_t t) {
   const Rank& r = ch.ranks[rank];
+  if (lt_) {
+    // Placed among the rank's activates, not only after the latest (other banks' rows
+    // open in parallel, as a reordering controller opens them).
+    t = std::max({t, bank_of(ch, rank, bank).act_ready_ps, r.refresh_end_ps});
+    for (;;) {
+      const uint64_t fit = lt_activate_fit(r, bank / banks_per_group_, t);
+      const uint64_t slot = command_slot(ch, fit);
+      if (slot == fit) return slot;
+      t = slot;
+    }
+  }
   t = std::max({t, bank_of(ch, rank, bank).act_ready_ps, r.activate_ready_ps,
                 group_of(ch, rank, bank).activate_ready_ps, r.refresh_end_ps});
   if (r.acts_seen == 4) t = std::max(t, r.recent_acts_ps[r.oldest_act] + faw_);
@@ -167,11 +213,58 @@ uint64_t DramModel::earliest_precharge(Channel& ch, uint32_t rank, uint32_t bank
   return command_slot(ch, std::max(t, bank_of(ch, rank, bank).pre_ready_ps));
 }
 
+uint64_t DramModel::lt_column_fit(const Channel& ch, uint32_t rank, uint32_t group, bool write,
+                                  uint64_t t) const {
+  // Move t past every placed column it would clash with, until none does. Spacing
+  // between a column at a (data [a+lat_a, +tBURST)) and one at b > a:
+  //   data bus:  b + lat_b >= a + lat_a + tBURST (+ tRTRS on a change of direction or rank)
+  //   tCCD:      b >= a + tCCD_S (same rank), tCCD_L (same group)
+  //   tWTR:      b >= a + tWTR_S/L when a writes and b reads (same rank / group)
+  const auto spacing = [&](uint64_t lat_a, bool write_a, uint32_t rank_a, uint32_t group_a,
+                           uint64_t lat_b, bool write_b, uint32_t rank_b, uint32_t group_b) {
+    const bool turn = write_a != write_b || rank_a != rank_b;
+    int64_t need = int64_t(lat_a + transfer_ps_ + (turn ? rtrs_ : 0)) - int64_t(lat_b);
+    if (rank_a == rank_b) {
+      const bool same_group = group_a == group_b;
+      need = std::max<int64_t>(need, int64_t(same_group ? column_l_ : column_s_));
+      if (write_a && !write_b)
+        need = std::max<int64_t>(need, int64_t(same_group ? write_to_read_l_ : write_to_read_s_));
+    }
+    return need;
+  };
+  const uint64_t lat = write ? cwl_ : cl_;
+  for (bool moved = true; moved;) {
+    moved = false;
+    for (const Channel::ColumnUse& u : ch.lt_columns) {
+      const uint64_t lat_u = u.write ? cwl_ : cl_;
+      const int64_t after = spacing(lat_u, u.write, u.rank, u.group, lat, write, rank, group);
+      const int64_t before = spacing(lat, write, rank, group, lat_u, u.write, u.rank, u.group);
+      // Clash when t lies in (u - before, u + after): neither order fits.
+      if (int64_t(t) < int64_t(u.time_ps) + after && int64_t(t) + before > int64_t(u.time_ps)) {
+        t = edge(uint64_t(int64_t(u.time_ps) + after));
+        moved = true;
+      }
+    }
+  }
+  return t;
+}
+
 uint64_t DramModel::earliest_column(Channel& ch, uint32_t rank, uint32_t bank, bool write,
                                     uint64_t t) {
   const Bank& k = bank_of(ch, rank, bank);
   const Group& g = group_of(ch, rank, bank);
   const Rank& r = ch.ranks[rank];
+  if (lt_) {
+    // Placed among the other banks' columns, not only after them.
+    t = std::max(t, write ? k.write_ready_ps : k.read_ready_ps);
+    const uint32_t group = bank / banks_per_group_;
+    for (;;) {
+      const uint64_t fit = lt_column_fit(ch, rank, group, write, t);
+      const uint64_t slot = command_slot(ch, fit);
+      if (slot == fit) return slot;
+      t = slot;
+    }
+  }
   t = std::max({t, write ? k.write_ready_ps : k.read_ready_ps, r.column_ready_ps,
                 g.column_ready_ps});
   if (!write) t = std::max({t, r.read_after_write_ps, g.read_after_write_ps});
@@ -233,6 +326,10 @@ void DramModel::activate(Channel& ch, uint32_t rank, uint32_t bank, uint64_t row
   r.recent_acts_ps[r.oldest_act] = t;
   r.oldest_act = (r.oldest_act + 1) % 4;
   r.acts_seen = std::min<uint32_t>(4, r.acts_seen + 1);
+  if (lt_) {
+    const std::pair<uint64_t, uint32_t> act{t, bank / banks_per_group_};
+    r.lt_acts.insert(std::lower_bound(r.lt_acts.begin(), r.lt_acts.end(), act), act);
+  }
   take_command_slot(ch, t);
   ++counters_.activates;
   emit(DramCommandKind::Activate, t, ch, rank, bank, row);
@@ -255,8 +352,16 @@ uint64_t DramModel::column(Channel& ch, uint32_t rank, uint32_t bank, bool write
   Group& g = group_of(ch, rank, bank);
   Rank& r = ch.ranks[rank];
   const uint64_t done = t + (write ? cwl_ : cl_) + transfer_ps_;
-  if (ch.bus_used && ch.bus_last_write != write) ++counters_.turnarounds;
-  ch.bus_free_ps = done;
+  if (lt_) {
+    auto& uses = ch.lt_columns;
+    const auto at = std::lower_bound(uses.begin(), uses.end(), t,
+                                     [](const Channel::ColumnUse& u, uint64_t x) { return u.time_ps < x; });
+    if (at != uses.begin() && std::prev(at)->write != write) ++counters_.turnarounds;
+    uses.insert(at, Channel::ColumnUse{t, rank, bank / banks_per_group_, write});
+  } else if (ch.bus_used && ch.bus_last_write != write) {
+    ++counters_.turnarounds;
+  }
+  ch.bus_free_ps = std::max(ch.bus_free_ps, done);
   ch.bus_used = true, ch.bus_last_write = write, ch.bus_last_rank = rank;
   counters_.bus_busy_ps += transfer_ps_;
   r.column_ready_ps = t + column_s_;
@@ -529,9 +634,12 @@ uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps) {
   lt_ = true;
   const DramAddress w = map_.decode(address);
   Channel& ch = channels_[w.channel];
-  // A request is never placed before one answered earlier (first come first served).
-  const uint64_t t0 = std::max(edge(now_ps), ch.lt_floor_ps);
-  ch.lt_floor_ps = t0;
+  // Requests come nearly in time order, but not quite: one that waited upstream (for
+  // an MSHR, say) arrives after later ones were placed. It is placed at its own time
+  // among them (bank state and the calendars below), not behind the latest arrival;
+  // only one older than the calendars' horizon is moved up to it.
+  ch.lt_floor_ps = std::max(ch.lt_floor_ps, edge(now_ps));
+  const uint64_t t0 = std::max(edge(now_ps), ch.lt_floor_ps - std::min(ch.lt_floor_ps, kLtHorizonPs));
   Bank& k = bank_of(ch, w.rank, w.bank);
   if (policy_ == PagePolicy::Closed) {
     // A row auto-precharges after its column command unless the next request to the
@@ -554,9 +662,21 @@ uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps) {
     if (c.time_ps == UINT64_MAX) break;
     execute(ch, c, pending_completions_);  // never a column command: nothing is queued
   }
-  // Command slots before t0 are never asked for again.
+  // Command slots and columns older than the horizon are never asked for again
+  // (tRTRS, tCCD, tWTR and the bus span far less than it).
+  const uint64_t oldest = ch.lt_floor_ps - std::min(ch.lt_floor_ps, 2 * kLtHorizonPs);
   auto& slots = ch.reserved_slots;
-  slots.erase(slots.begin(), std::lower_bound(slots.begin(), slots.end(), t0));
+  slots.erase(slots.begin(), std::lower_bound(slots.begin(), slots.end(), oldest));
+  auto& uses = ch.lt_columns;
+  size_t keep = 0;
+  while (keep < uses.size() && uses[keep].time_ps < oldest) ++keep;
+  uses.erase(uses.begin(), uses.begin() + long(keep));
+  for (Rank& rank : ch.ranks) {
+    auto& acts = rank.lt_acts;
+    size_t old = 0;
+    while (old < acts.size() && acts[old].first < oldest) ++old;
+    acts.erase(acts.begin(), acts.begin() + long(old));
+  }
   RowOutcome outcome = RowOutcome::Hit;
   if (k.open_row != int64_t(w.row)) {
     outcome = RowOutcome::Closed;

@@ -94,17 +94,26 @@ void LtCache::b_transport(int, tlm::tlm_generic_payload& p, sc_time& delay) {
   uint64_t ready = tag_checked;
   if (r.outcome == CacheModel::Outcome::Merged) ready = std::max(ready, r.ready_ps);
   if (r.fetch) {
+    // The miss needs an MSHR: the earliest to free when all are busy.
+    uint64_t send = tag_checked;
+    while (!mshr_free_.empty() && mshr_free_.top() <= send) mshr_free_.pop();
+    if (mshr_free_.size() >= model.config().mshrs) {
+      send = mshr_free_.top();
+      mshr_free_.pop();
+      model.note_mshr_wait();
+    }
     // Ask the next level for the whole line with the same payload, then restore it.
     const uint64_t address = p.get_address();
     const unsigned length = p.get_data_length();
     p.set_address(a.line);
     p.set_data_length(model.config().line_bytes);
-    sc_time next_delay = from_ps(tag_checked - kernel);
+    sc_time next_delay = from_ps(send - kernel);
     next->b_transport(p, next_delay);
     p.set_address(address);
     p.set_data_length(length);
     ready = kernel + to_ps(next_delay) + model.fill_latency_ps();
     model.set_arrival(a.line, ready);
+    mshr_free_.push(ready);
   }
   if (r.writeback.dirty) {
     // Posted: the dirty line goes down at the tag check; nobody waits for it.
@@ -204,7 +213,13 @@ void LtSystem::thread() {
         quantum_.set(from_ps(event_ps - now));
         if (quantum_.need_sync()) quantum_.sync();
       },
-      [this] { reset_counters(); }, progress_);
+      [this](bool last) {
+        const auto& d = dram->model.counters();
+        frame_history.push_back({engine.total().rays, d.bytes, d.bytes_written,
+                                 engine.end_ps() - engine.start_ps()});
+        if (!last) reset_counters();
+      },
+      progress_);
 }
 
 }  // namespace rtsim::sim

@@ -150,20 +150,20 @@ void RayEngine::schedule(uint64_t t, uint32_t slot, EventKind kind) {
 }
 
 void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
-                    const std::function<void()>& frame_start,
+                    const std::function<void(bool)>& frame_end,
                     const std::function<void(uint64_t)>& progress) {
   line_bytes_[size_t(Requester::Trv)] = port.line_bytes(Requester::Trv);
   line_bytes_[size_t(Requester::Ist)] = port.line_bytes(Requester::Ist);
   const uint32_t frames = std::max<uint32_t>(1, workload_->frames);
   for (uint32_t frame = 0; frame < frames; ++frame) {
     if (frame > 0) {
-      frame_start();
       reset_counters();
       dispatcher_.restart();
       frame_start_ps_ = end_ps_;
     }
     if (timed_) run_timed(port, sync, progress);
     else run_rounds(port, progress);
+    frame_end(frame + 1 == frames);
   }
   progress(done_rays_);
 }
@@ -198,6 +198,19 @@ void RayEngine::run_rounds(MemoryPort& port, const std::function<void(uint64_t)>
   }
 }
 
+void RayEngine::issue_step(MemoryPort& port, uint32_t id, uint64_t t) {
+  Slot& slot = slots_[id];
+  RayTraversal& trv = slot.traversal;
+  if (trv.done()) {  // a ray with nothing to do (e.g. an unusable direction)
+    schedule(t, id, EventKind::Complete);
+    return;
+  }
+  const std::vector<MemoryAccess>& reads = trv.step_reads();
+  const size_t independent = trv.step_independent_reads();
+  const uint64_t back = issue(port, slot, reads, 0, independent, t);
+  schedule(back, id, independent < reads.size() ? EventKind::Dependent : EventKind::Arrive);
+}
+
 void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>& sync,
                           const std::function<void(uint64_t)>& progress) {
   uint64_t reported = done_rays_;
@@ -221,17 +234,9 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
     Slot& slot = slots_[e.slot];
     RayTraversal& trv = slot.traversal;
     switch (e.kind) {
-      case EventKind::Issue: {
-        if (trv.done()) {  // a ray with nothing to do (e.g. an unusable direction)
-          schedule(t, e.slot, EventKind::Complete);
-          break;
-        }
-        const std::vector<MemoryAccess>& reads = trv.step_reads();
-        const size_t independent = trv.step_independent_reads();
-        const uint64_t back = issue(port, slot, reads, 0, independent, t);
-        schedule(back, e.slot, independent < reads.size() ? EventKind::Dependent : EventKind::Arrive);
+      case EventKind::Issue:
+        issue_step(port, e.slot, t);
         break;
-      }
       case EventKind::Dependent: {
         const std::vector<MemoryAccess>& reads = trv.step_reads();
         const uint64_t back = issue(port, slot, reads, trv.step_independent_reads(), reads.size(), t);
@@ -265,7 +270,9 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
         const std::vector<MemoryAccess>& stack = trv.stack_accesses();
         const uint64_t next = stack.empty() ? t : issue(port, slot, stack, 0, stack.size(), t);
         if (!trv.done()) {
-          schedule(next, e.slot, EventKind::Issue);
+          // The next step right away when nothing is waited for (saves an event).
+          if (next == t) issue_step(port, e.slot, t);
+          else schedule(next, e.slot, EventKind::Issue);
           break;
         }
         finish(slot, next);

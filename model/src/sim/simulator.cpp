@@ -129,6 +129,23 @@ void report_time(StatsRegistry& s, const HardwareConfig& c, uint64_t sim_ps, uin
         "frames simulated back to back (the same rays, caches warm); every figure is the last's");
 }
 
+void report_frames(StatsRegistry& s, const std::vector<FrameFigures>& history,
+                   const HardwareConfig& c, bool untimed) {
+  if (history.size() < 2) return;
+  for (size_t f = 0; f < history.size(); ++f) {
+    const FrameFigures& h = history[f];
+    const std::string p = "frames.frame" + std::to_string(f + 1);
+    const std::string which = f == 0 ? " (cold caches)" : "";
+    s.set(p + ".dram_bytes", h.dram_bytes_read, "bytes", "bytes read from DRAM in this frame" + which);
+    s.set(p + ".dram_bytes_written", h.dram_bytes_written, "bytes", "bytes written to DRAM in this frame");
+    s.set_real(p + ".dram_bytes_per_ray", h.rays ? double(h.dram_bytes_read) / double(h.rays) : 0,
+               "bytes/ray", "DRAM bytes read / rays in this frame" + which);
+    if (!untimed)
+      s.set(p + ".cycles", uint64_t(std::llround(double(h.simulated_ps) / c.clock_period_ps())),
+            "cycles", "simulated cycles of this frame" + which);
+  }
+}
+
 bool& systemc_used() {
   static bool used = false;
   return used;
@@ -207,11 +224,19 @@ SimulationResult simulate(const SimulationRequest& request) {
       functional = std::make_unique<FunctionalMemory>(config);
       own_engine = std::make_unique<RayEngine>(config, work, false);
       engine = own_engine.get();
-      engine->run(*functional, [](uint64_t) {}, [&] { functional->reset_counters(); }, progress);
+      engine->run(
+          *functional, [](uint64_t) {},
+          [&](bool last) {
+            const auto& d = functional->dram.counters();
+            result.frame_history.push_back({engine->total().rays, d.bytes, d.bytes_written, 0});
+            if (!last) functional->reset_counters();
+          },
+          progress);
     } else {
       lt = std::make_unique<LtSystem>("lt", config, work, progress);
       engine = &lt->engine;
       sc_core::sc_start();
+      result.frame_history = lt->frame_history;
     }
     result.host_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -264,8 +289,9 @@ SimulationResult simulate(const SimulationRequest& request) {
       for (auto& c : lt->l1_node) l1n.push_back(&c->model);
       for (auto& c : lt->l1_triangle) l1t.push_back(&c->model);
       l2 = &lt->l2->model;
-      dram = &lt->dram->model;
       result.simulated_ps = engine->end_ps() - engine->start_ps();
+      lt->dram->model.settle(engine->end_ps());  // idle-time refreshes into the counts
+      dram = &lt->dram->model;
       // Per-unit figures of the engine's unit timing.
       for (size_t u = 0; u < engine->trv_time().size(); ++u) {
         const UnitTime& t = engine->trv_time()[u];
@@ -300,7 +326,9 @@ SimulationResult simulate(const SimulationRequest& request) {
                                " rays unfinished");
     result.per_type = system.per_type;
     result.rays = system.rays_done;
+    result.frame_history = system.frame_history;
     result.simulated_ps = system.end_ps - system.frame_start_ps;
+    system.dram->model.settle(system.end_ps);  // idle-time refreshes into the counts
     const uint64_t T = result.simulated_ps;
     for (size_t u = 0; u < system.trv.size(); ++u) {
       const Occupancy& o = system.trv[u]->occupancy;
@@ -334,6 +362,7 @@ SimulationResult simulate(const SimulationRequest& request) {
   }
   report_counts(s, result.per_type);
   report_layout(s, image, request.scene->triangle_count());
+  report_frames(s, result.frame_history, config, request.fidelity == Fidelity::Functional);
   result.cycles = uint64_t(std::llround(double(result.simulated_ps) / cycle_ps));
   result.peak_memory_bytes = peak_rss_bytes();
   return result;

@@ -170,8 +170,10 @@ uint32_t CycleDram::slot_for(int id, tlm_generic_payload* p) {
 
 void CycleDram::admit(uint32_t r, uint64_t now) {
   tlm_generic_payload* p = in_flight_[r].p;
+  // The latency counts from the sender's first try, so a held request's wait is in it.
   model.enqueue({p->get_address(), std::min(now, PayloadPool::extension(*p).first_try_ps), r,
-                 p->is_write()});
+                 p->is_write()},
+                now);
   if (decide_at_ > now) {
     decide_at_ = now;
     queue_.push(now, Item{Item::Decide, 0});

@@ -57,6 +57,8 @@ void CycleSystem::check_frame_end(uint64_t t) {
   if (!raygen->queue_empty() || raygen->issued() != rays_done || (shading && !shading->idle()))
     return;
   end_ps = std::max(end_ps, t);
+  const auto& d = dram->model.counters();
+  frame_history.push_back({rays_done, d.bytes, d.bytes_written, end_ps - frame_start_ps});
   if (frame + 1 >= std::max<uint32_t>(1, workload.frames)) {
     finished = true;
     return;

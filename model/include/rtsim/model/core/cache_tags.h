@@ -33,9 +33,12 @@ class CacheTags {
   uint32_t sets() const { return sets_; }
   uint64_t line_address(uint64_t address) const { return address & ~uint64_t(geometry_.line_bytes - 1); }
 
-  // Hit: the line becomes most recently used (and dirty when make_dirty). Miss:
-  // nothing changes.
-  bool lookup(uint64_t address, bool make_dirty = false);
+  // Hit: the line becomes most recently used (and dirty when make_dirty), and
+  // *ready_ps (if given) says when its data is there (set_ready; 0 = always was).
+  // Miss: nothing changes.
+  bool lookup(uint64_t address, bool make_dirty = false, uint64_t* ready_ps = nullptr);
+  // A timed model's note of when a present line's data arrives (its fill).
+  void set_ready(uint64_t address, uint64_t ready_ps);
   // Present? No LRU update.
   bool contains(uint64_t address) const;
   // Installs the line (most recently used, dirty if asked) and says which line it
@@ -49,6 +52,7 @@ class CacheTags {
   struct Way {
     uint64_t tag = 0;
     uint64_t last_use = 0;  // 0 = invalid
+    uint64_t ready_ps = 0;  // when the data arrives (timed models)
     bool dirty = false;
   };
   Way* find(uint64_t line);

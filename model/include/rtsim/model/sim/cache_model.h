@@ -68,6 +68,8 @@ class CacheModel {
   // The missing line arrived: installs it and frees its MSHR.
   Eviction fill(uint64_t line);
   uint32_t mshrs_in_use() const { return uint32_t(mshr_.size()); }
+  // lt: a miss waited for a free MSHR (the cycle level counts its refusals itself).
+  void note_mshr_wait() { ++counters_.mshr_full_stalls; }
 
   // Ports: config.ports accesses per cycle. Returns when an access arriving at
   // t_ps is served, and takes its slot.
@@ -94,17 +96,15 @@ class CacheModel {
 
   CacheConfig config_;
   CacheTags tags_;
-  uint64_t hit_ps_, fill_ps_, port_interval_ps_, cycle_ps_, port_free_ps_ = 0;
-  uint64_t latest_now_ps_ = 0;
-  size_t prune_at_ = 4096;
+  uint64_t hit_ps_, fill_ps_, port_interval_ps_, cycle_ps_;
+  std::vector<uint64_t> taken_slots_;  // port slots (time / interval) taken, sorted
   Counters counters_;
   TrafficMatrix requested_, filled_;
   struct Mshr {
     uint32_t waiting = 0;
     bool dirty_on_fill = false;  // a write met the line while its fill was on the way
   };
-  std::unordered_map<uint64_t, Mshr> mshr_;        // cycle: missing lines
-  std::unordered_map<uint64_t, uint64_t> arrival_;  // lt: line -> when its fill lands
+  std::unordered_map<uint64_t, Mshr> mshr_;  // cycle: missing lines
 };
 
 // Sums several same-role caches (e.g. every TRV unit's L1) for the summary stats.

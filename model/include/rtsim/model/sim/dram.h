@@ -191,6 +191,7 @@ class DramModel {
     uint32_t acts_seen = 0;            // activates so far, up to 4
     uint64_t refresh_due_ps = UINT64_MAX;
     uint64_t refresh_end_ps = 0;       // REF + tRFC
+    std::vector<std::pair<uint64_t, uint32_t>> lt_acts;  // lt: activates placed (time, group), sorted
   };
   struct Pending {
     DramRequest request;
@@ -220,6 +221,17 @@ class DramModel {
     uint64_t command_free_ps = 0;  // next free command-bus slot (queued path)
     std::vector<uint64_t> reserved_slots;  // lt: command-bus slots taken, sorted
     uint64_t lt_floor_ps = 0;              // lt: latest arrival served
+    // lt: column commands placed, sorted by time. A request's column takes the
+    // earliest time its bank allows at which the data bus, tCCD and tWTR allow it
+    // among these, before or after columns placed earlier: banks serve in parallel
+    // (a row miss on one bank does not hold up a hit on another), as an FR-FCFS
+    // controller lets them, while each bank keeps its own order.
+    struct ColumnUse {
+      uint64_t time_ps;
+      uint32_t rank, group;
+      bool write;
+    };
+    std::vector<ColumnUse> lt_columns;
     uint64_t bus_free_ps = 0;      // data bus
     bool bus_used = false, bus_last_write = false;
     uint32_t bus_last_rank = 0;
@@ -240,6 +252,11 @@ class DramModel {
   uint64_t earliest_activate(Channel& ch, uint32_t rank, uint32_t bank, uint64_t t);
   uint64_t earliest_precharge(Channel& ch, uint32_t rank, uint32_t bank, uint64_t t);
   uint64_t earliest_column(Channel& ch, uint32_t rank, uint32_t bank, bool write, uint64_t t);
+  // lt: the first time >= t at which an activate fits among the rank's placed ones.
+  uint64_t lt_activate_fit(const Rank& r, uint32_t group, uint64_t t) const;
+  // lt: the first time >= t at which a column fits among the placed ones (or t).
+  uint64_t lt_column_fit(const Channel& ch, uint32_t rank, uint32_t group, bool write,
+                         uint64_t t) const;
   uint64_t earliest_refresh(Channel& ch, uint32_t rank, uint64_t t);
   // The first free command-bus slot at or after t, and taking it.
   uint64_t command_slot(const Channel& ch, uint64_t t) const;

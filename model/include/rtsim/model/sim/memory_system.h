@@ -20,7 +20,9 @@
 #include <tlm_utils/simple_initiator_socket.h>
 #include <tlm_utils/tlm_quantumkeeper.h>
 
+#include <functional>
 #include <memory>
+#include <queue>
 #include <vector>
 
 namespace rtsim::sim {
@@ -94,6 +96,9 @@ class LtCache : public sc_core::sc_module {
   void b_transport(int id, tlm::tlm_generic_payload& payload, sc_core::sc_time& delay);
   tlm::tlm_generic_payload writeback_;  // owns its AccessExtension
   AccessExtension* writeback_extension_;
+  // When the misses now outstanding land (at most config.mshrs): a miss that finds
+  // them all busy goes down when the earliest frees, as at the cycle level.
+  std::priority_queue<uint64_t, std::vector<uint64_t>, std::greater<uint64_t>> mshr_free_;
 };
 
 class LtDram : public sc_core::sc_module {
@@ -118,6 +123,7 @@ class LtSystem : public sc_core::sc_module, public MemoryPort {
   void reset_counters();
 
   RayEngine engine;
+  std::vector<FrameFigures> frame_history;
   std::vector<std::unique_ptr<LtCache>> l1_node, l1_triangle;
   std::unique_ptr<LtCache> l2;
   std::unique_ptr<LtDram> dram;

@@ -78,6 +78,13 @@ struct Workload {
   AccessObserver observer;       // optional
 };
 
+// What each frame of a multi-frame run cost: the first shows the cold caches, the
+// last the steady state (the run's stats are the last frame's).
+struct FrameFigures {
+  uint64_t rays = 0, dram_bytes_read = 0, dram_bytes_written = 0;
+  uint64_t simulated_ps = 0;
+};
+
 // Per-unit timing record (lt) used for busy / idle figures.
 struct UnitTime {
   uint64_t busy_ps = 0;                               // pipeline occupied
@@ -99,10 +106,10 @@ class RayEngine {
   RayEngine(const HardwareConfig& config, const Workload& workload, bool timed);
 
   // Runs every frame to completion. `sync(t)` is called before each lt event at
-  // time t (the quantum keeper hooks in); `frame_start()` before each frame after
-  // the first (the memory system clears its counters).
+  // time t (the quantum keeper hooks in); `frame_end(last)` after each frame (the
+  // memory system records the frame and, unless it was the last, clears its counters).
   void run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
-           const std::function<void()>& frame_start,
+           const std::function<void(bool last)>& frame_end,
            const std::function<void(uint64_t rays_done)>& progress);
 
   uint64_t start_ps() const { return frame_start_ps_; }  // the last frame's start
@@ -144,6 +151,7 @@ class RayEngine {
   uint64_t issue(MemoryPort& port, Slot& slot, const std::vector<MemoryAccess>& list,
                  size_t begin, size_t end, uint64_t t);
   bool start_next_ray(Slot& slot, uint64_t now_ps, uint64_t* start_ps);
+  void issue_step(MemoryPort& port, uint32_t slot, uint64_t t);  // lt: the step's first reads
   void finish(Slot& slot, uint64_t t);
   void schedule(uint64_t t, uint32_t slot, EventKind kind);
 

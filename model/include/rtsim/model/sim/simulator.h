@@ -51,6 +51,7 @@ struct SimulationResult {
   uint64_t peak_memory_bytes = 0;
   std::array<CounterTotals, kRayTypeCount> per_type{};
   EffectPlan plan;
+  std::vector<FrameFigures> frame_history;  // one per frame (stats are the last's)
 };
 
 // Throws InputError for an invalid configuration or request; std::runtime_error

@@ -45,6 +45,7 @@ class CycleSystem : public sc_core::sc_module {
   uint64_t frame_start_ps = 0, end_ps = 0;
   uint32_t frame = 0;
   bool finished = false;
+  std::vector<FrameFigures> frame_history;
 
  private:
   void check_frame_end(uint64_t t);
