@@ -21,14 +21,24 @@ void add_accuracy_command(CLI::App& root) {
   auto o = std::make_shared<AccuracyCommandOptions>();
   CLI::App* cmd = root.add_subcommand(
       "accuracy", "Measure what accuracy costs in time: fidelity levels, AO-BVH rays per primitive, "
-                  "binned vs full-sweep SAH, SBVH alpha, AO rays per pixel and resolution, each against "
-                  "its error; writes accuracy.{md,json,csv} and accuracy_tradeoffs.png");
+                  "binned vs full-sweep SAH, SBVH alpha, AO rays per pixel, resolution, and memory traffic "
+                  "against resolution and frames, each against its error; writes accuracy.{md,json,csv}, "
+                  "accuracy_tradeoffs.png and accuracy_traffic.png");
   cmd->add_option("--scene", o->accuracy.scene, "Scene name or descriptor path")->capture_default_str();
   cmd->add_option("--camera", o->accuracy.camera, "Camera")->capture_default_str();
   cmd->add_option("--out-dir", o->accuracy.out_dir, "Where the report and the picture go")->capture_default_str();
   cmd->add_option("--config", o->accuracy.hardware, "Hardware preset or TOML for the simulate runs")
       ->capture_default_str();
   cmd->add_option("--seed", o->accuracy.seed, "Seed of every random choice")->capture_default_str();
+  cmd->add_option("--traffic-scenes", o->accuracy.traffic_scenes,
+                  "Scenes of the memory-traffic section (default: --scene), e.g. dragon-small interior "
+                  "black_forest");
+  cmd->add_option("--traffic-res", o->accuracy.traffic_resolutions,
+                  "Square resolutions of the memory-traffic section")
+      ->capture_default_str();
+  cmd->add_option("--traffic-frames", o->accuracy.traffic_frames,
+                  "Frames per memory-traffic run (the first is cold)")
+      ->capture_default_str();
   cmd->add_flag("--quick", o->quick, "Small sizes: a smoke run of well under a minute on small scenes");
   cmd->callback([o] {
     AccuracyOptions options = o->quick ? quick_accuracy_options(o->accuracy) : o->accuracy;
@@ -37,7 +47,7 @@ void add_accuracy_command(CLI::App& root) {
     write_accuracy(report);
     std::fputs(accuracy_text(report).c_str(), stdout);
     std::fflush(stdout);  // before the stderr line, so a shared log reads in order
-    std::fprintf(stderr, "wrote %s/accuracy.{md,json,csv}, accuracy_tradeoffs.png and accuracy_ao_images.png\n",
+    std::fprintf(stderr, "wrote %s/accuracy.{md,json,csv}, accuracy_tradeoffs.png, accuracy_ao_images.png and accuracy_traffic.png\n",
                  options.out_dir.string().c_str());
   });
 }

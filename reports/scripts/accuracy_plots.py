@@ -222,6 +222,51 @@ def main(out_dir):
     fig.tight_layout()
     save(fig, os.path.join(out_dir, "accuracy_tradeoffs.png"))
     ao_images(out_dir, data)
+    traffic(out_dir, data)
+
+
+def traffic(out_dir, data):
+    """DRAM bytes and cycles per ray against resolution: cold first frame vs steady state."""
+    points = data.get("traffic", {}).get("points", [])
+    if not points:
+        return
+    scenes = sorted({p["scene"] for p in points}, key=[p["scene"] for p in points].index)
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4.8))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, scene in enumerate(scenes):
+        colour = colours[i % len(colours)]
+        fn = sorted((p for p in points if p["scene"] == scene and p["level"] == "functional"),
+                    key=lambda p: p["resolution"])
+        cy = sorted((p for p in points if p["scene"] == scene and p["level"] == "cycle"),
+                    key=lambda p: p["resolution"])
+        xs = [p["resolution"] for p in fn]
+        floor = 0.01
+        if fn:
+            axes[0].plot(xs, [max(floor, p["dram_bytes_per_ray"][0]) for p in fn], "--o", color=colour,
+                         label="%s, frame 1 (cold)" % scene)
+            axes[0].plot(xs, [max(floor, p["dram_bytes_per_ray"][-1]) for p in fn], "-s", color=colour,
+                         label="%s, frame %d (steady)" % (scene, len(fn[0]["dram_bytes_per_ray"])))
+        if cy:
+            xc = [p["resolution"] for p in cy]
+            axes[1].plot(xc, [p["cycles_per_ray"][0] for p in cy], "--o", color=colour,
+                         label="%s, frame 1 (cold)" % scene)
+            axes[1].plot(xc, [p["cycles_per_ray"][-1] for p in cy], "-s", color=colour,
+                         label="%s, steady" % scene)
+    axes[0].set_xscale("log", base=2)
+    axes[0].set_yscale("log")
+    axes[0].set_xlabel("resolution (square, pixels per side)")
+    axes[0].set_ylabel("DRAM bytes read per ray (log; %.2g = none)" % 0.01)
+    axes[0].set_title("DRAM traffic per ray (functional level)", fontsize=10)
+    axes[1].set_xscale("log", base=2)
+    axes[1].set_xlabel("resolution (square, pixels per side)")
+    axes[1].set_ylabel("simulated cycles per ray")
+    axes[1].set_title("Cycles per ray (cycle level)", fontsize=10)
+    for ax in axes:
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=7)
+    fig.suptitle("Memory traffic against resolution and frames, hardware '%s'" % data["hardware"], fontsize=10)
+    fig.tight_layout()
+    save(fig, os.path.join(out_dir, "accuracy_traffic.png"))
 
 
 def ao_images(out_dir, data):

@@ -21,6 +21,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -40,7 +41,80 @@ AccuracyOptions quick_accuracy_options(AccuracyOptions base) {
   base.ao_samples_reference = 256;
   base.resolutions = {16, 32, 64, 128};
   base.seeds = {1, 2};
+  base.traffic_resolutions = {32, 64};
+  base.traffic_frames = 2;
+  base.traffic_cycle_resolution = 32;
   return base;
+}
+
+namespace {
+bool within(double value, double reference, double tolerance, double floor) {
+  return std::fabs(value - reference) <= std::max(tolerance * std::fabs(reference), floor);
+}
+}  // namespace
+
+TrafficVerdict judge_traffic(const std::string& scene, const std::vector<TrafficPoint>& points,
+                             const AccuracyOptions& o) {
+  TrafficVerdict v;
+  v.scene = scene;
+  std::vector<const TrafficPoint*> functional, cycle;
+  for (const TrafficPoint& p : points)
+    if (p.scene == scene) (p.level == "cycle" ? cycle : functional).push_back(&p);
+  const auto by_resolution = [](const TrafficPoint* a, const TrafficPoint* b) { return a->resolution < b->resolution; };
+  std::sort(functional.begin(), functional.end(), by_resolution);
+  std::sort(cycle.begin(), cycle.end(), by_resolution);
+  // Frames: the first frame count whose last frame is within tolerance of the last
+  // measured one, in DRAM bytes and cycles, at every resolution.
+  uint32_t needed = 1;
+  for (const TrafficPoint* p : functional) {
+    const auto& d = p->dram_bytes_per_ray;
+    uint32_t f = uint32_t(d.size());
+    while (f > 1 && within(d[f - 2], d.back(), o.traffic_tolerance, o.traffic_floor_bytes)) --f;
+    needed = std::max(needed, f);
+  }
+  for (const TrafficPoint* p : cycle) {
+    const auto& c = p->cycles_per_ray;
+    uint32_t f = uint32_t(c.size());
+    while (f > 1 && within(c[f - 2], c.back(), o.traffic_tolerance, 0.0)) --f;
+    needed = std::max(needed, f);
+  }
+  v.frames_needed = needed;
+  v.frames_confirmed = needed < o.traffic_frames;
+  // Resolution: the steady state against the highest resolution measured.
+  if (!functional.empty()) {
+    const TrafficPoint& top = *functional.back();
+    v.cold_bytes_per_ray = top.dram_bytes_per_ray.front();
+    v.steady_bytes_per_ray = top.dram_bytes_per_ray.back();
+    for (size_t i = functional.size(); i-- > 0;) {
+      if (!within(functional[i]->dram_bytes_per_ray.back(), v.steady_bytes_per_ray, o.traffic_tolerance,
+                  o.traffic_floor_bytes))
+        break;
+      v.resolution_needed = functional[i]->resolution;
+    }
+    v.resolution_converged = functional.size() >= 2 && v.resolution_needed < top.resolution;
+    if (!v.resolution_converged) v.resolution_needed = 0;
+  }
+  if (!cycle.empty()) v.cycles_per_ray = cycle.back()->cycles_per_ray.back();
+  char buf[640];
+  const uint32_t top_res = functional.empty() ? 0 : functional.back()->resolution;
+  std::snprintf(buf, sizeof buf,
+                "%s: at %ux%u the first (cold) frame reads %.3g DRAM B/ray, the steady state %.3g (%s); "
+                "%s frame%s the steady state within %.0f%% (or %.2g B/ray)%s; %s",
+                scene.c_str(), top_res, top_res, v.cold_bytes_per_ray, v.steady_bytes_per_ray,
+                v.steady_bytes_per_ray < 0.5 * v.cold_bytes_per_ray
+                    ? "the working set stays in the caches: cold traffic is the footprint the frame touches"
+                    : "the working set exceeds the caches: warm frames miss as much as the first",
+                std::to_string(needed).c_str(), needed == 1 ? " is already at" : "s reach", 100 * o.traffic_tolerance,
+                o.traffic_floor_bytes, v.frames_confirmed ? "" : " (at least: the last frame measured was needed)",
+                v.resolution_converged
+                    ? ("steady-state DRAM B/ray is within tolerance of the " + std::to_string(top_res) + "x" +
+                       std::to_string(top_res) + " value from " + std::to_string(v.resolution_needed) + "x" +
+                       std::to_string(v.resolution_needed) + " on.")
+                          .c_str()
+                    : "DRAM B/ray still falls with resolution at the highest one measured (denser rays "
+                      "share more cache lines): measure at the resolution the study targets.");
+  v.summary = buf;
+  return v;
 }
 
 namespace {
@@ -153,6 +227,7 @@ class AccuracyRun {
     fidelity_levels();
     ao_samples();
     resolution_stability();
+    memory_traffic();
     report_.recommendations = recommend(report_);
     report_.total_seconds = seconds_since(start);
     return report_;
@@ -166,6 +241,10 @@ class AccuracyRun {
         if (r == 0 || r > 4096) throw InputError(field, "resolutions must be 1..4096");
     };
     check_resolutions(o_.fidelity_resolutions, "fidelity_resolutions");
+    check_resolutions(o_.traffic_resolutions, "--traffic-res");
+    if (o_.traffic_frames < 2 || o_.traffic_frames > 16)
+      throw InputError("--traffic-frames", "must be 2..16 (the first frame is the cold one)");
+    for (const std::string& s : o_.traffic_scenes) load_scene(s);  // an unknown scene fails now
     check_resolutions(o_.resolutions, "resolutions");
     check_resolutions({o_.knob_resolution, o_.ao_image_resolution}, "resolution");
     for (uint32_t k : o_.ao_rays_per_primitive)
@@ -453,6 +532,64 @@ class AccuracyRun {
     report_.resolution_reference_ops = reference;
     report_.resolution_needed = needed;
     report_.rays_needed = count ? rays / count : 0;
+  }
+
+  // 5. DRAM bytes and cycles per ray against resolution and frames, per scene.
+  void memory_traffic() {
+    std::vector<std::string> scenes = o_.traffic_scenes;
+    if (scenes.empty()) scenes.push_back(o_.scene);
+    std::vector<uint32_t> resolutions = o_.traffic_resolutions;
+    std::sort(resolutions.begin(), resolutions.end());
+    resolutions.erase(std::unique(resolutions.begin(), resolutions.end()), resolutions.end());
+    size_t runs = 0;
+    for (uint32_t r : resolutions) runs += r <= o_.traffic_cycle_resolution ? 2 : 1;
+    Progress progress("accuracy: memory traffic", runs * scenes.size(), "runs");
+    const std::filesystem::path runs_dir = o_.out_dir / "runs" / "traffic";
+    std::filesystem::create_directories(runs_dir);
+    for (const std::string& scene : scenes) {
+      // One tree per scene, built once by a child and replayed by every run.
+      const std::string key = std::to_string(std::hash<std::string>{}(scene) % 1000000);
+      const std::filesystem::path tree = runs_dir / ("tree-" + key + ".bvh");
+      run_child("build --scene " + shell_quote(scene) + " --builder " + shell_quote(o_.builder) +
+                    " --seed " + std::to_string(o_.seed) + " --out " + shell_quote(tree.string()),
+                runs_dir / ("build-" + key + ".log"));
+      for (uint32_t res : resolutions)
+        for (const char* level : {"functional", "cycle"}) {
+          if (std::string(level) == "cycle" && res > o_.traffic_cycle_resolution) continue;
+          const std::string name = key + "-" + level + "-" + std::to_string(res);
+          const std::filesystem::path dir = runs_dir / name;
+          run_child("simulate --scene " + shell_quote(scene) + " --bvh " + shell_quote(tree.string()) +
+                        " --fidelity " + level + " --config " + shell_quote(o_.hardware) + " --res " +
+                        std::to_string(res) + "x" + std::to_string(res) + " --seed " +
+                        std::to_string(o_.seed) + " --frames " + std::to_string(o_.traffic_frames) +
+                        " --out " + shell_quote(dir.string()),
+                    runs_dir / (name + ".log"));
+          const nlohmann::json st = read_json(dir / "stats.json"), host = read_json(dir / "host.json");
+          TrafficPoint p;
+          p.scene = scene;
+          p.level = level;
+          p.resolution = res;
+          p.rays = uint64_t(stat_value(st, {"rays", "total"}));
+          p.cpu_seconds = stat_value(host, {"cpu_seconds"});
+          for (uint32_t f = 1; f <= o_.traffic_frames; ++f) {
+            const std::string frame = "frame" + std::to_string(f);
+            p.dram_bytes_per_ray.push_back(stat_value(st, {"frames", frame.c_str(), "dram_bytes_per_ray"}));
+            if (p.level == "cycle")
+              p.cycles_per_ray.push_back(stat_value(st, {"frames", frame.c_str(), "cycles"}) /
+                                         double(std::max<uint64_t>(1, p.rays)));
+          }
+          report_.traffic.push_back(p);
+          progress.advance();
+        }
+      report_.traffic_verdicts.push_back(judge_traffic(scene, report_.traffic, o_));
+    }
+  }
+
+  void run_child(const std::string& arguments, const std::filesystem::path& log) const {
+    const std::string command = shell_quote(o_.rtsim_binary.string()) + " " + arguments + " > " +
+                                shell_quote(log.string()) + " 2>&1";
+    if (std::system(command.c_str()) != 0)
+      throw std::runtime_error("accuracy run failed (" + command + "; see " + log.string() + ")");
   }
 
   const AccuracyOptions& o_;

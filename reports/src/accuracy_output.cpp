@@ -65,6 +65,20 @@ TextTable resolution_table(const AccuracyReport& r) {
   return t;
 }
 
+TextTable traffic_table(const AccuracyReport& r) {
+  TextTable t({"scene", "level", "res", "rays/frame", "DRAM B/ray by frame (1 = cold)",
+               "cycles/ray by frame", "CPU s"});
+  const auto series = [](const std::vector<double>& v) {
+    std::string out;
+    for (double x : v) out += (out.empty() ? "" : " / ") + num(x, 4);
+    return out.empty() ? std::string("-") : out;
+  };
+  for (const TrafficPoint& p : r.traffic)
+    t.add_row({p.scene, p.level, res(p.resolution), std::to_string(p.rays), series(p.dram_bytes_per_ray),
+               series(p.cycles_per_ray), num(p.cpu_seconds, 3)});
+  return t;
+}
+
 std::string setup_text(const AccuracyReport& r) {
   const AccuracyOptions& o = r.options;
   char buf[1024];
@@ -95,6 +109,12 @@ const char* kAoNote =
     "AO image = fraction of a pixel's AO rays that escaped; RMSE over the pixels whose primary ray hit. "
     "AO rays are keyed by their index, so each image's rays are the first n of the reference's: the error "
     "is the distance to what the reference shows (slightly below the distance to the converged image).";
+const char* kTrafficNote =
+    "Each run simulates the same rays several frames back to back (`--frames`), caches warm after the "
+    "first; every frame's DRAM bytes and cycles per ray are shown, frame 1 with cold caches. DRAM bytes "
+    "come from the functional level, cycles from the cycle level (which reads the same DRAM bytes to a few "
+    "tenths of a percent). A figure is converged when it is within the tolerance of the steady state "
+    "(the last frame) or of the highest resolution measured.";
 const char* kResolutionNote =
     "Primary rays go through pixel centres, so the seed changes only the AO rays; the reference is the "
     "mean over seeds at the highest resolution.";
@@ -175,6 +195,26 @@ nlohmann::json to_json(const AccuracyReport& r) {
   resolution["resolution_needed"] = r.resolution_needed;
   resolution["rays_needed"] = r.rays_needed;
   j["resolution"] = resolution;
+  for (const TrafficPoint& p : r.traffic)
+    j["traffic"]["points"].push_back({{"scene", p.scene},
+                                      {"level", p.level},
+                                      {"resolution", p.resolution},
+                                      {"rays_per_frame", p.rays},
+                                      {"dram_bytes_per_ray", p.dram_bytes_per_ray},
+                                      {"cycles_per_ray", p.cycles_per_ray},
+                                      {"cpu_seconds", p.cpu_seconds}});
+  for (const TrafficVerdict& v : r.traffic_verdicts)
+    j["traffic"]["verdicts"].push_back({{"scene", v.scene},
+                                        {"frames_needed", v.frames_needed},
+                                        {"frames_confirmed", v.frames_confirmed},
+                                        {"resolution_needed", v.resolution_needed},
+                                        {"resolution_converged", v.resolution_converged},
+                                        {"cold_bytes_per_ray", v.cold_bytes_per_ray},
+                                        {"steady_bytes_per_ray", v.steady_bytes_per_ray},
+                                        {"cycles_per_ray", v.cycles_per_ray},
+                                        {"summary", v.summary}});
+  j["traffic"]["tolerance"] = o.traffic_tolerance;
+  j["traffic"]["floor_bytes_per_ray"] = o.traffic_floor_bytes;
   for (const Recommendation& rec : r.recommendations)
     j["recommendations"].push_back({{"topic", rec.topic}, {"setting", rec.setting}, {"why", rec.why}});
   return j;
@@ -208,6 +248,15 @@ std::string to_csv(const AccuracyReport& r) {
   for (const ResolutionPoint& p : r.resolution)
     row("resolution", res(p.resolution), p.resolution, p.seed, p.rays, p.seconds, p.cpu_seconds, "ops_error", p.error,
         p.ops_per_ray);
+  for (const TrafficPoint& p : r.traffic)
+    for (size_t f = 0; f < p.dram_bytes_per_ray.size(); ++f) {
+      const std::string setting = p.scene + " " + p.level + " frame " + std::to_string(f + 1);
+      row("traffic", setting, p.resolution, r.options.seed, p.rays, 0, p.cpu_seconds, "dram_bytes_per_ray",
+          p.dram_bytes_per_ray[f], 0);
+      if (f < p.cycles_per_ray.size())
+        row("traffic", setting, p.resolution, r.options.seed, p.rays, 0, p.cpu_seconds, "cycles_per_ray",
+            p.cycles_per_ray[f], 0);
+    }
   return t.csv();
 }
 
@@ -219,6 +268,9 @@ std::string accuracy_text(const AccuracyReport& r) {
   out += "2. Builder knobs\n" + knob_table(r).plain() + "\n";
   out += "3. AO rays per pixel (" + res(r.options.ao_image_resolution) + ")\n" + ao_table(r).plain() + "\n";
   out += "4. Resolution against ops/ray stability\n" + resolution_table(r).plain() + "\n";
+  out += "5. Memory traffic against resolution and frames\n" + traffic_table(r).plain();
+  for (const TrafficVerdict& v : r.traffic_verdicts) out += "  " + v.summary + "\n";
+  out += "\n";
   out += "Recommended settings:\n";
   for (const Recommendation& rec : r.recommendations)
     out += "  - " + rec.topic + ": " + rec.setting + "\n      " + rec.why + "\n";
@@ -242,6 +294,10 @@ void write_accuracy(const AccuracyReport& r) {
         resolution_table(r).markdown() + "\nReference " + num(r.resolution_reference_ops, 6) +
         " ops/ray; within " + pct(r.options.tolerance) + " from " + res(r.resolution_needed) + " (" +
         std::to_string(r.rays_needed) + " rays per frame) on.\n";
+  md += "\n## 5. Memory traffic against resolution and frames\n\n" + std::string(kTrafficNote) + "\n\n" +
+        traffic_table(r).markdown() + "\n";
+  for (const TrafficVerdict& v : r.traffic_verdicts) md += "- " + v.summary + "\n";
+  md += "\n![Memory traffic](accuracy_traffic.png)\n";
   write_file_atomic(dir / "accuracy.md", md);
   write_file_atomic(dir / "accuracy.json", to_json(r).dump(2) + "\n");
   write_file_atomic(dir / "accuracy.csv", to_csv(r));

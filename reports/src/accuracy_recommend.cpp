@@ -252,6 +252,21 @@ void resolution_recommendation(const AccuracyReport& r, std::vector<Recommendati
   out.push_back(rec);
 }
 
+void traffic_recommendations(const AccuracyReport& r, std::vector<Recommendation>& out) {
+  for (const TrafficVerdict& v : r.traffic_verdicts) {
+    Recommendation rec;
+    rec.topic = "memory traffic measurement (" + v.scene + ")";
+    rec.setting = "--frames " + std::to_string(std::max<uint32_t>(2, v.frames_needed)) +
+                  (v.resolution_converged ? " --res " + std::to_string(v.resolution_needed) + "x" +
+                                                std::to_string(v.resolution_needed)
+                                          : "");
+    rec.why = v.summary +
+              " Frames: stats are the last frame's, so at least 2 keep the cold first frame out of the "
+              "figure (frames.frame1.* in stats.json still reports it).";
+    out.push_back(rec);
+  }
+}
+
 }  // namespace
 
 std::vector<Recommendation> recommend(const AccuracyReport& report) {
@@ -260,6 +275,7 @@ std::vector<Recommendation> recommend(const AccuracyReport& report) {
   knob_recommendations(report, out);
   ao_recommendations(report, out);
   resolution_recommendation(report, out);
+  traffic_recommendations(report, out);
   return out;
 }
 

@@ -101,6 +101,22 @@ TEST(Accuracy, QuickRunOnCornellWritesASaneReport) {
     if (p["resolution"].get<uint32_t>() == *resolutions.rbegin()) highest_mean += p["ops_per_ray"].get<double>() / 2;
   EXPECT_NEAR(res["reference_ops_per_ray"].get<double>(), highest_mean, 1e-9 * highest_mean);
 
+  // 5. Memory traffic: every (resolution, level) run with every frame; cycle runs
+  // only up to their resolution; frame 1 (cold) reads at least what the last does.
+  const auto& traffic = j["traffic"];
+  size_t traffic_rows = 0;
+  ASSERT_FALSE(traffic["points"].empty());
+  for (const auto& p : traffic["points"]) {
+    const auto& d = p["dram_bytes_per_ray"];
+    ASSERT_EQ(d.size(), 2u);  // --quick: two frames
+    EXPECT_GE(d.front().get<double>(), d.back().get<double>());
+    traffic_rows += d.size() + p["cycles_per_ray"].size();
+    if (p["level"] == "cycle") EXPECT_EQ(p["cycles_per_ray"].size(), 2u);
+  }
+  ASSERT_EQ(traffic["verdicts"].size(), 1u);
+  EXPECT_GE(traffic["verdicts"][0]["frames_needed"].get<uint32_t>(), 1u);
+  EXPECT_TRUE(std::filesystem::exists(dir / "accuracy_traffic.png"));
+
   // Recommendations: one per topic, each with a setting and a reason.
   ASSERT_GE(j["recommendations"].size(), 6u);
   for (const auto& rec : j["recommendations"]) {
@@ -115,7 +131,7 @@ TEST(Accuracy, QuickRunOnCornellWritesASaneReport) {
   for (char c : csv) lines += c == '\n';
   size_t occlusion_rows = occlusion_rmse.size();
   EXPECT_EQ(lines, 1 + 2 * j["fidelity"].size() + j["knobs"].size() + occlusion_rows + ao.size() +
-                       res["points"].size());
+                       res["points"].size() + traffic_rows);
   std::filesystem::remove_all(dir);
 }
 

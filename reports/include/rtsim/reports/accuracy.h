@@ -6,7 +6,9 @@
 //  2. builder knobs: AO rays per primitive K for AO-BVH (against K = reference),
 //     binned vs full-sweep SAH, SBVH alpha;
 //  3. AO rays per pixel against the error of the AO image (to a high-count reference);
-//  4. resolution (ray count) against the stability of ops/ray, over several seeds.
+//  4. resolution (ray count) against the stability of ops/ray, over several seeds;
+//  5. memory traffic (DRAM bytes per ray, cycles per ray) against resolution and
+//     frames: the cold first frame against the warm steady state, on one or more scenes.
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -44,6 +46,15 @@ struct AccuracyOptions {
   // 4. resolution against the stability of ops/ray
   std::vector<uint32_t> resolutions = {8, 16, 32, 64, 128, 256, 512};
   std::vector<uint64_t> seeds = {1, 2, 3};
+  // 5. memory traffic against resolution and frames (functional level for DRAM
+  // bytes, which it counts as the cycle level does within a few tenths of a percent;
+  // the cycle level for cycles, up to traffic_cycle_resolution)
+  std::vector<std::string> traffic_scenes;  // empty: the report's scene
+  std::vector<uint32_t> traffic_resolutions = {64, 128, 256, 512};
+  uint32_t traffic_frames = 3;              // per run: frame 1 cold, the last the steady state
+  uint32_t traffic_cycle_resolution = 256;  // cycle-level runs up to this resolution
+  double traffic_tolerance = 0.05;          // within 5% ...
+  double traffic_floor_bytes = 0.5;         // ... or 0.5 DRAM bytes per ray, whichever is larger
 };
 
 // The sizes of a sub-minute smoke run (keeps scene, camera, out_dir, binary, seed).
@@ -103,6 +114,28 @@ struct ResolutionPoint {
   double error = 0;  // signed, relative to the mean over seeds at the highest resolution
 };
 
+// 5. One traffic run: a scene at one resolution and level, every frame's figures.
+struct TrafficPoint {
+  std::string scene, level;  // functional | cycle
+  uint32_t resolution = 0;
+  uint64_t rays = 0;                       // per frame
+  std::vector<double> dram_bytes_per_ray;  // per frame: [0] cold caches, back() the steady state
+  std::vector<double> cycles_per_ray;      // per frame (cycle level only)
+  double cpu_seconds = 0;                  // simulation CPU time of all frames
+};
+
+// What the traffic runs of one scene say.
+struct TrafficVerdict {
+  std::string scene;
+  uint32_t frames_needed = 0;      // frames whose last is within tolerance of the steady state
+  bool frames_confirmed = false;   // frames_needed < traffic_frames (else only a lower bound)
+  uint32_t resolution_needed = 0;  // steady-state DRAM B/ray within tolerance from here up; 0: none
+  bool resolution_converged = false;  // the two highest resolutions agree within tolerance
+  double cold_bytes_per_ray = 0, steady_bytes_per_ray = 0;  // at the highest resolution
+  double cycles_per_ray = 0;       // steady state, highest cycle-level resolution
+  std::string summary;             // a sentence for the report
+};
+
 struct Recommendation {
   std::string topic, setting, why;
 };
@@ -120,11 +153,17 @@ struct AccuracyReport {
   double resolution_reference_ops = 0;     // mean ops/ray over seeds at the highest resolution
   uint32_t resolution_needed = 0;          // smallest resolution within tolerance from there up
   uint64_t rays_needed = 0;                // rays of one frame at that resolution
+  std::vector<TrafficPoint> traffic;
+  std::vector<TrafficVerdict> traffic_verdicts;
   std::vector<Recommendation> recommendations;
   double total_seconds = 0;
 };
 
-// Runs the four sections (the lt and cycle runs as child processes of options.rtsim_binary).
+// Judges the traffic points of one scene (run_accuracy calls it; exposed for tests).
+TrafficVerdict judge_traffic(const std::string& scene, const std::vector<TrafficPoint>& points,
+                             const AccuracyOptions& options);
+
+// Runs the five sections (the lt and cycle runs as child processes of options.rtsim_binary).
 AccuracyReport run_accuracy(const AccuracyOptions& options);
 
 // Derives the recommendations from the measured numbers (run_accuracy calls it).
