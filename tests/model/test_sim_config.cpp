@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -68,9 +69,21 @@ TEST(SimConfig, OutOfRangeAndWrongTypeAreRefusedByName) {
   EXPECT_NE(e.find("test.toml"), std::string::npos) << e;
 }
 
+// The preset files are the generated listing of every parameter, word for word
+// (RTSIM_WRITE_PRESETS=1 rewrites them after the table changed).
 TEST(SimConfig, PresetFilesMatchBuiltInPresets) {
   for (const std::string name : {"mobile", "desktop"}) {
     const std::string path = std::string(RTSIM_SOURCE_DIR) + "/model/presets/" + name + ".toml";
+    const std::string expected =
+        "# rtsim hardware preset '" + name + "': every parameter with its value.\n"
+        "# Generated from the parameter table (model/src/sim/config.cpp); a test checks\n"
+        "# that this file and the built-in preset agree. Copy it to start a variant.\n" +
+        to_documented_toml(preset(name));
+    if (std::getenv("RTSIM_WRITE_PRESETS")) std::ofstream(path, std::ios::binary) << expected;
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    EXPECT_EQ(text.str(), expected) << path << " is stale: rerun with RTSIM_WRITE_PRESETS=1";
     const HardwareConfig from_file = load_hardware_config(path);
     EXPECT_EQ(to_json(from_file), to_json(preset(name))) << path;
   }
