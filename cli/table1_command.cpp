@@ -105,6 +105,9 @@ void add_table1_command(CLI::App& root) {
   cmd->add_option("--seed", o->table.seed, "Seed of every random choice")->capture_default_str();
   cmd->add_option("--config", o->table.hardware, "Hardware preset or TOML for the cycle-level runs")
       ->capture_default_str();
+  cmd->add_option("--frames", o->table.frames,
+                  "Cycle-level frames of the same rays (the first cold; figures of the last)")
+      ->check(CLI::Range(1u, 16u))->capture_default_str();
   cmd->add_flag("--no-cycle", o->no_cycle, "Skip the cycle-level runs (no DRAM bytes or cycles)");
   cmd->add_option("-j,--jobs", o->table.jobs, "Cycle-level runs in parallel")
       ->check(CLI::Range(1u, 256u))->capture_default_str();

@@ -25,8 +25,8 @@ namespace {
 constexpr size_t kMaxValuesPerAxis = 10000;
 constexpr size_t kMaxJobs = 200000;
 
-const char* const kAxes[] = {"scene", "builder", "camera", "preset", "fidelity",
-                             "seed",  "resolution", "ao"};
+const char* const kAxes[] = {"scene", "builder",    "camera", "preset", "fidelity",
+                             "seed",  "resolution", "ao",     "frames"};
 
 // One axis value as the text passed on the command line. Integers stay integers;
 // reals use the shortest text that reads back to the same double.
@@ -193,6 +193,7 @@ std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir
   if (!camera.empty()) a.insert(a.end(), {"--camera", camera});
   if (!resolution.empty()) a.insert(a.end(), {"--res", resolution});
   if (ao_rays >= 0) a.insert(a.end(), {"--ao", std::to_string(ao_rays)});
+  if (frames > 0) a.insert(a.end(), {"--frames", std::to_string(frames)});
   if (hardware_file.empty())
     for (const auto& [k, v] : overrides) a.insert(a.end(), {"--set", k + "=" + v});
   return a;
@@ -409,6 +410,11 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
           if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > 1024)
             throw InputError(w, "AO ray counts must be integers in [0, 1024]");
           job.ao_rays = v.get<int64_t>();
+        } else if (name == "frames") {
+          const json& v = (*dims[d].second)[index[d]];
+          if (!v.is_number_integer() || v.get<int64_t>() < 1 || v.get<int64_t>() > 1000)
+            throw InputError(w, "frames must be integers in [1, 1000]");
+          job.frames = v.get<int64_t>();
         }
       }
       resolved["set"] = overrides;
@@ -426,6 +432,7 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
                   "/" + job.preset + "/" + job.fidelity + "/seed" + std::to_string(job.seed);
       if (!job.resolution.empty()) job.label += "/" + job.resolution;
       if (job.ao_rays >= 0) job.label += "/ao" + std::to_string(job.ao_rays);
+      if (job.frames > 0) job.label += "/frames" + std::to_string(job.frames);
       for (const auto& [k, v] : job.overrides) job.label += "/" + k + "=" + v;
       if (seen.insert(job.key).second) campaign.jobs.push_back(std::move(job));
 

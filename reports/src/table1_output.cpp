@@ -35,7 +35,7 @@ const char* display_name(const std::string& builder) {
 TextTable camera_table(const Table1& table, const std::string& camera) {
   TextTable t({"builder", "ops/ray", "red. vs median", "red. vs SAH", "TRV/ray", "IST/ray",
                "primary ops/ray", "AO ops/ray", "node fetches/ray", "fetch red. vs median",
-               "fetch red. vs SAH", "DRAM B/ray", "cycles", "build s"});
+               "fetch red. vs SAH", "DRAM B/ray cold/warm", "cycles", "build s"});
   const Table1Row* median = table.find(camera, "median");
   const Table1Row* sah = table.find(camera, "sah");
   for (const Table1Row& r : table.rows) {
@@ -47,7 +47,10 @@ TextTable camera_table(const Table1& table, const std::string& camera) {
                num(r.ao.ops_per_ray), num(r.combined.node_fetches_per_ray),
                median ? pct(r.combined.node_fetches_per_ray, median->combined.node_fetches_per_ray) : "-",
                sah ? pct(r.combined.node_fetches_per_ray, sah->combined.node_fetches_per_ray) : "-",
-               num(r.combined.dram_bytes_per_ray), num(r.cycles, 6),
+               r.combined.dram_bytes_per_ray < 0
+                   ? "-"
+                   : num(r.cold_dram_bytes_per_ray) + "/" + num(r.combined.dram_bytes_per_ray),
+               num(r.cycles, 6),
                num(r.build_seconds + r.estimate_seconds, 3)});
   }
   return t;
@@ -111,7 +114,8 @@ void write_table1(const Table1& table) {
   write_file_atomic(dir / "table1.md", md);
 
   TextTable csv({"scene", "camera", "builder", "ray_type", "rays", "ops_per_ray", "trv_ops_per_ray",
-                 "ist_ops_per_ray", "node_fetches_per_ray", "dram_bytes_per_ray", "cycles",
+                 "ist_ops_per_ray", "node_fetches_per_ray", "dram_bytes_per_ray",
+                 "cold_dram_bytes_per_ray", "cycles",
                  "build_seconds", "estimate_seconds", "sah_cost"});
   nlohmann::json json;
   json["scene"] = table.scene_name;
@@ -121,6 +125,7 @@ void write_table1(const Table1& table) {
   json["ao_samples"] = table.ao_samples;
   json["ao_length"] = table.ao_length;
   json["hardware"] = table.options.hardware;
+  json["frames"] = table.options.frames;
   json["verdicts"] = table.verdicts;
   for (const auto& p : patent_table1())
     json["patent"][p.builder] = {{"viewpoint1", p.viewpoint1}, {"viewpoint2", p.viewpoint2}};
@@ -128,6 +133,9 @@ void write_table1(const Table1& table) {
     nlohmann::json row = {{"camera", r.camera},
                           {"builder", r.builder},
                           {"cycles", r.cycles < 0 ? nlohmann::json(nullptr) : nlohmann::json(r.cycles)},
+                          {"cold_dram_bytes_per_ray", r.cold_dram_bytes_per_ray < 0
+                                                          ? nlohmann::json(nullptr)
+                                                          : nlohmann::json(r.cold_dram_bytes_per_ray)},
                           {"l1_node_hit_rate", r.l1_node_hit_rate},
                           {"l2_hit_rate", r.l2_hit_rate},
                           {"build_seconds", r.build_seconds},
@@ -145,6 +153,8 @@ void write_table1(const Table1& table) {
                    format_number(c->ops_per_ray, 6), format_number(c->trv_per_ray, 6),
                    format_number(c->ist_per_ray, 6), format_number(c->node_fetches_per_ray, 6),
                    c->dram_bytes_per_ray < 0 ? "" : format_number(c->dram_bytes_per_ray, 6),
+                   c != &r.combined || r.cold_dram_bytes_per_ray < 0 ? ""
+                                                                     : format_number(r.cold_dram_bytes_per_ray, 6),
                    r.cycles < 0 ? "" : format_number(r.cycles, 9), format_number(r.build_seconds, 4),
                    format_number(r.estimate_seconds, 4), format_number(r.sah_cost, 6)});
   }

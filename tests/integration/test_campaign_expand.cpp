@@ -155,13 +155,14 @@ fidelity = "lt"
 seed = 7
 resolution = "64x48"
 ao = 2
+frames = 3
 set."l1_node.size_bytes" = 8192
 )");
   ASSERT_EQ(c.jobs.size(), 1u);
   const std::vector<std::string> expected = {
       "simulate", "--scene", "interior", "--builder", "aobvh", "--fidelity", "lt",
       "--config", "mobile", "--seed", "7", "--out", "/o", "--camera", "view2",
-      "--res", "64x48", "--ao", "2", "--set", "l1_node.size_bytes=8192"};
+      "--res", "64x48", "--ao", "2", "--frames", "3", "--set", "l1_node.size_bytes=8192"};
   EXPECT_EQ(c.jobs[0].simulate_arguments("/o"), expected);
   // The runner writes the merged hardware file instead: preset + typed overrides.
   EXPECT_EQ(c.jobs[0].hardware_toml, "preset = \"mobile\"\n\n[l1_node]\nsize_bytes = 8192\n");

@@ -23,6 +23,9 @@ struct Table1Options {
   std::string hardware = "mobile";  // preset or TOML for the cycle-level runs
   bool cycle_level = true;        // run the cycle-level model for DRAM bytes and cycles
   uint32_t jobs = 2;              // cycle-level runs in parallel (one process each)
+  // Cycle-level frames: the first runs with cold caches, the figures are the last's
+  // (the steady state); the cold frame's DRAM bytes are shown beside them.
+  uint32_t frames = 2;
   std::filesystem::path out_dir = "table1";
   std::filesystem::path rtsim_binary;  // for the cycle-level child processes
   BuildParams build;              // one parameter set for every builder and scene
@@ -39,7 +42,8 @@ struct Table1Row {
   std::string camera, builder;
   Table1Counts combined;
   Table1Counts primary, ao;
-  double cycles = -1;
+  double cycles = -1;                  // the last (steady-state) frame
+  double cold_dram_bytes_per_ray = -1;  // the first frame, cold caches (frames > 1)
   double l1_node_hit_rate = -1, l2_hit_rate = -1;
   double build_seconds = 0, estimate_seconds = 0;
   double sah_cost = 0;
