@@ -20,10 +20,7 @@ CycleIst::CycleIst(sc_core::sc_module_name name, const HardwareConfig& config, C
 }
 
 void CycleIst::reset_counters() {
-  const uint32_t resident = occupancy.resident;
-  occupancy = Occupancy{};
-  occupancy.resident = resident;
-  occupancy.since_ps = now_ps();
+  occupancy.restart(now_ps());
   tests = 0;
 }
 

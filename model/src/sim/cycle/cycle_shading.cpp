@@ -18,7 +18,7 @@ CycleShading::CycleShading(sc_core::sc_module_name name, const HardwareConfig& c
 
 void CycleShading::reset_counters() {
   busy_ps = shaded = spawned = 0;
-  occupancy = Occupancy{};
+  occupancy.restart(now_ps());
 }
 
 void CycleShading::shade(uint32_t ray_index, const Ray& ray, const HitRecord& hit, uint64_t t) {

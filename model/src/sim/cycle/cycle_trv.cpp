@@ -25,10 +25,7 @@ CycleTrv::CycleTrv(sc_core::sc_module_name name, const HardwareConfig& config,
 }
 
 void CycleTrv::reset_counters() {
-  const uint32_t resident = occupancy.resident;
-  occupancy = Occupancy{};
-  occupancy.resident = resident;
-  occupancy.since_ps = now_ps();
+  occupancy.restart(now_ps());
   nodes = 0;
 }
 

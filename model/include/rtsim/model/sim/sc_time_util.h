@@ -78,6 +78,10 @@ struct Occupancy {
   void leave(uint64_t t) {
     if (--resident == 0) occupied_ps += t - since_ps;
   }
+  // A new frame: the times start again from t, work still resident stays resident.
+  void restart(uint64_t t) {
+    *this = Occupancy{0, 0, 0, resident, t};
+  }
 };
 
 }  // namespace rtsim::sim
