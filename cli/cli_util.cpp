@@ -1,6 +1,7 @@
 #include "cli_util.h"
 
 #include <rtsim/builder/bvh_file.h>
+#include <rtsim/workloads/config_reader.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/scene_registry.h>
 
@@ -10,13 +11,9 @@ namespace rtsim::cli {
 
 void parse_resolution(const std::string& text, uint32_t& width, uint32_t& height,
                       const std::string& option) {
-  unsigned w = 0, h = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%u%c%u%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') ||
-      w == 0 || h == 0 || w > 16384 || h > 16384)
-    throw InputError(option, "expected WxH with 1..16384 each, got '" + text + "'");
-  width = w;
-  height = h;
+  if (!parse_resolution_text(text, width, height))
+    throw InputError(option, "expected WxH with 1.." + std::to_string(kMaxResolutionSide) +
+                                 " each (digits only), got '" + text + "'");
 }
 
 std::string hex64(uint64_t value) {

@@ -123,10 +123,15 @@ void flatten_overrides(const json& table, const std::string& prefix, const std::
   for (auto it = table.begin(); it != table.end(); ++it) {
     const std::string key = prefix.empty() ? it.key() : prefix + "." + it.key();
     const std::string where = where_prefix + key + "'";
-    if (it.value().is_object() && !it.value().contains("from"))
+    if (it.value().is_object() && !it.value().contains("from")) {
       flatten_overrides(it.value(), key, where_prefix, out);
-    else
-      out[key] = axis_values(it.value(), where);
+      continue;
+    }
+    // "l2.size_bytes" = 1 and l2.size_bytes = 2 are two TOML keys but one override.
+    if (out.count(key))
+      throw InputError(where, "is set twice (once as a quoted dotted key, once as a table); "
+                              "keep one");
+    out[key] = axis_values(it.value(), where);
   }
 }
 
@@ -171,11 +176,7 @@ std::string content_hash_hex(const std::string& bytes) {
 }
 
 std::string file_hash_hex(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw InputError(file.string(), "cannot read");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return content_hash_hex(ss.str());
+  return content_hash_hex(read_input_file(file, kMaxDataFileBytes));
 }
 
 std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir,
@@ -398,10 +399,8 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
             throw InputError(w, "seeds must be integers >= 0");
           job.seed = v.get<uint64_t>();
         } else if (name == "resolution") {
-          unsigned wdt = 0, hgt = 0;
-          char tail = 0;
-          if (std::sscanf(value.c_str(), "%ux%u%c", &wdt, &hgt, &tail) != 2 || wdt == 0 ||
-              hgt == 0 || wdt > 16384 || hgt > 16384)
+          uint32_t wdt = 0, hgt = 0;
+          if (!parse_resolution_text(value, wdt, hgt))
             throw InputError(w, "'" + value + "' is not a resolution WxH (1..16384)");
           job.resolution = value;
         } else if (name == "ao") {
