@@ -143,10 +143,14 @@ void run_trace(const TraceOptions& o) {
     EmbreeScene embree(scene);
     ValidationRule rule;
     rule.absolute_bound = 1e-6f * scene.diagonal();
-    const ValidationResult v = validate_against_embree(embree, run.rays, run.results, rule, o.threads);
-    disagreements = v.disagreements;
+    const ValidationResult v =
+        validate_against_embree(embree, run.rays, run.results, rule, o.threads, &scene);
+    disagreements = v.failures();
     j["validate"] = {{"rays", v.rays},
                      {"disagreements", v.disagreements},
+                     {"embree_wrong", v.embree_wrong},
+                     {"core_wrong", v.core_wrong},
+                     {"both_admissible", v.both_admissible},
                      {"hit_miss", v.hit_miss},
                      {"distance", v.distance},
                      {"prim_tied_allowed", v.prim_tied},
@@ -191,9 +195,14 @@ void run_trace(const TraceOptions& o) {
       std::printf("pictures in %s (heatmap scale 0..%g ops/pixel)\n", o.out_dir.c_str(), o.heat_max);
     if (o.validate) {
       const auto& v = j["validate"];
-      std::printf("validate vs Embree: %llu disagreements in %llu rays (|dt| <= %g x t + %g; "
-                  "allowed: %llu different prims at tied distance, %llu one-sided hits at tmin/tmax)\n",
-                  (unsigned long long)disagreements, (unsigned long long)run.rays.size(),
+      std::printf("validate vs Embree: %llu disagreements in %llu rays, decided by the exact referee: "
+                  "%llu Embree wrong, %llu core wrong, %llu both admissible\n"
+                  "  (|dt| <= %g x t + %g; allowed: %llu different prims at tied distance, %llu one-sided "
+                  "hits at tmin/tmax)\n",
+                  (unsigned long long)v["disagreements"].get<uint64_t>(), (unsigned long long)run.rays.size(),
+                  (unsigned long long)v["embree_wrong"].get<uint64_t>(),
+                  (unsigned long long)v["core_wrong"].get<uint64_t>(),
+                  (unsigned long long)v["both_admissible"].get<uint64_t>(),
                   v["relative_bound"].get<double>(), v["absolute_bound"].get<double>(),
                   (unsigned long long)v["prim_tied_allowed"].get<uint64_t>(),
                   (unsigned long long)v["endpoint_ties_allowed"].get<uint64_t>());
@@ -201,7 +210,8 @@ void run_trace(const TraceOptions& o) {
     }
   }
   if (disagreements > 0)
-    throw ExitStatus(1, "validation: " + std::to_string(disagreements) + " disagreements with Embree");
+    throw ExitStatus(1, "validation: the exact referee found the core wrong on " +
+                            std::to_string(disagreements) + " rays");
 }
 
 }  // namespace
