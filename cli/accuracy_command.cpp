@@ -1,9 +1,12 @@
 // rtsim accuracy: what accuracy costs in time (fidelity levels, builder knobs, AO
 // rays per pixel, resolution), with the settings it recommends from the numbers.
+#include "cli_util.h"
 #include "commands.h"
 
 #include <rtsim/reports/accuracy.h>
 #include <rtsim/reports/child_process.h>
+
+#include <rtsim/workloads/files.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -13,7 +16,7 @@ namespace rtsim::cli {
 namespace {
 struct AccuracyCommandOptions {
   AccuracyOptions accuracy;
-  bool quick = false;
+  bool quick = false, json = false;
 };
 }  // namespace
 
@@ -30,12 +33,19 @@ void add_accuracy_command(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--seed", o->accuracy.seed, "Seed of every random choice")->capture_default_str();
   cmd->add_flag("--quick", o->quick, "Small sizes: a smoke run of well under a minute on small scenes");
+  cmd->add_flag("--json", o->json, "Print accuracy.json to stdout instead of the text report");
   cmd->callback([o] {
     AccuracyOptions options = o->quick ? quick_accuracy_options(o->accuracy) : o->accuracy;
     options.rtsim_binary = self_executable();
+    OutputFolder out_dir;
+    out_dir.prepare(options.out_dir, "--out-dir");
     const AccuracyReport report = run_accuracy(options);
     write_accuracy(report);
-    std::fputs(accuracy_text(report).c_str(), stdout);
+    out_dir.keep();
+    if (o->json)
+      std::fputs(read_input_file(options.out_dir / "accuracy.json", kMaxConfigFileBytes).c_str(), stdout);
+    else
+      std::fputs(accuracy_text(report).c_str(), stdout);
     std::fflush(stdout);  // before the stderr line, so a shared log reads in order
     std::fprintf(stderr, "wrote %s/accuracy.{md,json,csv}, accuracy_tradeoffs.png and accuracy_ao_images.png\n",
                  options.out_dir.string().c_str());

@@ -28,10 +28,11 @@ namespace rtsim::cli {
 namespace {
 
 struct TraceOptions {
-  std::string scene, builder = "sah", camera, resolution = "256x256", out_dir, rays_in, rays_out, bvh_in;
-  std::string node_layout = "wide";
+  std::string scene, builder = "sah", camera, resolution = kDefaultResolution, out_dir, rays_in, rays_out,
+      bvh_in;
+  std::string node_layout = "bvh2-64";  // the names of the hardware configuration's memory.node_layout
   int ao = -1;
-  uint32_t spp = 1, threads = 0, max_depth = 2, stack_limit = 128;
+  uint32_t spp = 1, threads = 0, bounces = 2, stack_limit = 128;
   uint64_t seed = 1;
   float heat_max = 150.0f;
   bool json = false, validate = false;
@@ -69,21 +70,34 @@ void run_trace(const TraceOptions& o) {
   if (o.spp == 0 || o.spp > 1024) throw InputError("--spp", "must be 1..1024");
   if (o.ao < -1 || o.ao > 1024) throw InputError("--ao", "must be 0..1024");
   if (!(o.heat_max > 0.0f)) throw InputError("--heat-max", "must be > 0");
-  if (o.node_layout != "wide" && o.node_layout != "single")
-    throw InputError("--node-layout", "must be 'wide' (64 B BVH2) or 'single' (32 B)");
+  if (o.stack_limit < 1) throw InputError("--stack-limit", "must be at least 1");
+  std::string node_layout = o.node_layout;
+  if (node_layout == "wide" || node_layout == "single") {
+    const std::string now = node_layout == "wide" ? "bvh2-64" : "single-32";
+    warn_deprecated("--node-layout " + node_layout, "--node-layout " + now +
+                                                        " (the names of the hardware configuration)");
+    node_layout = now;
+  }
+  if (node_layout != "bvh2-64" && node_layout != "single-32")
+    throw InputError("--node-layout", "must be bvh2-64 (64 B nodes, both child boxes) or single-32 "
+                                      "(32 B, one box), as memory.node_layout in the hardware configuration");
   settings.spp = o.spp;
   settings.seed = o.seed;
   settings.ao_samples = o.ao;
-  settings.max_depth = o.max_depth;
+  settings.max_depth = o.bounces;
+  // Output paths first: a wrong one must not cost a build and a trace.
+  OutputFolder pictures;
+  if (!o.out_dir.empty()) pictures.prepare(o.out_dir, "--out-dir");
+  if (!o.rays_out.empty()) check_output_file(o.rays_out, "--rays-out");
 
   Workload workload;
-  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in);
+  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.threads);
   const Scene& scene = workload.scene;
   const Camera& camera = *workload.camera;
   const Bvh& bvh = workload.bvh;
   const BuildReport& build_report = workload.report;
   MemoryLayoutConfig layout;
-  layout.node_layout = o.node_layout == "wide" ? NodeLayout::Bvh2Wide64 : NodeLayout::SingleBox32;
+  layout.node_layout = node_layout == "bvh2-64" ? NodeLayout::Bvh2Wide64 : NodeLayout::SingleBox32;
   const MemoryImage image(bvh, scene.triangle_count(), layout);
   TraversalConfig traversal;
   traversal.stack_limit = o.stack_limit;
@@ -109,7 +123,7 @@ void run_trace(const TraceOptions& o) {
   j["resolution"] = {settings.width, settings.height};
   j["spp"] = settings.spp;
   j["seed"] = settings.seed;
-  j["node_layout"] = o.node_layout;
+  j["node_layout"] = node_layout;
   j["node_bytes"] = image.node_bytes();
   j["triangle_bytes"] = image.triangle_bytes();
   j["bvh_nodes"] = bvh.nodes.size();
@@ -136,6 +150,7 @@ void run_trace(const TraceOptions& o) {
     if (run.per_type[ray_type_index(RayType::Ao)].rays) write_png(dir / "ao.png", ao_image(run));
     write_png(dir / "shaded.png", shaded_image(scene, run));
     j["pictures"] = {{"dir", dir.string()}, {"heat_max_ops", o.heat_max}};
+    pictures.keep();
   }
 
   uint64_t disagreements = 0;
@@ -166,7 +181,7 @@ void run_trace(const TraceOptions& o) {
     std::printf("scene %s (%zu triangles), builder %s (%zu nodes), camera %s, %ux%u x %u spp, %s nodes (%u B)\n",
                 scene.name.c_str(), scene.triangle_count(), workload.params.builder.c_str(), bvh.nodes.size(),
                 camera.name.c_str(), settings.width, settings.height, settings.spp,
-                o.node_layout.c_str(), image.node_bytes());
+                node_layout.c_str(), image.node_bytes());
     std::printf("\n%-11s %9s %9s %8s %8s %8s %9s %9s %9s %7s\n", "ray type", "rays", "ops/ray",
                 "TRV/ray", "IST/ray", "box/ray", "node f/r", "tri f/r", "bytes/r", "share");
     auto row = [&](const char* name, const CounterTotals& t) {
@@ -221,15 +236,22 @@ void add_trace_command(CLI::App& root) {
   CLI::App* cmd = root.add_subcommand(
       "trace", "Trace primary rays and the secondary rays the scene calls for through the functional core");
   cmd->add_option("--scene", options->scene, "scene name or file (default: the default scene)");
-  cmd->add_option("--builder", options->builder, "BVH builder")->capture_default_str();
+  cmd->add_option("--builder", options->builder, "BVH builder: " + builder_list())->capture_default_str();
   cmd->add_option("--camera", options->camera, "camera name (default: view1, else the scene's first)");
   cmd->add_option("--ao", options->ao, "AO rays per primary hit (0: off; default: the scene's)");
   cmd->add_option("--res", options->resolution, "image resolution WxH")->capture_default_str();
   cmd->add_option("--spp", options->spp, "samples per pixel")->capture_default_str();
-  cmd->add_option("--seed", options->seed, "random seed")->capture_default_str();
-  cmd->add_option("--max-depth", options->max_depth, "reflection/refraction bounces")->capture_default_str();
-  cmd->add_option("--threads", options->threads, "threads (0: all); results do not depend on it");
-  cmd->add_option("--node-layout", options->node_layout, "wide (64 B BVH2) | single (32 B)")->capture_default_str();
+  cmd->add_option("--seed", options->seed, "seed of every random choice (rays and the build)")
+      ->capture_default_str();
+  cmd->add_option("--bounces", options->bounces, "reflection/refraction bounces")->capture_default_str();
+  add_deprecated_option(cmd, "--max-depth", "--bounces", options->bounces,
+                        " (the bounce count in trace and simulate; the BVH depth in build and table1)");
+  cmd->add_option("--threads", options->threads,
+                  "threads for the build, the trace and validation (0: all); results do not depend on it");
+  cmd->add_option("--node-layout", options->node_layout,
+                  "bvh2-64 (64 B, both child boxes) | single-32 (32 B), as the hardware configuration's "
+                  "memory.node_layout")
+      ->capture_default_str();
   cmd->add_option("--stack-limit", options->stack_limit, "traversal stack entries before overflow")
       ->capture_default_str();
   cmd->add_option("--heat-max", options->heat_max, "ops/pixel at the top of the heatmap scale (fixed so builders compare)")
@@ -239,7 +261,9 @@ void add_trace_command(CLI::App& root) {
   cmd->add_option("--rays-in", options->rays_in, "replay the rays of this ray file instead of a camera");
   cmd->add_option("--bvh", options->bvh_in, "trace this saved tree (rtsim build --out) instead of building one");
   cmd->add_flag("--json", options->json, "print JSON");
-  cmd->add_flag("--validate", options->validate, "trace every ray with Embree too; exit 1 on any disagreement");
+  cmd->add_flag("--validate", options->validate,
+                "trace every ray with Embree too; an exact referee decides disagreements (Embree wrong / "
+                "core wrong); exit 1 if the core is wrong on any ray");
   cmd->callback([options] { run_trace(*options); });
 }
 

@@ -315,7 +315,7 @@ class AccuracyRun {
             " --bvh " + shell_quote(tree_file.string()) + " --camera " + shell_quote(camera_.name) +
             " --fidelity " + level + " --config " + shell_quote(o_.hardware) + " --res " +
             std::to_string(res) + "x" + std::to_string(res) + " --ao " +
-            std::to_string(report_.scene_ao_samples) + " --seed " + std::to_string(o_.seed) + " --out " +
+            std::to_string(report_.scene_ao_samples) + " --seed " + std::to_string(o_.seed) + " --out-dir " +
             shell_quote(dir.string()) + " > " + shell_quote((o_.out_dir / "runs" / (name + ".log")).string()) +
             " 2>&1";
         const auto start = Clock::now();
