@@ -31,7 +31,7 @@ struct Workload {
     BuildParams params;
     params.builder = "sah";
     bvh = build_bvh(scene, params);
-    image = std::make_unique<MemoryImage>(bvh, scene.triangle_count());
+    image = std::make_unique<MemoryImage>(scene, bvh);
     context = std::make_unique<TraversalContext>(scene, bvh, *image);
     embree = std::make_unique<EmbreeScene>(scene);
     EffectSettings settings;

@@ -161,8 +161,9 @@ void check_build_flags(const BuildParams& params) {
 
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
-                   uint32_t threads) {
+                   uint64_t shuffle_seed, uint32_t threads) {
   out.scene = load_scene(scene.empty() ? default_scene_name() : scene);
+  if (shuffle_seed != 0) shuffle_triangles(out.scene, shuffle_seed);
   out.camera = camera.empty() ? &out.scene.default_camera() : &out.scene.camera(camera);
   out.params = BuildParams{};
   out.params.builder = builder;

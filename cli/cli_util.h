@@ -105,9 +105,11 @@ struct Workload {
   Bvh bvh;
 };
 // scene/camera empty: the defaults. bvh_file non-empty: load instead of build.
-// `threads` limits the build too (0: all cores).
+// shuffle_seed != 0: the scene's faces are permuted first (shuffle_triangles), a
+// check that no result depends on the file's face order. `threads` limits the
+// build too (0: all cores).
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
-                   uint32_t threads = 0);
+                   uint64_t shuffle_seed = 0, uint32_t threads = 0);
 
 }  // namespace rtsim::cli

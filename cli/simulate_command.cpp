@@ -33,8 +33,8 @@ struct SimulateOptions {
   std::string scene, builder = "sah", camera, fidelity = "functional", config = "mobile", out_dir;
   std::string resolution = kDefaultResolution, rays_in, bvh_in;
   int ao = -1;
-  uint32_t spp = 1, bounces = 2;
-  uint64_t seed = 1;
+  uint32_t spp = 1, bounces = 2, frames = 1;
+  uint64_t seed = 1, shuffle_faces = 0;
   bool json = false;
 };
 
@@ -54,7 +54,9 @@ void run_simulate(const SimulateOptions& o) {
   out_dir.prepare(o.out_dir, "--out-dir");
 
   Workload workload;
-  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in);
+  request.frames = o.frames;
+  if (o.frames < 1 || o.frames > 1000) throw InputError("--frames", "must be 1..1000");
+  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces);
   const Scene& scene = workload.scene;
   const Camera& camera = *workload.camera;
   const BuildParams& params = workload.params;
@@ -77,7 +79,8 @@ void run_simulate(const SimulateOptions& o) {
                                ? uint64_t(request.settings.width) * request.settings.height * o.spp
                                : request.rays.size();
   const uint64_t expected =
-      request.rays.empty() ? primary * (1 + (plan.on(RayType::Ao) ? plan.ao_samples : 0)) : primary;
+      o.frames * (request.rays.empty() ? primary * (1 + (plan.on(RayType::Ao) ? plan.ao_samples : 0))
+                                       : primary);
   auto progress = std::make_shared<Progress>("simulate " + o.fidelity, expected, "rays");
   uint64_t reported = 0;
   request.progress = [&, progress](uint64_t done) {
@@ -109,6 +112,8 @@ void run_simulate(const SimulateOptions& o) {
       {"spp", o.spp},
       {"ao", o.ao},
       {"bounces", o.bounces},
+      {"frames", o.frames},
+      {"shuffle_faces", o.shuffle_faces},
       {"config_source", o.config},
       {"config_hash", is_file(o.config) ? hex64(file_content_hash(o.config))
                                                                   : std::string("preset")},
@@ -169,6 +174,11 @@ void add_simulate_command(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--rays-in", opts->rays_in, "replay this ray file (rtsim trace --rays-out; no secondary rays)");
   add_deprecated_option(cmd, "--rays", "--rays-in", opts->rays_in);
+  cmd->add_option("--frames", opts->frames,
+                  "run the same rays this many times back to back, caches warm; stats of the last")
+      ->capture_default_str();
+  cmd->add_option("--shuffle-faces", opts->shuffle_faces,
+                  "permute the scene's triangles with this seed first (0: no): results must not change");
   cmd->add_option("--bvh", opts->bvh_in, "replay this saved tree (rtsim build --out) instead of building one");
   cmd->add_flag("--json", opts->json, "print stats.json to stdout");
   cmd->callback([opts] {

@@ -6,10 +6,11 @@
 
 #include <rtsim/builder/build.h>
 #include <rtsim/builder/memory_image.h>
-#include <rtsim/model/core/cache_tags.h>
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/core/ray_file.h>
 #include <rtsim/model/core/validate.h>
+#include <rtsim/model/sim/memory_system.h>
+#include <rtsim/model/sim/simulator.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
 #include <rtsim/workloads/image.h>
@@ -30,9 +31,11 @@ namespace {
 struct TraceOptions {
   std::string scene, builder = "sah", camera, resolution = kDefaultResolution, out_dir, rays_in, rays_out,
       bvh_in;
-  std::string node_layout = "bvh2-64";  // the names of the hardware configuration's memory.node_layout
+  // "" = the hardware configuration's memory.node_layout; else one of its names.
+  std::string node_layout, config = "mobile";
   int ao = -1;
   uint32_t spp = 1, threads = 0, bounces = 2, stack_limit = 128;
+  uint64_t shuffle_faces = 0;
   uint64_t seed = 1;
   float heat_max = 150.0f;
   bool json = false, validate = false;
@@ -57,11 +60,19 @@ nlohmann::json totals_json(const CounterTotals& t, uint64_t all_ops) {
           {"stack_overflows", t.stack_overflows}};
 }
 
-nlohmann::json cache_json(const CacheLevelStats& s, const CacheGeometry& g) {
-  return {{"size_bytes", g.size_bytes}, {"line_bytes", g.line_bytes}, {"ways", g.ways},
-          {"accesses", s.accesses},     {"hits", s.hits},             {"misses", s.misses},
-          {"hit_rate", s.hit_rate()},   {"bytes_requested", s.bytes_requested},
-          {"bytes_filled", s.bytes_filled}};
+nlohmann::json cache_json(const sim::CacheModel& c) {
+  const auto& k = c.counters();
+  return {{"size_bytes", c.config().size_bytes}, {"line_bytes", c.config().line_bytes},
+          {"ways", c.config().associativity},     {"accesses", k.accesses},
+          {"hits", k.hits},                       {"misses", k.misses},
+          {"hit_rate", k.accesses ? double(k.hits) / double(k.accesses) : 0.0},
+          {"writebacks", k.writebacks},
+          {"bytes_requested", c.requested().total()},
+          {"bytes_filled", c.filled().total()}};
+}
+
+double hit_rate(const sim::CacheModel& c) {
+  return c.counters().accesses ? double(c.counters().hits) / double(c.counters().accesses) : 0.0;
 }
 
 void run_trace(const TraceOptions& o) {
@@ -71,16 +82,20 @@ void run_trace(const TraceOptions& o) {
   if (o.ao < -1 || o.ao > 1024) throw InputError("--ao", "must be 0..1024");
   if (!(o.heat_max > 0.0f)) throw InputError("--heat-max", "must be > 0");
   if (o.stack_limit < 1) throw InputError("--stack-limit", "must be at least 1");
-  std::string node_layout = o.node_layout;
-  if (node_layout == "wide" || node_layout == "single") {
-    const std::string now = node_layout == "wide" ? "bvh2-64" : "single-32";
-    warn_deprecated("--node-layout " + node_layout, "--node-layout " + now +
-                                                        " (the names of the hardware configuration)");
-    node_layout = now;
+  sim::HardwareConfig hardware = sim::load_hardware_config(o.config);
+  if (!o.node_layout.empty()) {
+    std::string layout = o.node_layout;
+    if (layout == "wide" || layout == "single") {
+      const std::string now = layout == "wide" ? "bvh2-64" : "single-32";
+      warn_deprecated("--node-layout " + layout, "--node-layout " + now +
+                                                     " (the names of the hardware configuration)");
+      layout = now;
+    }
+    if (layout != "bvh2-64" && layout != "single-32")
+      throw InputError("--node-layout", "must be bvh2-64 (64 B nodes, both child boxes) or single-32 "
+                                        "(32 B, one box), as memory.node_layout in the hardware configuration");
+    hardware.node_layout = layout;
   }
-  if (node_layout != "bvh2-64" && node_layout != "single-32")
-    throw InputError("--node-layout", "must be bvh2-64 (64 B nodes, both child boxes) or single-32 "
-                                      "(32 B, one box), as memory.node_layout in the hardware configuration");
   settings.spp = o.spp;
   settings.seed = o.seed;
   settings.ao_samples = o.ao;
@@ -91,19 +106,21 @@ void run_trace(const TraceOptions& o) {
   if (!o.rays_out.empty()) check_output_file(o.rays_out, "--rays-out");
 
   Workload workload;
-  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.threads);
+  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, o.threads);
   const Scene& scene = workload.scene;
   const Camera& camera = *workload.camera;
   const Bvh& bvh = workload.bvh;
   const BuildReport& build_report = workload.report;
-  MemoryLayoutConfig layout;
-  layout.node_layout = node_layout == "bvh2-64" ? NodeLayout::Bvh2Wide64 : NodeLayout::SingleBox32;
-  const MemoryImage image(bvh, scene.triangle_count(), layout);
-  TraversalConfig traversal;
+  const MemoryImage image(scene, bvh, sim::memory_layout_for(hardware));
+  TraversalConfig traversal = sim::traversal_config_for(hardware);
   traversal.stack_limit = o.stack_limit;
   const TraversalContext context(scene, bvh, image, traversal);
 
-  FunctionalCacheHierarchy caches;
+  // The hardware's memory hierarchy as one TRV and one IST unit with one ray in flight.
+  sim::HardwareConfig one_unit = hardware;
+  one_unit.trv_units = one_unit.ist_units = 1;
+  sim::FunctionalMemory memory(one_unit);
+  sim::FunctionalMemorySink caches(memory);
   FrameRun run;
   if (!o.rays_in.empty()) {
     RaySet set = read_ray_file(o.rays_in);
@@ -123,7 +140,8 @@ void run_trace(const TraceOptions& o) {
   j["resolution"] = {settings.width, settings.height};
   j["spp"] = settings.spp;
   j["seed"] = settings.seed;
-  j["node_layout"] = node_layout;
+  j["node_layout"] = hardware.node_layout;
+  j["config"] = o.config;
   j["node_bytes"] = image.node_bytes();
   j["triangle_bytes"] = image.triangle_bytes();
   j["bvh_nodes"] = bvh.nodes.size();
@@ -137,11 +155,13 @@ void run_trace(const TraceOptions& o) {
     j["effects"][ray_type_name(t)] = {{"on", run.plan.enabled[k]}, {"why", run.plan.reason[k]}};
     if (run.per_type[k].rays) j["per_type"][ray_type_name(t)] = totals_json(run.per_type[k], run.total.ops());
   }
-  j["caches"] = {{"l1_node", cache_json(caches.l1_node(), caches.config().l1_node)},
-                 {"l1_triangle", cache_json(caches.l1_triangle(), caches.config().l1_triangle)},
-                 {"l2", cache_json(caches.l2(), caches.config().l2)},
-                 {"dram_bytes", caches.dram_bytes()},
-                 {"dram_bytes_per_ray", run.total.per_ray(caches.dram_bytes())}};
+  const uint64_t dram_bytes = memory.dram.counters().bytes;
+  j["caches"] = {{"l1_node", cache_json(*memory.l1_node.front())},
+                 {"l1_triangle", cache_json(*memory.l1_triangle.front())},
+                 {"l2", cache_json(memory.l2)},
+                 {"dram_bytes", dram_bytes},
+                 {"dram_bytes_per_ray", run.total.per_ray(dram_bytes)}};
+  j["memory_bytes"] = image.footprint().total_bytes();
 
   if (!o.out_dir.empty()) {
     const std::filesystem::path dir(o.out_dir);
@@ -181,7 +201,7 @@ void run_trace(const TraceOptions& o) {
     std::printf("scene %s (%zu triangles), builder %s (%zu nodes), camera %s, %ux%u x %u spp, %s nodes (%u B)\n",
                 scene.name.c_str(), scene.triangle_count(), workload.params.builder.c_str(), bvh.nodes.size(),
                 camera.name.c_str(), settings.width, settings.height, settings.spp,
-                node_layout.c_str(), image.node_bytes());
+                hardware.node_layout.c_str(), image.node_bytes());
     std::printf("\n%-11s %9s %9s %8s %8s %8s %9s %9s %9s %7s\n", "ray type", "rays", "ops/ray",
                 "TRV/ray", "IST/ray", "box/ray", "node f/r", "tri f/r", "bytes/r", "share");
     auto row = [&](const char* name, const CounterTotals& t) {
@@ -198,9 +218,10 @@ void run_trace(const TraceOptions& o) {
     for (RayType t : kAllRayTypes)
       std::printf("  %-11s %-4s %s\n", ray_type_name(t), run.plan.enabled[ray_type_index(t)] ? "on" : "off",
                   run.plan.reason[ray_type_index(t)].c_str());
-    std::printf("\ncaches (functional, LRU):  L1 node %.1f%%  L1 triangle %.1f%%  L2 %.1f%%  DRAM %.1f B/ray\n",
-                100 * caches.l1_node().hit_rate(), 100 * caches.l1_triangle().hit_rate(),
-                100 * caches.l2().hit_rate(), run.total.per_ray(caches.dram_bytes()));
+    std::printf("\ncaches (%s, one ray in flight):  L1 node %.1f%%  L1 triangle %.1f%%  L2 %.1f%%  DRAM %.1f B/ray\n",
+                o.config.c_str(), 100 * hit_rate(*memory.l1_node.front()),
+                100 * hit_rate(*memory.l1_triangle.front()), 100 * hit_rate(memory.l2),
+                run.total.per_ray(dram_bytes));
     std::printf("max stack depth %u, stack overflows %llu\n", run.total.max_stack_depth,
                 (unsigned long long)run.total.stack_overflows);
     std::printf("throughput: %.3f M rays/s (%.3f s for %llu rays in %u waves, with cache simulation)\n",
@@ -248,10 +269,14 @@ void add_trace_command(CLI::App& root) {
                         " (the bounce count in trace and simulate; the BVH depth in build and table1)");
   cmd->add_option("--threads", options->threads,
                   "threads for the build, the trace and validation (0: all); results do not depend on it");
-  cmd->add_option("--node-layout", options->node_layout,
-                  "bvh2-64 (64 B, both child boxes) | single-32 (32 B), as the hardware configuration's "
-                  "memory.node_layout")
+  cmd->add_option("--config", options->config,
+                  "hardware preset (mobile | desktop) or TOML file: memory layout and caches")
       ->capture_default_str();
+  cmd->add_option("--node-layout", options->node_layout,
+                  "bvh2-64 (64 B, both child boxes) | single-32 (32 B); default: the hardware's "
+                  "memory.node_layout");
+  cmd->add_option("--shuffle-faces", options->shuffle_faces,
+                  "permute the scene's triangles with this seed first (0: no): results must not change");
   cmd->add_option("--stack-limit", options->stack_limit, "traversal stack entries before overflow")
       ->capture_default_str();
   cmd->add_option("--heat-max", options->heat_max, "ops/pixel at the top of the heatmap scale (fixed so builders compare)")

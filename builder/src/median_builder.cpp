@@ -35,10 +35,10 @@ struct MedianBuilder {
     if (extent.z > extent[axis]) axis = 2;
     const uint32_t half = count / 2;
     auto first = order.begin() + begin;
-    // Ties broken by triangle index: the result is fixed by the input alone.
+    // Ties broken by geometry: the result does not depend on the face order.
     std::nth_element(first, first + half, first + count, [&](uint32_t a, uint32_t b) {
       const float ca = centroids[a][axis], cb = centroids[b][axis];
-      return ca != cb ? ca < cb : a < b;
+      return ca != cb ? ca < cb : triangle_geometric_less(scene, a, b);
     });
     const uint32_t child = uint32_t(bvh.nodes.size());
     bvh.nodes[node_index].index = child;

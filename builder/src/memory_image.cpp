@@ -1,6 +1,9 @@
 #include <rtsim/builder/memory_image.h>
+#include <rtsim/workloads/error.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <deque>
 
 namespace rtsim {
 
@@ -8,32 +11,147 @@ namespace {
 uint64_t align_up(uint64_t value, uint64_t alignment) {
   return alignment == 0 ? value : (value + alignment - 1) / alignment * alignment;
 }
+bool is_power_of_two(uint64_t v) { return v != 0 && (v & (v - 1)) == 0; }
+
+// Nodes in the configured order. Children always follow their parent in the
+// flat array (checked), so neither walk can loop.
+std::vector<uint32_t> node_order(const Bvh& bvh, NodeOrder order) {
+  std::vector<uint32_t> out;
+  out.reserve(bvh.nodes.size());
+  if (order == NodeOrder::DepthFirst) {
+    std::vector<uint32_t> stack{0};
+    while (!stack.empty()) {
+      const uint32_t n = stack.back();
+      stack.pop_back();
+      out.push_back(n);
+      const BvhNode& node = bvh.nodes[n];
+      if (!node.is_leaf()) {
+        stack.push_back(node.index + 1);
+        stack.push_back(node.index);
+      }
+    }
+  } else {
+    std::deque<uint32_t> queue{0};
+    while (!queue.empty()) {
+      const uint32_t n = queue.front();
+      queue.pop_front();
+      out.push_back(n);
+      const BvhNode& node = bvh.nodes[n];
+      if (!node.is_leaf()) {
+        queue.push_back(node.index);
+        queue.push_back(node.index + 1);
+      }
+    }
+  }
+  return out;
+}
 }  // namespace
 
-MemoryImage::MemoryImage(const Bvh& bvh, size_t scene_triangle_count,
-                         const MemoryLayoutConfig& config)
+MemoryImage::MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutConfig& config)
     : config_(config),
       node_bytes_(config.node_layout == NodeLayout::Bvh2Wide64 ? 64u : 32u) {
+  if (config_.triangle_bytes < 36)
+    throw InputError("memory.triangle_bytes", "must be at least 36 (three float3 vertices)");
+  if (config_.triangle_packing == TrianglePacking::Line &&
+      (!is_power_of_two(config_.line_bytes) || config_.line_bytes < config_.triangle_bytes))
+    throw InputError("memory.triangle_packing",
+                     "'line' needs a power-of-two line of at least memory.triangle_bytes (" +
+                         std::to_string(config_.triangle_bytes) + " B), got " +
+                         std::to_string(config_.line_bytes));
+  const size_t node_count = bvh.nodes.size();
+  const size_t tri_count = scene.triangle_count();
+  for (size_t i = 0; i < node_count; ++i) {
+    const BvhNode& n = bvh.nodes[i];
+    if (n.is_leaf()) {
+      if (uint64_t(n.index) + n.count > bvh.prim_refs.size())
+        throw InputError("bvh: node " + std::to_string(i), "leaf prim range past the end of prim_refs");
+    } else if (n.index <= i || uint64_t(n.index) + 1 >= node_count) {
+      throw InputError("bvh: node " + std::to_string(i),
+                       "inner node's children must follow it and exist");
+    }
+  }
+  for (size_t r = 0; r < bvh.prim_refs.size(); ++r)
+    if (bvh.prim_refs[r] >= tri_count)
+      throw InputError("bvh: prim_ref " + std::to_string(r), "triangle index out of range");
+
+  record_address_.assign(node_count, kNoRecord);
+  leaf_first_.assign(node_count, 0);
   nodes_base_ = align_up(config_.base_address, config_.region_alignment);
-  prim_refs_base_ = align_up(nodes_base_ + uint64_t(bvh.nodes.size()) * node_bytes_,
-                             config_.region_alignment);
-  triangles_base_ = align_up(prim_refs_base_ + uint64_t(bvh.prim_refs.size()) * 4,
-                             config_.region_alignment);
-  end_ = triangles_base_ + uint64_t(scene_triangle_count) * config_.triangle_bytes;
+  if (node_count == 0) {
+    prim_refs_base_ = triangles_base_ = end_ = nodes_base_;
+    return;
+  }
+  const std::vector<uint32_t> order = node_order(bvh, config_.node_order);
+
+  // Node records: the BVH2 64-byte record holds its children's boxes, so only
+  // inner nodes (and a root that is a leaf) are fetched on their own.
+  uint64_t records = 0;
+  for (uint32_t n : order) {
+    const bool own_record = config_.node_layout == NodeLayout::SingleBox32 ||
+                            !bvh.nodes[n].is_leaf() || n == 0;
+    if (own_record) record_address_[n] = nodes_base_ + records++ * node_bytes_;
+  }
+
+  // Leaf slots in the same order; a leaf's triangles sorted by geometry.
+  for (uint32_t n : order) {
+    const BvhNode& node = bvh.nodes[n];
+    if (!node.is_leaf()) continue;
+    leaf_first_[n] = uint32_t(slot_triangle_.size());
+    const auto begin = slot_triangle_.size();
+    slot_triangle_.insert(slot_triangle_.end(), bvh.prim_refs.begin() + node.index,
+                          bvh.prim_refs.begin() + node.index + node.count);
+    std::sort(slot_triangle_.begin() + begin, slot_triangle_.end(),
+              [&](uint32_t a, uint32_t b) { return triangle_geometric_less(scene, a, b); });
+  }
+  const uint64_t slots = slot_triangle_.size();
+  prim_refs_base_ = align_up(nodes_base_ + records * node_bytes_, config_.region_alignment);
+  const uint64_t prim_ref_bytes = indexed() ? slots * 4 : 0;
+  triangles_base_ = align_up(prim_refs_base_ + prim_ref_bytes, config_.region_alignment);
+
+  // Triangle records: one per triangle (indexed, where the leaf order first
+  // reaches it) or one per slot (inline).
+  uint64_t cursor = triangles_base_, triangle_records = 0;
+  const auto place = [&]() {
+    const uint64_t line = config_.line_bytes;
+    if (config_.triangle_packing == TrianglePacking::Line &&
+        cursor / line != (cursor + config_.triangle_bytes - 1) / line)
+      cursor = align_up(cursor, line);
+    const uint64_t at = cursor;
+    cursor += config_.triangle_bytes;
+    ++triangle_records;
+    return at;
+  };
+  slot_address_.resize(slots);
+  if (indexed()) {
+    std::vector<uint64_t> record_of(tri_count, kNoRecord);
+    for (uint64_t s = 0; s < slots; ++s) {
+      uint64_t& record = record_of[slot_triangle_[s]];
+      if (record == kNoRecord) record = place();
+      slot_address_[s] = record;
+    }
+  } else {
+    for (uint64_t s = 0; s < slots; ++s) slot_address_[s] = place();
+  }
+  end_ = cursor;
+  footprint_.node_records = records;
+  footprint_.node_bytes = records * node_bytes_;
+  footprint_.prim_refs = indexed() ? slots : 0;
+  footprint_.prim_ref_bytes = prim_ref_bytes;
+  footprint_.triangle_records = triangle_records;
+  footprint_.triangle_bytes = end_ - triangles_base_;
 }
 
 std::string MemoryImage::describe() const {
   char buf[512];
   std::snprintf(buf, sizeof buf,
-                "nodes      0x%010llx  %llu B (%u B/node)\n"
+                "nodes      0x%010llx  %llu B (%llu records of %u B)\n"
                 "prim_refs  0x%010llx  %llu B\n"
-                "triangles  0x%010llx  %llu B (%u B/triangle)\n",
-                (unsigned long long)nodes_base_,
-                (unsigned long long)(prim_refs_base_ - nodes_base_), node_bytes_,
-                (unsigned long long)prim_refs_base_,
-                (unsigned long long)(triangles_base_ - prim_refs_base_),
-                (unsigned long long)triangles_base_, (unsigned long long)(end_ - triangles_base_),
-                config_.triangle_bytes);
+                "triangles  0x%010llx  %llu B (%llu records of %u B)\n",
+                (unsigned long long)nodes_base_, (unsigned long long)footprint_.node_bytes,
+                (unsigned long long)footprint_.node_records, node_bytes_,
+                (unsigned long long)prim_refs_base_, (unsigned long long)footprint_.prim_ref_bytes,
+                (unsigned long long)triangles_base_, (unsigned long long)footprint_.triangle_bytes,
+                (unsigned long long)footprint_.triangle_records, config_.triangle_bytes);
   return buf;
 }
 

@@ -57,19 +57,27 @@ struct Ref {
 };
 static_assert(sizeof(Ref) == 32, "a reference should stay 32 bytes");
 
-// Strict total order on references along an axis, for sorts that must not depend
-// on the implementation's handling of ties.
+// A strict order of references by their geometry alone: box, then the triangle's
+// vertices (two halves of a quad share a box), and only for exact duplicates the
+// index. Every sort and tie of the builder goes through it, so the tree does not
+// depend on the input's face order.
+bool ref_geometric_less(const Scene& scene, const Ref& a, const Ref& b) {
+  for (int k = 0; k < 3; ++k) {
+    if (a.lo[k] != b.lo[k]) return a.lo[k] < b.lo[k];
+    if (a.hi[k] != b.hi[k]) return a.hi[k] < b.hi[k];
+  }
+  if (a.prim() == b.prim()) return false;
+  return triangle_geometric_less(scene, a.prim(), b.prim());
+}
+
+// Along an axis: the centroid, then the geometric order.
 struct RefLess {
+  const Scene* scene;
   int axis;
   bool operator()(const Ref& a, const Ref& b) const {
     const float ca = a.centroid2(axis), cb = b.centroid2(axis);
     if (ca != cb) return ca < cb;
-    if (a.prim() != b.prim()) return a.prim() < b.prim();
-    for (int k = 0; k < 3; ++k) {
-      if (a.lo[k] != b.lo[k]) return a.lo[k] < b.lo[k];
-      if (a.hi[k] != b.hi[k]) return a.hi[k] < b.hi[k];
-    }
-    return false;
+    return ref_geometric_less(*scene, a, b);
   }
 };
 
@@ -316,22 +324,16 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
   return best;
 }
 
-// Sort key for the sweep: centroid, then triangle, then position in the node's
-// range - a strict total order, so the sort result is fixed by the input.
+// The sweep's order along an axis: slots of the node's range sorted by RefLess.
 struct SweepKey {
-  float centroid;
-  uint32_t prim;
   uint32_t slot;
-  bool operator<(const SweepKey& o) const {
-    if (centroid != o.centroid) return centroid < o.centroid;
-    if (prim != o.prim) return prim < o.prim;
-    return slot < o.slot;
-  }
 };
 
-void sweep_order(const Ref* refs, uint32_t count, int axis, SweepKey* keys) {
-  for (uint32_t i = 0; i < count; ++i) keys[i] = SweepKey{refs[i].centroid2(axis), refs[i].prim(), i};
-  std::sort(keys, keys + count);
+void sweep_order(const Scene& scene, const Ref* refs, uint32_t count, int axis, SweepKey* keys) {
+  for (uint32_t i = 0; i < count; ++i) keys[i] = SweepKey{i};
+  const RefLess less{&scene, axis};
+  std::sort(keys, keys + count,
+            [&](const SweepKey& a, const SweepKey& b) { return less(refs[a.slot], refs[b.slot]); });
 }
 
 Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info) const {
@@ -363,7 +365,7 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
   const Ref* refs = refs_.data() + begin;
   for (int a = 0; a < 3; ++a) {
     if (!(info.centroids.hi[a] > info.centroids.lo[a])) continue;
-    sweep_order(refs, count, a, keys);
+    sweep_order(scene_, refs, count, a, keys);
     Bin acc;
     for (uint32_t i = count - 1; i > 0; --i) {
       acc.add(refs[keys[i].slot]);
@@ -389,7 +391,7 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
   }
   if (best.valid() && config_.spatial_splits) {
     // The right box is needed by the SBVH overlap test only.
-    sweep_order(refs, count, best.axis, keys);
+    sweep_order(scene_, refs, count, best.axis, keys);
     Aabb right;
     for (uint32_t i = best.bin + 1; i < count; ++i) right.extend(refs[keys[i].slot].box());
     best.right_box = right;
@@ -521,7 +523,7 @@ uint32_t Builder::partition_object(const Split& split, uint32_t begin, uint32_t 
     std::vector<Ref> big_refs(count > kSmall ? count : 0);
     SweepKey* keys = count > kSmall ? big_keys.data() : small_keys;
     Ref* ordered = count > kSmall ? big_refs.data() : small_refs;
-    sweep_order(first, count, split.axis, keys);
+    sweep_order(scene_, first, count, split.axis, keys);
     for (uint32_t i = 0; i < count; ++i) ordered[i] = first[keys[i].slot];
     std::copy(ordered, ordered + count, first);
     middle = first + split.bin + 1;
@@ -534,18 +536,16 @@ uint32_t Builder::partition_object(const Split& split, uint32_t begin, uint32_t 
   return uint32_t(middle - first);
 }
 
-// Object median along the widest centroid axis; with all centroids equal, the
-// index median of the (deterministic) current order.
+// Object median along the widest centroid axis (with all centroids equal, the
+// median of the geometric order).
 uint32_t Builder::partition_median(uint32_t begin, uint32_t count, const NodeInfo& info) {
   const vec3 extent = info.centroids.hi - info.centroids.lo;
   int axis = 0;
   if (extent.y > extent[axis]) axis = 1;
   if (extent.z > extent[axis]) axis = 2;
   const uint32_t half = count / 2;
-  if (extent[axis] > 0) {
-    Ref* first = refs_.data() + begin;
-    std::nth_element(first, first + half, first + count, RefLess{axis});
-  }
+  Ref* first = refs_.data() + begin;
+  std::nth_element(first, first + half, first + count, RefLess{&scene_, axis});
   return half;
 }
 
@@ -560,17 +560,19 @@ bool Builder::partition_spatial(const Split& split, uint32_t begin, uint32_t cou
   right.reserve(split.right_count);
   Aabb left_box = split.left_box, right_box = split.right_box;
   float left_weight = split.left_weight, right_weight = split.right_weight;
+  std::vector<Ref> straddling;
   for (uint32_t i = begin; i < begin + count; ++i) {
     const Ref& r = refs_[i];
     const uint32_t b0 = binning.index(r.lo[a]), b1 = binning.index(r.hi[a]);
-    if (b1 <= split.bin) {
-      left.push_back(r);
-      continue;
-    }
-    if (b0 > split.bin) {
-      right.push_back(r);
-      continue;
-    }
+    if (b1 <= split.bin) left.push_back(r);
+    else if (b0 > split.bin) right.push_back(r);
+    else straddling.push_back(r);
+  }
+  // Unsplitting decides one reference at a time, each seeing the boxes the earlier
+  // ones grew: take them in the geometric order, not the input's.
+  std::sort(straddling.begin(), straddling.end(),
+            [&](const Ref& x, const Ref& y) { return ref_geometric_less(scene_, x, y); });
+  for (const Ref& r : straddling) {
     // Reference unsplitting (Stich et al. 2009): keep the reference whole on one
     // side when that is cheaper than duplicating it.
     Aabb left_with = left_box, right_with = right_box;

@@ -84,7 +84,7 @@ struct Frame {
 
 Frame trace_frame(const Scene& scene, const Bvh& bvh, const Camera& camera,
                   const EffectSettings& settings) {
-  const MemoryImage image(bvh, scene.triangle_count());
+  const MemoryImage image(scene, bvh);
   const TraversalContext context(scene, bvh, image);
   Frame frame;
   const auto start = Clock::now();

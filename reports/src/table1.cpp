@@ -305,7 +305,7 @@ Table1 run_table1_checked(const Table1Options& options) {
       const Camera& camera = scene.camera(camera_name);
       for (const std::string& builder : options.builders) {
         const Tree& tree = trees.at(tree_key(builder, camera_name));
-        const MemoryImage image(tree.bvh, scene.triangle_count());
+        const MemoryImage image(scene, tree.bvh);
         const TraversalContext context(scene, tree.bvh, image);
         const FrameRun run = run_frame(context, camera, settings);
         Table1Row row;

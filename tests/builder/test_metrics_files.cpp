@@ -1,7 +1,6 @@
-// Quality metrics, BVH files and the memory image.
+// Quality metrics and BVH files.
 #include <rtsim/builder/build.h>
 #include <rtsim/builder/bvh_file.h>
-#include <rtsim/builder/memory_image.h>
 #include <rtsim/builder/metrics.h>
 #include <rtsim/workloads/error.h>
 
@@ -158,31 +157,6 @@ TEST_F(BvhFileTest, BadFilesAreRefusedNamingFileAndField) {
   expect_refused(dir_ / "missing.bvh", &scene, "no such file");
   write(dir_ / "empty.bvh", "");
   expect_refused(dir_ / "empty.bvh", &scene, "header.magic");
-}
-
-TEST(MemoryImage, RegionsAreAlignedAndAddressesFollowTheLayout) {
-  const Scene scene = test::triangle_soup(1000);
-  const Bvh bvh = build_bvh(scene, BuildParams{});
-  for (NodeLayout layout : {NodeLayout::Bvh2Wide64, NodeLayout::SingleBox32}) {
-    MemoryLayoutConfig config;
-    config.node_layout = layout;
-    config.triangle_bytes = 48;
-    config.base_address = 0x1234;
-    const MemoryImage image(bvh, scene.triangle_count(), config);
-    const uint32_t node_bytes = layout == NodeLayout::Bvh2Wide64 ? 64 : 32;
-    EXPECT_EQ(image.node_bytes(), node_bytes);
-    EXPECT_EQ(image.nodes_base() % config.region_alignment, 0u);
-    EXPECT_GE(image.nodes_base(), config.base_address);
-    EXPECT_EQ(image.node_address(5) - image.node_address(4), node_bytes);
-    // Regions in order, without overlap.
-    EXPECT_GE(image.prim_refs_base(), image.node_address(uint32_t(bvh.nodes.size() - 1)) + node_bytes);
-    EXPECT_EQ(image.prim_refs_base() % config.region_alignment, 0u);
-    EXPECT_GE(image.triangles_base(), image.prim_ref_address(uint32_t(bvh.prim_refs.size() - 1)) + 4);
-    EXPECT_EQ(image.triangles_base() % config.region_alignment, 0u);
-    EXPECT_EQ(image.triangle_address(10), image.triangles_base() + 480);
-    EXPECT_EQ(image.end_address(), image.triangles_base() + 48 * scene.triangle_count());
-    EXPECT_NE(image.describe().find("triangles"), std::string::npos);
-  }
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-// Cache tags and the functional hierarchy against hand-computed traces.
+// Cache tags against hand-computed traces.
 #include <rtsim/model/core/cache_tags.h>
 #include <rtsim/workloads/error.h>
 
@@ -29,16 +29,26 @@ TEST(CoreCacheTags, TwoWayLruHandComputed) {
   EXPECT_EQ(hits, 4);
 }
 
-TEST(CoreCacheTags, InsertReportsTheEvictedLine) {
+TEST(CoreCacheTags, InsertReportsTheEvictedLineAndWhetherItWasDirty) {
   CacheTags tags({128, 64, 1});  // direct mapped, 2 sets
-  uint64_t evicted = 0;
-  EXPECT_FALSE(tags.insert(0x1000, &evicted));
-  EXPECT_FALSE(tags.insert(0x1010, &evicted));  // same line: refresh
-  EXPECT_TRUE(tags.insert(0x1080, &evicted));
-  EXPECT_EQ(evicted, 0x1000u);
+  EXPECT_FALSE(tags.insert(0x1000).valid);
+  EXPECT_FALSE(tags.insert(0x1010).valid);  // same line: refresh
+  Eviction e = tags.insert(0x1080);
+  EXPECT_TRUE(e.valid);
+  EXPECT_FALSE(e.dirty);
+  EXPECT_EQ(e.line, 0x1000u);
   EXPECT_TRUE(tags.contains(0x10bf));
   EXPECT_FALSE(tags.contains(0x1000));
   EXPECT_FALSE(tags.lookup(0x1000));
+  // A written line leaves dirty; a clean refill of it is clean again.
+  EXPECT_TRUE(tags.lookup(0x1080, true));
+  e = tags.insert(0x1100);
+  EXPECT_TRUE(e.dirty);
+  EXPECT_EQ(e.line, 0x1080u);
+  EXPECT_FALSE(tags.insert(0x1080).dirty);  // evicts clean 0x1100
+  e = tags.insert(0x1000, true);            // set 0 again: 0x1080 clean goes
+  EXPECT_FALSE(e.dirty);
+  EXPECT_TRUE(tags.insert(0x1080).dirty);   // the dirty install of 0x1000 leaves dirty
 }
 
 TEST(CoreCacheTags, BadGeometryIsRefusedNamingTheField) {
@@ -52,26 +62,3 @@ TEST(CoreCacheTags, BadGeometryIsRefusedNamingTheField) {
   EXPECT_THROW(CacheTags({64, 64, 0}), InputError);
 }
 
-TEST(CoreCacheHierarchy, StreamingTwiceOverACacheSizedRegionHitsTheSecondTime) {
-  CacheHierarchyConfig config;
-  config.l1_node = {1024, 64, 2};      // 16 lines
-  config.l1_triangle = {1024, 64, 2};
-  config.l2 = {4096, 64, 4};           // 64 lines
-  FunctionalCacheHierarchy h(config);
-  // 32 nodes of 64 B = 2 KB: twice the L1, half the L2. Two passes, in order.
-  for (int pass = 0; pass < 2; ++pass)
-    for (uint64_t i = 0; i < 32; ++i) h.on_fetch({0x10000 + i * 64, 64, FetchKind::Node, RayType::Primary});
-  // L1 (LRU, streaming a region twice its size): every access misses.
-  EXPECT_EQ(h.l1_node().accesses, 64u);
-  EXPECT_EQ(h.l1_node().hits, 0u);
-  // L2 holds all 32 lines: the second pass hits.
-  EXPECT_EQ(h.l2().accesses, 64u);
-  EXPECT_EQ(h.l2().hits, 32u);
-  EXPECT_EQ(h.dram_bytes(), 32u * 64u);
-  // A 36-byte triangle straddling two lines is two L1 accesses.
-  h.on_fetch({0x20000 + 40, 36, FetchKind::Triangle, RayType::Ao});
-  EXPECT_EQ(h.l1_triangle().accesses, 2u);
-  EXPECT_EQ(h.l1_triangle().bytes_requested, 36u);
-  EXPECT_EQ(h.dram_bytes_by_ray_type()[ray_type_index(RayType::Ao)], 128u);
-  EXPECT_DOUBLE_EQ(h.l2().hit_rate(), 32.0 / 66.0);
-}

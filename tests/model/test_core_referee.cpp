@@ -116,7 +116,7 @@ TEST(ExactReferee, ValidationOfBuiltInFramesFindsTheCoreNeverWrong) {
     const Scene scene = load_scene(name);
     BuildParams params;
     const Bvh bvh = build_bvh(scene, params);
-    const MemoryImage image(bvh, scene.triangle_count());
+    const MemoryImage image(scene, bvh);
     const TraversalContext context(scene, bvh, image);
     const EmbreeScene embree(scene);
     EffectSettings settings;

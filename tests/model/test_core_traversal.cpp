@@ -11,7 +11,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <set>
 #include <limits>
 
 using namespace rtsim;
@@ -149,7 +151,7 @@ struct SphereScene {
     MeshBuilder mb{scene};
     mb.sphere(centre, radius, 96, 192);
     bvh = test::median_bvh(scene);
-    image = std::make_unique<MemoryImage>(bvh, scene.triangle_count(), layout);
+    image = std::make_unique<MemoryImage>(scene, bvh, layout);
     context = std::make_unique<TraversalContext>(scene, bvh, *image);
   }
   std::vector<Ray> inside_rays(size_t count) const {
@@ -218,12 +220,12 @@ TEST(CoreTraversal, NonFiniteRaysFinishAtOnceWithoutAHit) {
 }
 
 namespace {
-struct CountingSink : FetchSink {
-  uint64_t fetches[kFetchKindCount] = {0, 0, 0};
-  uint64_t bytes[kFetchKindCount] = {0, 0, 0};
+struct CountingSink : AccessSink {
+  uint64_t fetches[kAccessKindCount] = {0, 0, 0, 0};
+  uint64_t bytes[kAccessKindCount] = {0, 0, 0, 0};
   bool addresses_in_image = true;
   const MemoryImage* image = nullptr;
-  void on_fetch(const Fetch& f) override {
+  void on_access(const MemoryAccess& f, RayType) override {
     ++fetches[int(f.kind)];
     bytes[int(f.kind)] += f.bytes;
     if (f.address < image->nodes_base() || f.address + f.bytes > image->end_address())
@@ -245,12 +247,9 @@ TEST(CoreTraversal, StepwiseDriveMatchesTightLoopAndCountsAgreeWithTheSink) {
     // A unit driving the state machine one step at a time, as the SystemC TRV/IST do.
     stepper.reset(ray);
     while (!stepper.done()) {
-      if (stepper.action() == TraversalAction::FetchNode) {
-        stepper.process_node();
-      } else {
+      if (stepper.action() == TraversalAction::TestTriangles)
         EXPECT_LT(stepper.leaf_cursor(), stepper.leaf_size());
-        stepper.process_triangle();
-      }
+      stepper.process();
     }
     EXPECT_EQ(stepper.hit().prim, expected.prim);
     EXPECT_EQ(stepper.hit().t, expected.t);
@@ -265,11 +264,11 @@ TEST(CoreTraversal, StepwiseDriveMatchesTightLoopAndCountsAgreeWithTheSink) {
     trv += c.trv_ops, nodes += c.node_fetches, prim_refs += c.prim_ref_fetches, tris += c.triangle_fetches;
     node_bytes += c.node_bytes, tri_bytes += c.triangle_bytes;
   }
-  EXPECT_EQ(sink.fetches[int(FetchKind::Node)], nodes);
-  EXPECT_EQ(sink.fetches[int(FetchKind::PrimRef)], prim_refs);
-  EXPECT_EQ(sink.fetches[int(FetchKind::Triangle)], tris);
-  EXPECT_EQ(sink.bytes[int(FetchKind::Node)], node_bytes);
-  EXPECT_EQ(sink.bytes[int(FetchKind::Triangle)], tri_bytes);
+  EXPECT_EQ(sink.fetches[int(AccessKind::Node)], nodes);
+  EXPECT_EQ(sink.fetches[int(AccessKind::PrimRef)], prim_refs);
+  EXPECT_EQ(sink.fetches[int(AccessKind::Triangle)], tris);
+  EXPECT_EQ(sink.bytes[int(AccessKind::Node)], node_bytes);
+  EXPECT_EQ(sink.bytes[int(AccessKind::Triangle)], tri_bytes);
   EXPECT_TRUE(sink.addresses_in_image);
   EXPECT_GT(deepest, 1u);
   EXPECT_GT(trv, rays.size());
@@ -306,8 +305,118 @@ TEST(CoreTraversal, BadBvhIsRefused) {
   SphereScene s;
   Bvh bad = s.bvh;
   bad.nodes[0].index = 0;  // root's children would be the root itself: a cycle
-  EXPECT_THROW(TraversalContext(s.scene, bad, *s.image), InputError);
+  EXPECT_THROW(MemoryImage(s.scene, bad), InputError);
   Bvh bad_ref = s.bvh;
   bad_ref.prim_refs[3] = uint32_t(s.scene.triangle_count());
-  EXPECT_THROW(TraversalContext(s.scene, bad_ref, *s.image), InputError);
+  EXPECT_THROW(MemoryImage(s.scene, bad_ref), InputError);
+}
+
+namespace {
+// Every step's reads, recorded with their dependency split.
+struct StepLog {
+  std::vector<std::vector<MemoryAccess>> reads;
+  std::vector<uint32_t> independent;
+  std::vector<MemoryAccess> stack;
+};
+StepLog drive(RayTraversal& trv, const Ray& ray) {
+  StepLog log;
+  trv.reset(ray);
+  while (!trv.done()) {
+    log.reads.push_back(trv.step_reads());
+    log.independent.push_back(trv.step_independent_reads());
+    trv.process();
+    log.stack.insert(log.stack.end(), trv.stack_accesses().begin(), trv.stack_accesses().end());
+  }
+  return log;
+}
+}  // namespace
+
+TEST(CoreTraversal, AStepReadsItsLeafsTrianglesTogetherBehindThePrimRefList) {
+  SphereScene s;
+  TraversalConfig one, four;
+  one.triangles_per_step = 1;
+  four.triangles_per_step = 4;
+  const TraversalContext c1(s.scene, s.bvh, *s.image, one), c4(s.scene, s.bvh, *s.image, four);
+  RayTraversal t1(c1), t4(c4);
+  std::vector<Ray> rays = s.inside_rays(3000);
+  uint64_t over_fetched = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    Ray ray = rays[i];
+    ray.type = i % 2 ? RayType::Ao : RayType::Primary;  // any-hit and closest-hit
+    const StepLog log = drive(t4, ray);
+    for (size_t k = 0; k < log.reads.size(); ++k) {
+      const auto& r = log.reads[k];
+      ASSERT_FALSE(r.empty());
+      if (r[0].kind == AccessKind::Node) {
+        EXPECT_EQ(r.size(), 1u);
+        EXPECT_EQ(log.independent[k], 1u);
+      } else if (r[0].kind == AccessKind::PrimRef) {
+        // The first step of a leaf: its list, then the triangles whose indices it holds.
+        EXPECT_EQ(log.independent[k], 1u);
+        EXPECT_GE(r.size(), 2u);
+        EXPECT_LE(r.size(), 5u);
+        for (size_t j = 1; j < r.size(); ++j) EXPECT_EQ(r[j].kind, AccessKind::Triangle);
+      } else {
+        EXPECT_EQ(r[0].kind, AccessKind::Triangle);
+        EXPECT_EQ(log.independent[k], r.size());  // later steps: nothing to wait for
+      }
+    }
+    trace_ray(t1, ray);
+    // The same work and answer whatever the step size; only any-hit rays read more.
+    EXPECT_EQ(t1.counters().ops(), t4.counters().ops()) << i;
+    EXPECT_EQ(t1.hit().prim, t4.hit().prim) << i;
+    EXPECT_EQ(t1.counters().triangle_fetches, t1.counters().ist_ops);
+    if (ray.type == RayType::Primary) EXPECT_EQ(t4.counters().triangle_fetches, t4.counters().ist_ops);
+    EXPECT_GE(t4.counters().triangle_fetches, t4.counters().ist_ops);
+    over_fetched += t4.counters().triangle_fetches - t4.counters().ist_ops;
+  }
+  EXPECT_GT(over_fetched, 0u);
+}
+
+TEST(CoreTraversal, InlineLeavesReadNoPrimRefs) {
+  MemoryLayoutConfig inline_layout;
+  inline_layout.triangle_storage = TriangleStorage::Inline;
+  SphereScene indexed, in_leaf(inline_layout);
+  RayTraversal a(*indexed.context), b(*in_leaf.context);
+  for (const Ray& ray : indexed.inside_rays(500)) {
+    const StepLog log = drive(b, ray);
+    for (const auto& r : log.reads)
+      for (const MemoryAccess& m : r) EXPECT_NE(m.kind, AccessKind::PrimRef);
+    trace_ray(a, ray);
+    EXPECT_EQ(a.hit().prim, b.hit().prim);
+    EXPECT_EQ(a.counters().ops(), b.counters().ops());
+    EXPECT_EQ(b.counters().prim_ref_fetches, 0u);
+  }
+}
+
+TEST(CoreTraversal, SpillsAreWritesThatRefillsReadBackInTheSlotsOwnArea) {
+  SphereScene deep;
+  TraversalConfig shallow;
+  shallow.stack_limit = 2;
+  const TraversalContext context(deep.scene, deep.bvh, *deep.image, shallow);
+  RayTraversal trv(context, 5);
+  const uint64_t area = context.stack_area(5);
+  EXPECT_GE(area, deep.image->end_address());
+  EXPECT_EQ(context.stack_area(6) - area, TraversalContext::kStackAreaEntries * shallow.stack_entry_bytes);
+  uint64_t writes = 0, reads = 0;
+  for (const Ray& ray : deep.inside_rays(2000)) {
+    const StepLog log = drive(trv, ray);
+    std::set<uint64_t> written;
+    for (const MemoryAccess& a : log.stack) {
+      EXPECT_EQ(a.kind, AccessKind::Stack);
+      EXPECT_GE(a.address, area);
+      EXPECT_LT(a.address, context.stack_area(6));
+      if (a.write) {
+        written.insert(a.address);
+        ++writes;
+      } else {
+        EXPECT_TRUE(written.count(a.address)) << "a refill reads what a spill wrote";
+        ++reads;
+      }
+    }
+    EXPECT_EQ(trv.counters().stack_overflows, std::count_if(log.stack.begin(), log.stack.end(),
+                                                              [](const MemoryAccess& a) { return a.write; }));
+  }
+  EXPECT_GT(writes, 0u);
+  EXPECT_GT(reads, 0u);
 }

@@ -15,7 +15,7 @@ void expect_agreement(const std::string& scene_name, uint32_t width, uint32_t he
   BuildParams params;
   params.builder = "sah";
   const Bvh bvh = build_bvh(scene, params);
-  const MemoryImage image(bvh, scene.triangle_count());
+  const MemoryImage image(scene, bvh);
   const TraversalContext context(scene, bvh, image);
   EmbreeScene embree(scene);
   EffectSettings settings;

@@ -1,7 +1,9 @@
-// The timing model's cache level over the core's CacheTags: hit rates of
-// synthetic address traces against hand-computed values, MSHR merging and
-// blocking, and byte attribution by (ray type, data kind).
+// The cache level over the core's CacheTags: hit rates of synthetic address
+// traces against hand-computed values, MSHR merging and blocking, one accounting
+// (accesses = hits + misses + merges), writes and write-backs, byte attribution
+// by (ray type, access kind), and the functional hierarchy behind them.
 #include <rtsim/model/sim/cache_model.h>
+#include <rtsim/model/sim/memory_system.h>
 
 #include <gtest/gtest.h>
 
@@ -11,8 +13,8 @@ using namespace rtsim::sim;
 namespace {
 // 512 bytes, 64-byte lines, 2 ways: 4 sets. Line L maps to set L mod 4.
 CacheConfig small_cache() { return CacheConfig{512, 64, 2, 1, 2}; }
-LineAccess at(uint64_t line_index, RayType t = RayType::Primary, DataKind k = DataKind::Node) {
-  return LineAccess{line_index * 64, 64, k, t};
+LineAccess at(uint64_t line_index, RayType t = RayType::Primary, AccessKind k = AccessKind::Node) {
+  return LineAccess{line_index * 64, 64, k, t, false};
 }
 }  // namespace
 
@@ -48,28 +50,137 @@ TEST(SimCache, MixedTraceMatchesHandComputation) {
 }
 
 TEST(SimCache, MshrsMergeAndBlock) {
+  using O = CacheModel::Outcome;
   CacheModel cache(small_cache(), "c");  // 2 MSHRs
-  EXPECT_EQ(cache.request(at(0)), CacheModel::Outcome::Miss);
-  EXPECT_EQ(cache.request(at(0)), CacheModel::Outcome::Merged);
-  EXPECT_EQ(cache.request(at(1)), CacheModel::Outcome::Miss);
-  EXPECT_EQ(cache.request(at(2)), CacheModel::Outcome::Blocked);  // both MSHRs busy
+  EXPECT_EQ(cache.request(at(0)).outcome, O::Miss);
+  EXPECT_EQ(cache.request(at(0)).outcome, O::Merged);
+  EXPECT_EQ(cache.request(at(1)).outcome, O::Miss);
+  EXPECT_EQ(cache.request(at(2)).outcome, O::Blocked);  // both MSHRs busy
   cache.fill(0);
-  EXPECT_EQ(cache.request(at(0)), CacheModel::Outcome::Hit);
-  EXPECT_EQ(cache.request(at(2)), CacheModel::Outcome::Miss);
-  EXPECT_EQ(cache.counters().mshr_merges, 1u);
-  EXPECT_EQ(cache.counters().mshr_full_stalls, 1u);
-  EXPECT_EQ(cache.counters().accesses, 5u);  // a blocked request is not an access yet
+  EXPECT_EQ(cache.request(at(0)).outcome, O::Hit);
+  EXPECT_EQ(cache.request(at(2)).outcome, O::Miss);
+  const auto& c = cache.counters();
+  EXPECT_EQ(c.mshr_merges, 1u);
+  EXPECT_EQ(c.mshr_full_stalls, 1u);
+  EXPECT_EQ(c.accesses, 5u);  // a blocked request is not an access yet
+  EXPECT_EQ(c.accesses, c.hits + c.misses + c.mshr_merges);
+  EXPECT_EQ(c.hits, 1u);
+}
+
+TEST(SimCache, LtReadsOfALineOnItsWayMergeAndWaitForIt) {
+  // The same accounting as the cycle level: a read before the fill lands is a merge.
+  using O = CacheModel::Outcome;
+  CacheModel cache(small_cache(), "c");
+  const auto miss = cache.access(at(3), 1000);
+  EXPECT_EQ(miss.outcome, O::Miss);
+  EXPECT_TRUE(miss.fetch);
+  cache.set_arrival(3 * 64, 5000);
+  const auto early = cache.access(at(3), 2000);
+  EXPECT_EQ(early.outcome, O::Merged);
+  EXPECT_EQ(early.ready_ps, 5000u);
+  EXPECT_EQ(cache.access(at(3), 5000).outcome, O::Hit);
+  const auto& c = cache.counters();
+  EXPECT_EQ(c.accesses, 3u);
+  EXPECT_EQ(c.hits, 1u);
+  EXPECT_EQ(c.misses, 1u);
+  EXPECT_EQ(c.mshr_merges, 1u);
+  // Functional: no time, so no merges.
+  CacheModel untimed(small_cache(), "f");
+  untimed.access(at(3));
+  EXPECT_EQ(untimed.access(at(3)).outcome, O::Hit);
+}
+
+TEST(SimCache, WritesAllocateWithoutAFillAndDirtyLinesAreWrittenBack) {
+  CacheModel cache(small_cache(), "c");  // set 0 holds lines 0, 4, 8, ... (2 ways)
+  LineAccess w = at(0, RayType::Primary, AccessKind::Stack);
+  w.write = true;
+  const auto r = cache.access(w);
+  EXPECT_EQ(r.outcome, CacheModel::Outcome::Miss);
+  EXPECT_FALSE(r.fetch);  // nothing read from below
+  EXPECT_EQ(cache.filled().total(), 0u);
+  cache.access(at(4));
+  const auto evict = cache.access(at(8));  // line 0 is the LRU, and dirty
+  EXPECT_TRUE(evict.writeback.dirty);
+  EXPECT_EQ(evict.writeback.line, 0u);
+  EXPECT_EQ(cache.counters().writebacks, 1u);
+  EXPECT_EQ(cache.counters().writes, 1u);
+  // Cycle level: a write miss needs no MSHR and completes at once.
+  CacheModel timed(small_cache(), "t");
+  const auto wr = timed.request(w);
+  EXPECT_EQ(wr.outcome, CacheModel::Outcome::Miss);
+  EXPECT_FALSE(wr.fetch);
+  EXPECT_EQ(timed.mshrs_in_use(), 0u);
+}
+
+TEST(SimCache, PortsServeSoManyAccessesPerCycle) {
+  CacheConfig config = small_cache();
+  config.ports = 2;
+  CacheModel cache(config, "c", 1000);
+  EXPECT_EQ(cache.reserve_port(0), 0u);
+  EXPECT_EQ(cache.reserve_port(0), 500u);
+  EXPECT_EQ(cache.reserve_port(0), 1000u);
+  EXPECT_EQ(cache.reserve_port(5000), 5000u);
+  EXPECT_EQ(cache.counters().port_wait_ps, 1500u);
+}
+
+TEST(SimHierarchy, StreamingTwiceOverACacheSizedRegionHitsTheL2TheSecondTime) {
+  HardwareConfig config = preset("mobile");
+  config.trv_units = config.ist_units = 1;
+  config.l1_node = {1024, 64, 2, 1, 4};      // 16 lines
+  config.l1_triangle = {1024, 64, 2, 1, 4};
+  config.l2 = {4096, 64, 4, 1, 4};           // 64 lines
+  FunctionalMemory memory(config);
+  FunctionalMemorySink sink(memory);
+  // 32 nodes of 64 B = 2 KB: twice the L1, half the L2. Two passes, in order.
+  for (int pass = 0; pass < 2; ++pass)
+    for (uint64_t i = 0; i < 32; ++i) {
+      sink.on_access({0x10000 + i * 64, 64, AccessKind::Node, false}, RayType::Primary);
+      sink.on_step_end();
+    }
+  EXPECT_EQ(memory.l1_node[0]->counters().accesses, 64u);
+  EXPECT_EQ(memory.l1_node[0]->counters().hits, 0u);  // LRU streaming twice its size
+  EXPECT_EQ(memory.l2.counters().accesses, 64u);
+  EXPECT_EQ(memory.l2.counters().hits, 32u);
+  EXPECT_EQ(memory.dram.counters().bytes, 32u * 64u);
+  // A 36-byte triangle straddling two lines is two L1 accesses; two triangles in
+  // one line of one step are one.
+  sink.on_access({0x20000 + 40, 36, AccessKind::Triangle, false}, RayType::Ao);
+  sink.on_step_end();
+  EXPECT_EQ(memory.l1_triangle[0]->counters().accesses, 2u);
+  EXPECT_EQ(memory.l1_triangle[0]->requested().total(), 36u);
+  sink.on_access({0x30000, 32, AccessKind::Triangle, false}, RayType::Ao);
+  sink.on_access({0x30000 + 32, 32, AccessKind::Triangle, false}, RayType::Ao);
+  sink.on_step_end();
+  EXPECT_EQ(memory.l1_triangle[0]->counters().accesses, 3u);
+  EXPECT_EQ(memory.l2.filled().bytes[size_t(RayType::Ao)][size_t(AccessKind::Triangle)], 3u * 64u);
+}
+
+TEST(SimHierarchy, DirtyLinesTravelDownToDramAsWrites) {
+  HardwareConfig config = preset("mobile");
+  config.trv_units = config.ist_units = 1;
+  config.l1_node = {512, 64, 1, 1, 4};  // 8 lines, direct mapped
+  config.l2 = {1024, 64, 1, 1, 4};      // 16 lines, direct mapped
+  FunctionalMemory memory(config);
+  // Write line A, then read lines that evict it from L1 (into L2, dirty) and from L2.
+  const LineAccess a{0, 8, AccessKind::Stack, RayType::Primary, true};
+  memory.access(Requester::Trv, 0, a, 0);
+  EXPECT_EQ(memory.dram.counters().bytes, 0u);
+  memory.access(Requester::Trv, 0, {512, 64, AccessKind::Node, RayType::Primary, false}, 0);
+  EXPECT_EQ(memory.l1_node[0]->counters().writebacks, 1u);
+  EXPECT_EQ(memory.l2.counters().writes, 1u);
+  memory.access(Requester::Trv, 0, {1024, 64, AccessKind::Node, RayType::Primary, false}, 0);
+  EXPECT_EQ(memory.l2.counters().writebacks, 1u);
 }
 
 TEST(SimCache, BytesAreAttributedByRayTypeAndKind) {
   CacheModel cache(small_cache(), "c");
-  cache.access(LineAccess{0, 36, DataKind::Triangle, RayType::Ao});
-  cache.access(LineAccess{0, 36, DataKind::Triangle, RayType::Ao});
-  cache.access(LineAccess{64, 64, DataKind::Node, RayType::Primary});
+  cache.access(LineAccess{0, 36, AccessKind::Triangle, RayType::Ao});
+  cache.access(LineAccess{0, 36, AccessKind::Triangle, RayType::Ao});
+  cache.access(LineAccess{64, 64, AccessKind::Node, RayType::Primary});
   const auto& req = cache.requested().bytes;
   const auto& fill = cache.filled().bytes;
-  EXPECT_EQ(req[size_t(RayType::Ao)][size_t(DataKind::Triangle)], 72u);
-  EXPECT_EQ(fill[size_t(RayType::Ao)][size_t(DataKind::Triangle)], 64u);  // one line fill
-  EXPECT_EQ(req[size_t(RayType::Primary)][size_t(DataKind::Node)], 64u);
+  EXPECT_EQ(req[size_t(RayType::Ao)][size_t(AccessKind::Triangle)], 72u);
+  EXPECT_EQ(fill[size_t(RayType::Ao)][size_t(AccessKind::Triangle)], 64u);  // one line fill
+  EXPECT_EQ(req[size_t(RayType::Primary)][size_t(AccessKind::Node)], 64u);
   EXPECT_EQ(cache.filled().total(), 128u);
 }

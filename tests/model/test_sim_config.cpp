@@ -42,7 +42,7 @@ TEST(SimConfig, OverridesApplyOnTopOfPresetAndDramPart) {
   EXPECT_EQ(c.ist_units, preset("desktop").ist_units);  // untouched keys keep the preset
   EXPECT_EQ(c.dram.part, "gddr6");
   EXPECT_EQ(c.dram.tcl, 30u);                            // explicit key beats the part
-  EXPECT_EQ(c.dram.trp, 15u);                            // the part's value
+  EXPECT_EQ(c.dram.trp, 27u);                            // the part's value
 }
 
 TEST(SimConfig, UnknownKeyIsRefusedByName) {

@@ -107,7 +107,7 @@ struct TracedScene {
     BuildParams p;
     p.builder = builder;
     bvh = build_bvh(scene, p);
-    image = std::make_unique<MemoryImage>(bvh, scene.triangle_count(), layout);
+    image = std::make_unique<MemoryImage>(scene, bvh, layout);
     context = std::make_unique<TraversalContext>(scene, bvh, *image, traversal);
   }
   std::vector<TraceResult> trace(const std::vector<Ray>& rays) const {

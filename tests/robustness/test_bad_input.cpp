@@ -100,7 +100,7 @@ TEST(RobustBadInput, ThousandGarbageScenesThroughValidateEveryBuilderAndTraversa
       const BvhValidation v = validate_bvh(bvh, scene, limits_for(p));
       EXPECT_TRUE(v.ok()) << builder << " on " << scene.name << ":\n" << v.summary();
       if (!v.ok()) continue;
-      const MemoryImage image(bvh, scene.triangle_count());
+      const MemoryImage image(scene, bvh);
       const TraversalContext context(scene, bvh, image);
       std::vector<TraceResult> results;
       trace_rays(context, rays, results, nullptr, 1);

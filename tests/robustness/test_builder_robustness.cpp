@@ -178,7 +178,7 @@ TEST(RobustBuilders, NonFiniteAndHugeVerticesFollowThePolicyAndTheRestStillHits)
   for (const std::string& builder : builder_names()) {
     const BuildParams p = params_for(builder);
     const Bvh bvh = build_checked(scene, p);
-    const MemoryImage image(bvh, scene.triangle_count());
+    const MemoryImage image(scene, bvh);
     const TraversalContext context(scene, bvh, image);
     std::vector<TraceResult> results;
     trace_rays(context, rays, results);
@@ -221,7 +221,7 @@ TEST(RobustBuilders, PowersOfTwoStaircaseKeepsTheDepthCapAndTheStackHonest) {
     BuildParams p = params_for(builder);
     p.max_depth = 32;
     const Bvh bvh = build_checked(scene, p);
-    const MemoryImage image(bvh, scene.triangle_count());
+    const MemoryImage image(scene, bvh);
     TraversalContext context(scene, bvh, image);
     TraversalConfig short_stack;
     short_stack.stack_limit = 4;
@@ -324,7 +324,7 @@ TEST(RobustBuilders, SbvhOnSplitPlaneGeometryKeepsEveryReferenceHonest) {
             << builder << ": leaf " << i << " references triangle " << t << " which lies outside its box";
       }
     }
-    const MemoryImage image(bvh, scene.triangle_count());
+    const MemoryImage image(scene, bvh);
     const TraversalContext context(scene, bvh, image);
     std::vector<TraceResult> results;
     trace_rays(context, rays, results);

@@ -579,8 +579,7 @@ TEST(RobustIntersection, NonFiniteOriginDirectionOrIntervalNeverHitsNorHangs) {
       trv.reset(rays[i]);
       uint32_t steps = 0;
       while (!trv.done() && steps < 100000) {
-        if (trv.action() == TraversalAction::FetchNode) trv.process_node();
-        else trv.process_triangle();
+        trv.process();
         ++steps;
       }
       EXPECT_TRUE(trv.done()) << "ray " << i << " still running after " << steps << " steps";

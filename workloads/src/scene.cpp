@@ -2,8 +2,10 @@
 #include <rtsim/workloads/random.h>
 #include <rtsim/workloads/scene.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <tuple>
 
 namespace rtsim {
 
@@ -62,6 +64,34 @@ uint64_t Scene::content_hash() const {
     h = hash_bytes(h, f, sizeof f);
   }
   return h;
+}
+
+bool triangle_geometric_less(const Scene& scene, uint32_t a, uint32_t b) {
+  const Aabb ba = scene.triangle_bounds(a), bb = scene.triangle_bounds(b);
+  const auto key = [](const Aabb& box) {
+    const vec3 c = box.centre();
+    return std::make_tuple(c.x, c.y, c.z, box.lo.x, box.lo.y, box.lo.z, box.hi.x, box.hi.y, box.hi.z);
+  };
+  const auto ka = key(ba), kb = key(bb);
+  if (ka != kb) return ka < kb;
+  for (int k = 0; k < 3; ++k) {
+    const vec3 va = scene.vertex(a, k), vb = scene.vertex(b, k);
+    for (int axis = 0; axis < 3; ++axis)
+      if (va[axis] != vb[axis]) return va[axis] < vb[axis];
+  }
+  return a < b;
+}
+
+void shuffle_triangles(Scene& scene, uint64_t seed) {
+  // Fisher-Yates with one keyed draw per position: the permutation is fixed by the seed.
+  const size_t n = scene.triangles.size();
+  const bool has_materials = scene.material_ids.size() == n;
+  for (size_t i = n; i > 1; --i) {
+    KeyedRng rng(seed, {0x5348'5546ull, i});
+    const size_t j = size_t(rng.next_u64() % i);
+    std::swap(scene.triangles[i - 1], scene.triangles[j]);
+    if (has_materials) std::swap(scene.material_ids[i - 1], scene.material_ids[j]);
+  }
 }
 
 }  // namespace rtsim

@@ -51,13 +51,15 @@ namespace {
 constexpr size_t kChunkRays = 256;       // rays per parallel task
 constexpr size_t kReplayBatch = 1 << 14;  // rays whose fetches are buffered before replay
 
-struct RecordingSink : FetchSink {
-  std::vector<Fetch> fetches;
-  void on_fetch(const Fetch& f) override { fetches.push_back(f); }
+// Records accesses in order; a zero-byte entry marks the end of a step.
+struct RecordingSink : AccessSink {
+  std::vector<std::pair<MemoryAccess, RayType>> fetches;
+  void on_access(const MemoryAccess& a, RayType t) override { fetches.emplace_back(a, t); }
+  void on_step_end() override { fetches.emplace_back(MemoryAccess{}, RayType::Primary); }
 };
 
 void trace_range(const TraversalContext& context, const Ray* rays, size_t count, TraceResult* out,
-                 FetchSink* sink) {
+                 AccessSink* sink) {
   if (!sink) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, kChunkRays),
                       [&](const tbb::blocked_range<size_t>& r) {
@@ -86,7 +88,10 @@ void trace_range(const TraversalContext& context, const Ray* rays, size_t count,
       }
     });
     for (size_t c = 0; c < chunk_count; ++c)
-      for (const Fetch& f : chunks[c].fetches) sink->on_fetch(f);
+      for (const auto& [a, t] : chunks[c].fetches) {
+        if (a.bytes == 0) sink->on_step_end();
+        else sink->on_access(a, t);
+      }
   }
 }
 
@@ -111,13 +116,13 @@ void tally(FrameRun& run) {
 }  // namespace
 
 void trace_rays(const TraversalContext& context, const std::vector<Ray>& rays,
-                std::vector<TraceResult>& results, FetchSink* sink, uint32_t threads) {
+                std::vector<TraceResult>& results, AccessSink* sink, uint32_t threads) {
   results.resize(rays.size());
   in_arena(threads, [&] { trace_range(context, rays.data(), rays.size(), results.data(), sink); });
 }
 
 FrameRun run_frame(const TraversalContext& context, const Camera& camera,
-                   const EffectSettings& settings, FetchSink* sink, uint32_t threads) {
+                   const EffectSettings& settings, AccessSink* sink, uint32_t threads) {
   const Scene& scene = context.scene();
   FrameRun run;
   run.plan = plan_effects(scene, settings);
@@ -155,7 +160,7 @@ FrameRun run_frame(const TraversalContext& context, const Camera& camera,
 }
 
 FrameRun run_rays(const TraversalContext& context, std::vector<Ray> rays, uint32_t width,
-                  uint32_t height, FetchSink* sink, uint32_t threads) {
+                  uint32_t height, AccessSink* sink, uint32_t threads) {
   FrameRun run;
   run.width = width;
   run.height = height;

@@ -18,11 +18,12 @@ const char* ray_type_name(RayType type) {
   return "unknown";
 }
 
-const char* fetch_kind_name(FetchKind kind) {
+const char* access_kind_name(AccessKind kind) {
   switch (kind) {
-    case FetchKind::Node: return "node";
-    case FetchKind::PrimRef: return "prim_ref";
-    case FetchKind::Triangle: return "triangle";
+    case AccessKind::Node: return "node";
+    case AccessKind::PrimRef: return "prim_ref";
+    case AccessKind::Triangle: return "triangle";
+    case AccessKind::Stack: return "stack";
   }
   return "unknown";
 }
@@ -33,36 +34,28 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
       bvh_(&bvh),
       image_(&image),
       config_(config),
-      wide_nodes_(image.config().node_layout == NodeLayout::Bvh2Wide64) {
+      wide_nodes_(image.config().node_layout == NodeLayout::Bvh2Wide64),
+      stack_base_((image.end_address() + 4095) & ~uint64_t(4095)) {
   if (config_.stack_limit < 1)
     throw InputError("traversal.stack_limit", "must be at least 1");
-  // Children always follow their parent in the flat array, which rules out
-  // cycles: no BVH handed to the core can make a ray loop forever.
-  const size_t node_count = bvh.nodes.size();
-  const size_t tri_count = scene.triangle_count();
-  for (size_t i = 0; i < node_count; ++i) {
-    const BvhNode& n = bvh.nodes[i];
-    if (n.is_leaf()) {
-      if (uint64_t(n.index) + n.count > bvh.prim_refs.size())
-        throw InputError("bvh: node " + std::to_string(i),
-                         "leaf prim range past the end of prim_refs");
-    } else if (n.index <= i || uint64_t(n.index) + 1 >= node_count) {
-      throw InputError("bvh: node " + std::to_string(i),
-                       "inner node's children must follow it and exist");
-    }
-  }
-  for (size_t r = 0; r < bvh.prim_refs.size(); ++r)
-    if (bvh.prim_refs[r] >= tri_count)
-      throw InputError("bvh: prim_ref " + std::to_string(r), "triangle index out of range");
-  triangles_.resize(tri_count);
-  for (uint32_t t = 0; t < tri_count; ++t) {
-    triangles_[t] = PackedTriangle{scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2)};
+  if (config_.triangles_per_step < 1)
+    throw InputError("traversal.triangles_per_step", "must be at least 1");
+  if (config_.stack_entry_bytes < 1)
+    throw InputError("traversal.stack_entry_bytes", "must be at least 1");
+  // The image checked the tree's links (children after their parent), so no BVH
+  // handed to the core can make a ray loop forever.
+  triangles_.resize(image.slot_count());
+  for (uint32_t s = 0; s < image.slot_count(); ++s) {
+    const uint32_t t = image.slot_triangle(s);
+    triangles_[s] = PackedTriangle{scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2)};
   }
 }
 
-RayTraversal::RayTraversal(const TraversalContext& context)
-    : context_(&context), nodes_(context.bvh().nodes.data()) {
+RayTraversal::RayTraversal(const TraversalContext& context, uint32_t stack_slot)
+    : context_(&context), nodes_(context.bvh().nodes.data()),
+      stack_area_(context.stack_area(stack_slot)) {
   stack_.reserve(std::min<uint32_t>(context.config().stack_limit, 64) + 1);
+  reads_.reserve(2 + context.config().triangles_per_step);
 }
 
 void RayTraversal::reset(const Ray& ray) { reset(ray, traversal_mode_for(ray.type)); }
@@ -73,7 +66,8 @@ void RayTraversal::reset(const Ray& ray, TraversalMode mode) {
   hit_ = HitRecord{};
   counters_ = RayCounters{};
   stack_.clear();
-  leaf_first_ = leaf_count_ = leaf_cursor_ = 0;
+  stack_accesses_.clear();
+  leaf_slot_ = leaf_count_ = leaf_cursor_ = last_tests_ = 0;
   current_node_ = 0;
   tfar_ = ray.tmax;
   const bool usable = is_finite(ray.origin) && is_finite(ray.direction) &&
@@ -90,40 +84,65 @@ void RayTraversal::reset(const Ray& ray, TraversalMode mode) {
   action_ = TraversalAction::FetchNode;
 }
 
-uint64_t RayTraversal::node_address() const { return context_->image().node_address(current_node_); }
-uint32_t RayTraversal::node_bytes() const { return context_->image().node_bytes(); }
-uint64_t RayTraversal::prim_refs_address() const {
-  return context_->image().prim_ref_address(leaf_first_);
+const std::vector<MemoryAccess>& RayTraversal::step_reads() const {
+  reads_.clear();
+  const MemoryImage& image = context_->image();
+  if (action_ == TraversalAction::FetchNode) {
+    reads_.push_back({image.node_address(current_node_), image.node_bytes(), AccessKind::Node, false});
+  } else if (action_ == TraversalAction::TestTriangles) {
+    if (leaf_cursor_ == 0 && image.indexed())
+      reads_.push_back({image.prim_refs_address(current_node_), leaf_count_ * 4u,
+                        AccessKind::PrimRef, false});
+    const uint32_t end = std::min(leaf_count_, leaf_cursor_ + context_->config().triangles_per_step);
+    for (uint32_t k = leaf_cursor_; k < end; ++k)
+      reads_.push_back({image.slot_address(leaf_slot_ + k), image.triangle_bytes(),
+                        AccessKind::Triangle, false});
+  }
+  return reads_;
 }
-uint32_t RayTraversal::triangle(uint32_t k) const {
-  return context_->bvh().prim_refs[leaf_first_ + k];
+
+uint32_t RayTraversal::step_independent_reads() const {
+  // Only the triangles behind a prim-ref list wait: they need the addresses it holds.
+  if (action_ == TraversalAction::TestTriangles && leaf_cursor_ == 0 && context_->image().indexed())
+    return 1;
+  return uint32_t(step_reads().size());
 }
-uint64_t RayTraversal::triangle_address(uint32_t k) const {
-  return context_->image().triangle_address(triangle(k));
+
+uint64_t RayTraversal::spill_address(uint32_t position) const {
+  const uint32_t last = TraversalContext::kStackAreaEntries - 1;
+  return stack_area_ + uint64_t(std::min(position, last)) * context_->config().stack_entry_bytes;
 }
-uint32_t RayTraversal::triangle_bytes() const { return context_->image().triangle_bytes(); }
 
 void RayTraversal::push(uint32_t node, float tnear) {
   const uint32_t limit = context_->config().stack_limit;
   if (stack_.size() >= limit) {
     ++counters_.stack_overflows;
-    if (context_->config().overflow_policy == StackOverflowPolicy::DropOldest)
+    if (context_->config().overflow_policy == StackOverflowPolicy::DropOldest) {
       stack_.erase(stack_.begin());
+    } else {
+      // The bottom on-chip entry (position size - limit) goes to memory.
+      stack_accesses_.push_back({spill_address(uint32_t(stack_.size()) - limit),
+                                 context_->config().stack_entry_bytes, AccessKind::Stack, true});
+    }
   }
   stack_.push_back({node, tnear});
   counters_.max_stack_depth = std::max(counters_.max_stack_depth, uint32_t(stack_.size()));
 }
 
-void RayTraversal::enter(uint32_t node) {
+void RayTraversal::enter_leaf(uint32_t node) {
   current_node_ = node;
-  const BvhNode& n = nodes_[node];
-  if (context_->wide_nodes() && n.is_leaf()) {
+  leaf_slot_ = context_->image().leaf_first(node);
+  leaf_count_ = nodes_[node].count;
+  leaf_cursor_ = 0;
+  action_ = TraversalAction::TestTriangles;
+}
+
+void RayTraversal::enter(uint32_t node) {
+  if (context_->wide_nodes() && nodes_[node].is_leaf()) {
     // The leaf's range came with its parent's record: straight to IST.
-    leaf_first_ = n.index;
-    leaf_count_ = n.count;
-    leaf_cursor_ = 0;
-    action_ = TraversalAction::TestTriangles;
+    enter_leaf(node);
   } else {
+    current_node_ = node;
     action_ = TraversalAction::FetchNode;
   }
 }
@@ -132,14 +151,26 @@ void RayTraversal::pop_next() {
   const uint32_t limit = context_->config().stack_limit;
   while (!stack_.empty()) {
     const StackEntry entry = stack_.back();
-    if (stack_.size() > limit) ++counters_.stack_refills;
     stack_.pop_back();
+    if (stack_.size() >= limit) {
+      // A spilled entry comes back to the bottom of the on-chip part.
+      ++counters_.stack_refills;
+      stack_accesses_.push_back({spill_address(uint32_t(stack_.size()) - limit),
+                                 context_->config().stack_entry_bytes, AccessKind::Stack, false});
+    }
     // Closest-hit: a subtree entered beyond the closest hit cannot hold a nearer one.
     if (entry.tnear > tfar_) continue;
     enter(entry.node);
     return;
   }
   action_ = TraversalAction::Done;
+}
+
+void RayTraversal::process() {
+  stack_accesses_.clear();
+  last_tests_ = 0;
+  if (action_ == TraversalAction::FetchNode) process_node();
+  else if (action_ == TraversalAction::TestTriangles) process_triangles();
 }
 
 void RayTraversal::process_node() {
@@ -155,10 +186,7 @@ void RayTraversal::process_node() {
 void RayTraversal::process_wide_node() {
   const BvhNode& n = nodes_[current_node_];
   if (n.is_leaf()) {  // only a root that is a leaf is ever fetched as a node
-    leaf_first_ = n.index;
-    leaf_count_ = n.count;
-    leaf_cursor_ = 0;
-    action_ = TraversalAction::TestTriangles;
+    enter_leaf(current_node_);
     return;
   }
   const uint32_t c0 = n.index, c1 = n.index + 1;
@@ -193,10 +221,7 @@ void RayTraversal::process_single_box_node() {
     return;
   }
   if (n.is_leaf()) {
-    leaf_first_ = n.index;
-    leaf_count_ = n.count;
-    leaf_cursor_ = 0;
-    action_ = TraversalAction::TestTriangles;
+    enter_leaf(current_node_);
     return;
   }
   // No child boxes in this record: order the children by the ray's direction
@@ -211,62 +236,50 @@ void RayTraversal::process_single_box_node() {
   action_ = TraversalAction::FetchNode;
 }
 
-void RayTraversal::process_triangle() {
-  if (leaf_cursor_ == 0) {
+void RayTraversal::process_triangles() {
+  const MemoryImage& image = context_->image();
+  if (leaf_cursor_ == 0 && image.indexed()) {
     ++counters_.prim_ref_fetches;
     counters_.prim_ref_bytes += leaf_count_ * 4u;
   }
-  ++counters_.ist_ops;
-  ++counters_.triangle_fetches;
-  counters_.triangle_bytes += context_->image().triangle_bytes();
-  const uint32_t prim = context_->bvh().prim_refs[leaf_first_ + leaf_cursor_];
-  const PackedTriangle& tri = context_->triangle(prim);
-  TriangleHit th;
-  if (intersect_triangle(tri_ray_, tri.v0, tri.v1, tri.v2, ray_.tmin, tfar_, &th,
-                         &counters_.ist_exact_steps)) {
-    hit_.t = th.t;
-    hit_.prim = prim;
-    hit_.u = th.u;
-    hit_.v = th.v;
-    tfar_ = th.t;
-    if (mode_ == TraversalMode::AnyHit) {
-      action_ = TraversalAction::Done;
-      return;
+  const uint32_t end = std::min(leaf_count_, leaf_cursor_ + context_->config().triangles_per_step);
+  counters_.triangle_fetches += end - leaf_cursor_;
+  counters_.triangle_bytes += (end - leaf_cursor_) * image.triangle_bytes();
+  for (; leaf_cursor_ < end; ++leaf_cursor_) {
+    ++counters_.ist_ops;
+    ++last_tests_;
+    const uint32_t slot = leaf_slot_ + leaf_cursor_;
+    const PackedTriangle& tri = context_->slot_data(slot);
+    TriangleHit th;
+    if (intersect_triangle(tri_ray_, tri.v0, tri.v1, tri.v2, ray_.tmin, tfar_, &th,
+                           &counters_.ist_exact_steps)) {
+      hit_.t = th.t;
+      hit_.prim = image.slot_triangle(slot);
+      hit_.u = th.u;
+      hit_.v = th.v;
+      tfar_ = th.t;
+      if (mode_ == TraversalMode::AnyHit) {
+        action_ = TraversalAction::Done;
+        return;
+      }
     }
   }
-  if (++leaf_cursor_ == leaf_count_) pop_next();
+  if (leaf_cursor_ == leaf_count_) pop_next();
 }
 
-const HitRecord& trace_ray(RayTraversal& traversal, const Ray& ray, FetchSink* sink) {
+const HitRecord& trace_ray(RayTraversal& traversal, const Ray& ray, AccessSink* sink) {
   traversal.reset(ray);
   if (!sink) {
-    for (;;) {
-      switch (traversal.action()) {
-        case TraversalAction::FetchNode: traversal.process_node(); break;
-        case TraversalAction::TestTriangles: traversal.process_triangle(); break;
-        case TraversalAction::Done: return traversal.hit();
-      }
-    }
+    while (!traversal.done()) traversal.process();
+    return traversal.hit();
   }
-  for (;;) {
-    switch (traversal.action()) {
-      case TraversalAction::FetchNode:
-        sink->on_fetch({traversal.node_address(), traversal.node_bytes(), FetchKind::Node, ray.type});
-        traversal.process_node();
-        break;
-      case TraversalAction::TestTriangles: {
-        const uint32_t k = traversal.leaf_cursor();
-        if (k == 0)
-          sink->on_fetch({traversal.prim_refs_address(), traversal.prim_refs_bytes(),
-                          FetchKind::PrimRef, ray.type});
-        sink->on_fetch({traversal.triangle_address(k), traversal.triangle_bytes(),
-                        FetchKind::Triangle, ray.type});
-        traversal.process_triangle();
-        break;
-      }
-      case TraversalAction::Done: return traversal.hit();
-    }
+  while (!traversal.done()) {
+    for (const MemoryAccess& a : traversal.step_reads()) sink->on_access(a, ray.type);
+    traversal.process();
+    for (const MemoryAccess& a : traversal.stack_accesses()) sink->on_access(a, ray.type);
+    sink->on_step_end();
   }
+  return traversal.hit();
 }
 
 }  // namespace rtsim

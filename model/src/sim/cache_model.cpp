@@ -1,15 +1,9 @@
 #include <rtsim/model/sim/cache_model.h>
 
-namespace rtsim::sim {
+#include <algorithm>
+#include <cmath>
 
-const char* data_kind_name(DataKind kind) {
-  switch (kind) {
-    case DataKind::Node: return "node";
-    case DataKind::Triangle: return "triangle";
-    case DataKind::Other: return "other";
-  }
-  return "?";
-}
+namespace rtsim::sim {
 
 uint64_t TrafficMatrix::total() const {
   uint64_t sum = 0;
@@ -18,86 +12,178 @@ uint64_t TrafficMatrix::total() const {
   return sum;
 }
 
+void TrafficMatrix::add(const TrafficMatrix& o) {
+  for (size_t t = 0; t < kRayTypeCount; ++t)
+    for (size_t k = 0; k < kAccessKindCount; ++k) bytes[t][k] += o.bytes[t][k];
+}
+
 void TrafficMatrix::report(StatsRegistry& stats, const std::string& prefix,
                            const std::string& what) const {
   for (RayType type : kAllRayTypes)
-    for (int k = 0; k < kDataKindCount; ++k) {
+    for (int k = 0; k < kAccessKindCount; ++k) {
       const uint64_t v = bytes[size_t(type)][size_t(k)];
       if (v == 0) continue;
-      stats.set(prefix + "." + ray_type_name(type) + "." + data_kind_name(DataKind(k)), v, "bytes",
-                what + " for " + ray_type_name(type) + " rays, " + data_kind_name(DataKind(k)) +
-                    " data");
+      const char* kind = access_kind_name(AccessKind(k));
+      stats.set(prefix + "." + ray_type_name(type) + "." + kind, v, "bytes",
+                what + " for " + ray_type_name(type) + " rays, " + kind + " data");
     }
   stats.set(prefix + ".total", total(), "bytes", what + ", all ray types and kinds");
 }
 
-CacheModel::CacheModel(const CacheConfig& config, const std::string& name)
-    : config_(config),
-      tags_(CacheGeometry{config.size_bytes, config.line_bytes, config.associativity}, name) {}
-
-bool CacheModel::access(const LineAccess& a) {
-  ++counters_.accesses;
-  requested_.add(a.ray_type, a.kind, a.bytes);
-  if (tags_.access(a.line)) {
-    ++counters_.hits;
-    return true;
-  }
-  ++counters_.misses;
-  filled_.add(a.ray_type, a.kind, config_.line_bytes);
-  return false;
+void CacheModel::Counters::add(const Counters& o) {
+  accesses += o.accesses, hits += o.hits, misses += o.misses, mshr_merges += o.mshr_merges;
+  mshr_full_stalls += o.mshr_full_stalls, writes += o.writes, writebacks += o.writebacks;
+  port_wait_ps += o.port_wait_ps;
 }
 
-CacheModel::Outcome CacheModel::request(const LineAccess& a) {
-  if (tags_.lookup(a.line)) {
-    ++counters_.accesses;
-    ++counters_.hits;
-    requested_.add(a.ray_type, a.kind, a.bytes);
-    return Outcome::Hit;
+CacheModel::CacheModel(const CacheConfig& config, const std::string& name, uint64_t cycle_ps)
+    : config_(config),
+      tags_(CacheGeometry{config.size_bytes, config.line_bytes, config.associativity}, name),
+      hit_ps_(uint64_t(config.hit_latency_cycles) * cycle_ps),
+      fill_ps_(uint64_t(config.fill_latency_cycles) * cycle_ps),
+      port_interval_ps_(std::max<uint64_t>(1, cycle_ps / std::max<uint32_t>(1, config.ports))),
+      cycle_ps_(cycle_ps) {}
+
+void CacheModel::count(const LineAccess& a, Outcome outcome) {
+  ++counters_.accesses;
+  if (a.write) ++counters_.writes;
+  requested_.add(a.ray_type, a.kind, a.bytes);
+  switch (outcome) {
+    case Outcome::Hit: ++counters_.hits; break;
+    case Outcome::Miss: ++counters_.misses; break;
+    case Outcome::Merged: ++counters_.mshr_merges; break;
+    case Outcome::Blocked: break;
+  }
+}
+
+Eviction CacheModel::install(uint64_t line, bool dirty) {
+  const Eviction e = tags_.insert(line, dirty);
+  if (e.dirty) ++counters_.writebacks;
+  return e;
+}
+
+CacheModel::Result CacheModel::access(const LineAccess& a, uint64_t now_ps) {
+  Result r;
+  latest_now_ps_ = std::max(latest_now_ps_, now_ps);
+  if (tags_.lookup(a.line, a.write)) {
+    r.outcome = Outcome::Hit;
+    if (!arrival_.empty()) {
+      auto it = arrival_.find(a.line);
+      if (it != arrival_.end()) {
+        if (it->second > now_ps && !a.write) {
+          r.outcome = Outcome::Merged;
+          r.ready_ps = it->second;
+        } else if (it->second <= now_ps) {
+          arrival_.erase(it);
+        }
+      }
+    }
+    count(a, r.outcome);
+    return r;
+  }
+  r.outcome = Outcome::Miss;
+  r.fetch = !a.write;
+  if (r.fetch) filled_.add(a.ray_type, a.kind, config_.line_bytes);
+  arrival_.erase(a.line);  // a stale arrival of a line that was evicted meanwhile
+  r.writeback = install(a.line, a.write);
+  count(a, r.outcome);
+  return r;
+}
+
+void CacheModel::set_arrival(uint64_t line, uint64_t ready_ps) {
+  // Keep the map to the lines still on their way: drop the landed ones now and then.
+  if (arrival_.size() >= prune_at_) {
+    for (auto it = arrival_.begin(); it != arrival_.end();)
+      it = it->second <= latest_now_ps_ ? arrival_.erase(it) : std::next(it);
+    prune_at_ = std::max<size_t>(4096, 2 * arrival_.size());
+  }
+  arrival_[line] = ready_ps;
+}
+
+CacheModel::Result CacheModel::request(const LineAccess& a) {
+  Result r;
+  if (tags_.lookup(a.line, a.write)) {
+    count(a, Outcome::Hit);
+    return r;
   }
   auto it = mshr_.find(a.line);
   if (it != mshr_.end()) {
-    ++counters_.accesses;
-    ++counters_.mshr_merges;
-    ++it->second;
-    requested_.add(a.ray_type, a.kind, a.bytes);
-    return Outcome::Merged;
+    ++it->second.waiting;
+    if (a.write) it->second.dirty_on_fill = true;
+    r.outcome = Outcome::Merged;
+    count(a, r.outcome);
+    return r;
+  }
+  if (a.write) {
+    // Write-allocate without a fill: the line is there at once, dirty.
+    r.outcome = Outcome::Miss;
+    r.writeback = install(a.line, true);
+    count(a, r.outcome);
+    return r;
   }
   if (mshr_.size() >= config_.mshrs) {
     ++counters_.mshr_full_stalls;  // not an access yet: the requester retries
-    return Outcome::Blocked;
+    r.outcome = Outcome::Blocked;
+    return r;
   }
-  ++counters_.accesses;
-  ++counters_.misses;
-  requested_.add(a.ray_type, a.kind, a.bytes);
+  r.outcome = Outcome::Miss;
+  r.fetch = true;
   filled_.add(a.ray_type, a.kind, config_.line_bytes);
-  mshr_.emplace(a.line, 1);
-  return Outcome::Miss;
+  mshr_.emplace(a.line, Mshr{1, false});
+  count(a, r.outcome);
+  return r;
 }
 
-void CacheModel::fill(uint64_t line) {
-  tags_.insert(line);
-  mshr_.erase(line);
+Eviction CacheModel::fill(uint64_t line) {
+  auto it = mshr_.find(line);
+  const bool dirty = it != mshr_.end() && it->second.dirty_on_fill;
+  if (it != mshr_.end()) mshr_.erase(it);
+  return install(line, dirty);
+}
+
+uint64_t CacheModel::reserve_port(uint64_t t_ps) {
+  const uint64_t start = std::max(t_ps, port_free_ps_);
+  counters_.port_wait_ps += start - t_ps;
+  port_free_ps_ = start + port_interval_ps_;
+  return start;
+}
+
+void CacheModel::reset_counters() {
+  counters_ = Counters{};
+  requested_ = filled_ = TrafficMatrix{};
 }
 
 namespace {
 void report_counters(StatsRegistry& s, const std::string& prefix, const CacheModel::Counters& c,
-                     const TrafficMatrix& requested, const TrafficMatrix& filled) {
-  s.set(prefix + ".accesses", c.accesses, "requests", "line requests to this cache");
-  s.set(prefix + ".hits", c.hits, "requests", "requests that found their line");
-  s.set(prefix + ".misses", c.misses, "requests", "requests that allocated an MSHR and went on");
+                     const TrafficMatrix& requested, const TrafficMatrix& filled,
+                     uint32_t line_bytes, double cycle_ps) {
+  const double accesses = double(std::max<uint64_t>(1, c.accesses));
+  s.set(prefix + ".accesses", c.accesses, "requests",
+        "line requests to this cache (hits + misses + MSHR merges)");
+  s.set(prefix + ".hits", c.hits, "requests", "requests that found their line present");
+  s.set(prefix + ".misses", c.misses, "requests",
+        "requests whose line was absent (reads went on to the next level)");
   s.set(prefix + ".mshr_merges", c.mshr_merges, "requests",
-        "requests merged into an outstanding miss to the same line");
+        "reads of a line whose fill was still on its way (merged into its miss)");
+  s.set_real(prefix + ".hit_rate", c.accesses ? double(c.hits) / accesses : 0.0, "ratio",
+             "hits / accesses");
+  s.set_real(prefix + ".mshr_merge_rate", c.accesses ? double(c.mshr_merges) / accesses : 0.0,
+             "ratio", "MSHR merges / accesses");
   s.set(prefix + ".mshr_full_stalls", c.mshr_full_stalls, "events",
-        "requests refused for a while because every MSHR was busy");
-  s.set_real(prefix + ".hit_rate", c.accesses ? double(c.hits) / double(c.accesses) : 0.0,
-             "ratio", "hits / accesses");
+        "requests refused for a while because every MSHR was busy (cycle level)");
+  s.set(prefix + ".writes", c.writes, "requests", "write requests (stack spills, write-backs)");
+  s.set(prefix + ".writebacks", c.writebacks, "lines", "dirty lines written to the next level");
+  s.set(prefix + ".bytes_written_back", c.writebacks * line_bytes, "bytes",
+        "bytes of dirty lines written to the next level");
+  s.set(prefix + ".port_wait_cycles", uint64_t(std::llround(double(c.port_wait_ps) / cycle_ps)),
+        "cycles", "summed waiting of requests for a free port (lt and cycle)");
   requested.report(s, prefix + ".bytes_requested", "bytes asked of this cache");
   filled.report(s, prefix + ".bytes_filled", "bytes this cache read from the next level");
 }
 }  // namespace
 
 void CacheModel::report(StatsRegistry& s, const std::string& prefix) const {
-  report_counters(s, prefix, counters_, requested_, filled_);
+  report_counters(s, prefix, counters_, requested_, filled_, config_.line_bytes, double(cycle_ps_));
 }
 
 void report_cache_group(StatsRegistry& s, const std::string& prefix,
@@ -105,16 +191,13 @@ void report_cache_group(StatsRegistry& s, const std::string& prefix,
   CacheModel::Counters sum;
   TrafficMatrix requested, filled;
   for (const CacheModel* c : caches) {
-    const auto& k = c->counters();
-    sum.accesses += k.accesses, sum.hits += k.hits, sum.misses += k.misses;
-    sum.mshr_merges += k.mshr_merges, sum.mshr_full_stalls += k.mshr_full_stalls;
-    for (size_t t = 0; t < kRayTypeCount; ++t)
-      for (size_t d = 0; d < kDataKindCount; ++d) {
-        requested.bytes[t][d] += c->requested().bytes[t][d];
-        filled.bytes[t][d] += c->filled().bytes[t][d];
-      }
+    sum.add(c->counters());
+    requested.add(c->requested());
+    filled.add(c->filled());
   }
-  report_counters(s, prefix, sum, requested, filled);
+  const CacheModel& first = *caches.front();
+  report_counters(s, prefix, sum, requested, filled, first.config().line_bytes,
+                  double(first.cycle_ps()));
   s.set(prefix + ".instances", caches.size(), "caches", "caches summed here");
 }
 

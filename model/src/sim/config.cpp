@@ -6,6 +6,7 @@
 #include <toml++/toml.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -60,7 +61,12 @@ void cache_parameters(const std::string& prefix, CacheConfig& c, const std::stri
       u32(prefix + ".hit_latency_cycles", c.hit_latency_cycles, 1, 10000, "cycles",
           "request to data on a hit"),
       u32(prefix + ".mshrs", c.mshrs, 1, 4096, "entries",
-          "distinct missing lines outstanding; requests to a missing line merge"),
+          "distinct missing lines outstanding; reads of a missing line merge (cycle level; "
+          "lt has no MSHR limit)"),
+      u32(prefix + ".ports", c.ports, 1, 64, "accesses/cycle",
+          "requests accepted per cycle (ports or banks); more wait for the next free slot"),
+      u32(prefix + ".fill_latency_cycles", c.fill_latency_cycles, 0, 10000, "cycles",
+          "next level's data arrival to the line installed and the data at the requester"),
   };
   for (auto& p : list) visit(p);
 }
@@ -73,6 +79,13 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
       u32("clock_mhz", c.clock_mhz, 1, 10000, "MHz", "accelerator clock; all *_cycles count it"),
       f64("raygen.rays_per_cycle", c.raygen_rays_per_cycle, 0.001, 64, "rays/cycle",
           "rate at which ray generation issues rays"),
+      text("raygen.order", c.raygen_order, {"scanline", "tiles", "morton"},
+           "issue order of primary rays: row by row, tile by tile (raygen.tile, rows within a "
+           "tile), or along a Morton curve"),
+      text("raygen.tile", c.raygen_tile, {}, "tile size WxH for raygen.order = tiles"),
+      text("raygen.secondary", c.raygen_secondary, {"behind", "after"},
+           "secondary rays (AO, shadow, mirror) go right behind their parent, ahead of new "
+           "primary rays, or after all primary rays"),
       u32("trv.units", c.trv_units, 1, 256, "units", "traversal units"),
       u32("trv.ray_slots", c.trv_ray_slots, 1, 4096, "rays",
           "rays in flight per TRV unit (hide memory latency)"),
@@ -89,6 +102,9 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
           "leaf jobs waiting per IST unit; a full queue stalls TRV"),
       u32("ist.test_latency", c.ist_test_latency, 1, 10000, "cycles",
           "triangle data arrival to the test result"),
+      u32("ist.triangles_in_flight", c.ist_triangles_in_flight, 1, 64, "triangles",
+          "triangles of a leaf fetched together (their fetches overlap), then tested in order; "
+          "an any-hit ray may fetch up to this many - 1 it does not test"),
       f64("ist.tests_per_cycle", c.ist_tests_per_cycle, 0.001, 64, "tests/cycle",
           "triangle-test pipeline throughput per unit"),
       u32("shading.latency", c.shading_latency, 1, 100000, "cycles",
@@ -97,10 +113,21 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
           "shading throughput"),
       text("memory.node_layout", c.node_layout, {"bvh2-64", "single-32"},
            "BVH node format in memory (64-byte two-box node or 32-byte one-box node)"),
+      text("memory.node_order", c.node_order, {"depth-first", "breadth-first"},
+           "order of node records and of leaf data in memory"),
+      text("memory.triangle_storage", c.triangle_storage, {"indexed", "inline"},
+           "indexed: a leaf's prim-ref list holds its triangles' record indices (one record per "
+           "triangle); inline: each leaf's triangle records stored in the leaf, no prim refs "
+           "(triangles in several leaves, as SBVH makes, are stored once per leaf)"),
+      text("memory.triangle_packing", c.triangle_packing, {"packed", "line"},
+           "packed: records at a stride of triangle_bytes; line: a record that would straddle an "
+           "L1 triangle-cache line starts at the next line"),
       u32("memory.triangle_bytes", c.triangle_bytes, 36, 256, "bytes",
-          "bytes one triangle occupies in memory"),
+          "bytes of one triangle record (36: three float3 vertices; more with padding or "
+          "precomputed data)"),
       u32("lt.quantum_cycles", c.lt_quantum_cycles, 1, 100000000, "cycles",
-          "global quantum of the loosely timed model (temporal decoupling)"),
+          "global quantum of the loosely timed model: how often its thread yields to the SystemC "
+          "kernel (temporal decoupling); results do not depend on it"),
   };
   for (auto& p : list) visit(p);
   cache_parameters("l1_node", c.l1_node, "each TRV unit's L1 node cache", visit);
@@ -111,50 +138,146 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
       text("dram.part", d.part, dram_part_names(), "DRAM part the timings start from"),
       u32("dram.channels", d.channels, 1, 64, "channels", "independent channels (power of two)"),
       u32("dram.ranks", d.ranks, 1, 16, "ranks", "ranks per channel (power of two)"),
-      u32("dram.banks", d.banks, 1, 64, "banks", "banks per rank (power of two)"),
-      u32("dram.row_bytes", d.row_bytes, 64, 1u << 20, "bytes", "row (page) size per channel"),
+      u32("dram.bank_groups", d.bank_groups, 1, 16, "groups",
+          "bank groups per rank (power of two dividing banks; 1: no bank groups, the _l "
+          "timings apply between any two banks)"),
+      u32("dram.banks", d.banks, 1, 64, "banks", "banks per rank over all groups (power of two)"),
+      u32("dram.row_bytes", d.row_bytes, 64, 1u << 20, "bytes",
+          "row (page) of one bank across the channel's devices"),
       u32("dram.tck_ps", d.tck_ps, 100, 100000, "ps", "DRAM clock period"),
-      u32("dram.tcl", d.tcl, 1, 1000, "tCK", "read command to first data"),
+      u32("dram.tcl", d.tcl, 1, 1000, "tCK", "read command to first data (RL)"),
+      u32("dram.tcwl", d.tcwl, 1, 1000, "tCK", "write command to first data (WL)"),
       u32("dram.trcd", d.trcd, 1, 1000, "tCK", "activate to read"),
+      u32("dram.trcd_write", d.trcd_write, 1, 1000, "tCK",
+          "activate to write (GDDR6 tRCDWR; equal to trcd elsewhere)"),
       u32("dram.trp", d.trp, 1, 1000, "tCK", "precharge to activate"),
       u32("dram.tras", d.tras, 1, 1000, "tCK", "activate to precharge"),
+      u32("dram.trrd_s", d.trrd_s, 1, 1000, "tCK", "activate to activate, other bank group"),
+      u32("dram.trrd_l", d.trrd_l, 1, 1000, "tCK", "activate to activate, same bank group"),
+      u32("dram.tfaw", d.tfaw, 1, 10000, "tCK",
+          "rolling window in which a rank accepts at most four activates"),
+      u32("dram.tccd_s", d.tccd_s, 1, 1000, "tCK",
+          "column to column per burst, other bank group of the rank"),
+      u32("dram.tccd_l", d.tccd_l, 1, 1000, "tCK",
+          "column to column per burst, same bank group"),
+      u32("dram.twtr_s", d.twtr_s, 1, 1000, "tCK",
+          "end of write data to a read command, other bank group"),
+      u32("dram.twtr_l", d.twtr_l, 1, 1000, "tCK",
+          "end of write data to a read command, same bank group"),
+      u32("dram.twr", d.twr, 1, 1000, "tCK", "end of write data to precharge (write recovery)"),
+      u32("dram.trtp", d.trtp, 1, 1000, "tCK", "read command (its last burst) to precharge"),
+      u32("dram.trtrs", d.trtrs, 0, 1000, "tCK",
+          "idle data-bus cycles between bursts of different direction or rank; read to write "
+          "command = tcl + tBURST - tcwl + trtrs"),
+      u32("dram.trefi", d.trefi, 0, 1000000, "tCK",
+          "all-bank refresh interval per rank (0: no refresh)"),
+      u32("dram.trfc", d.trfc, 1, 100000, "tCK",
+          "all-bank refresh time: the rank's banks stay precharged and blocked"),
       u32("dram.burst_cycles", d.burst_cycles, 1, 256, "tCK", "data bus busy per burst"),
       u32("dram.burst_bytes", d.burst_bytes, 4, 4096, "bytes", "bytes per burst"),
+      text("dram.page_policy", d.page_policy, {"open", "closed", "timeout"},
+           "open: rows stay open until a conflict; closed: precharge after the last queued hit; "
+           "timeout: precharge rows idle page_timeout. Default timeout, usual for LPDDR/DDR "
+           "controllers under scattered reads: lines fetched together still hit, a later access "
+           "finds the bank closed (tRCD) instead of conflicting (tRP + tRCD)"),
+      u32("dram.page_timeout", d.page_timeout, 1, 1000000, "tCK",
+          "idle time after a row's last column command until the timeout policy closes it"),
       u32("dram.queue_entries", d.queue_entries, 1, 4096, "requests",
-          "request queue per channel (FR-FCFS); a full queue back-pressures L2"),
+          "request queue per channel, reads and writes (FR-FCFS); a full queue back-pressures L2"),
+      f64("dram.write_drain_high", d.write_drain_high, 0.01, 1, "ratio",
+          "writes queued, as a fraction of queue_entries, that switch the channel to draining "
+          "writes (reads go first otherwise; writes also drain when no read waits)"),
+      f64("dram.write_drain_low", d.write_drain_low, 0, 0.99, "ratio",
+          "a write drain ends at this fraction of queue_entries when reads wait"),
       text("dram.address_mapping", d.address_mapping, {},
-           "fields row, rank, bank, column, channel from most to least significant, ':'-separated"),
+           "fields row, rank, bank, column, channel and optionally bankgroup from most to least "
+           "significant, ':'-separated; without bankgroup the group is the bank's top bits"),
   };
   for (auto& p : dram) visit(p);
 }
 
-std::vector<std::string> dram_part_names() { return {"lpddr4-3200", "ddr4-2400", "gddr6"}; }
+std::vector<std::string> dram_part_names() {
+  return {"lpddr4-3200", "ddr4-2400", "gddr6", "lpddr5"};
+}
 
 void apply_dram_part(DramConfig& d, const std::string& part) {
-  // Timings in tCK as the public DRAM simulators configure these parts:
-  // - lpddr4-3200: JESD209-4 speed bin as in Ramulator's LPDDR4_3200 preset: tCK 0.625 ns,
-  //   RL 28, tRCD 29 (18 ns), tRPpb 29 (18 ns), tRAS 68 (42 ns), BL16 = 8 tCK. Channel of
-  //   32 data bits (two x16 dies in lockstep) so a 64-byte line is one burst.
-  // - ddr4-2400: DRAMsim3 DDR4_8Gb_x8_2400.ini: tCK 0.83 ns (833 ps), CL 16, tRCD 16,
-  //   tRP 16, tRAS 39, BL8 = 4 tCK on a 64-bit DIMM channel (64 B per burst), 16 banks
-  //   (4 groups x 4), 8 KiB rows.
-  // - gddr6: DRAMsim3 GDDR6_8Gb_x16.ini: tCK 0.66 ns, CL 24, tRCDRD 24, tRP 15, tRAS 32,
-  //   BL16 over a x16 channel = 32 B per burst, bursts of BL/4 = 4 tCK (quad data rate),
-  //   16 banks, 2 KiB rows.
+  // Timings in tCK as public DRAM simulators configure these parts (values are
+  // JEDEC-class facts; nothing of those simulators' code is used):
+  // - lpddr4-3200: DRAMSys (tukl-msd/DRAMSys)
+  //   DRAMSys/library/resources/configs/memspecs/JEDEC_8Gb_LPDDR4-3200_16bit.json:
+  //   tCK 0.625 ns, RL 28, WL 14, tRCD 29, tRPpb 29, tRAS 68, tRRD 16, tFAW 64, tCCD 8,
+  //   tWTR 16, tWR 29, tRTP 12, tRTRS 1, tREFI 6246, tRFCab 448 (280 ns, 8 Gb per channel),
+  //   8 banks, 1024 columns of 16 bits. The same speed bin in Ramulator
+  //   (CMU-SAFARI/ramulator src/LPDDR4.h, LPDDR4_3200) has tRCD 29, tRAS 68, tRRD 16,
+  //   tFAW 64, tWTR 16. The channel is 32 data bits of two x16 dies in lockstep, so a
+  //   BL16 burst (8 tCK) carries 64 bytes and a row is two dies' 2 KiB pages = 4 KiB.
+  //   No bank groups: tRRD, tCCD and tWTR are the same for S and L.
+  // - ddr4-2400: DRAMsim3 (umd-memsys/DRAMsim3) configs/DDR4_8Gb_x8_2400.ini: tCK 0.83 ns
+  //   (833 ps for 2400 MT/s), CL 17, CWL 12, tRCD 17, tRP 17, tRAS 39, tRRD_S 4, tRRD_L 6,
+  //   tFAW 26, tCCD_S 4, tCCD_L 6, tWTR_S 3, tWTR_L 9, tWR 18, tRTP 9, tRTRS 1, tREFI 9360,
+  //   tRFC 420, BL8 = 4 tCK on a 64-bit channel (64 B per burst), 4 bank groups x 4 banks,
+  //   1024 columns x 8 devices x 8 bits = 8 KiB rows.
+  // - gddr6: Ramulator2 (CMU-SAFARI/ramulator2) python/ramulator/dram/gddr6.py, timing
+  //   preset GDDR6_14000_1350mV_double and organisation GDDR6_8Gb_x16: 14 Gb/s per pin,
+  //   tCK 0.57 ns, nBL 2 (BL16 on a x16 channel = 32 B per burst), CL 24, CWL 6,
+  //   tRCDRD 27, tRCDWR 16, tRP 27, tRAS 53, tRRD_S/L 8/8, tFAW 29, tCCD_S/L 2/4,
+  //   tWTR_S/L 9/11, tWR 27, tRTP 4, tREFI 3333, tRFCab 211, 4 bank groups x 4 banks,
+  //   1024 columns of 16 bits = 2 KiB rows. DRAMsim3 configs/GDDR6_8Gb_x16.ini agrees on
+  //   the row timings' scale (tRP 24, tRAS 54; the earlier 15/32 matched neither) and
+  //   gives tRTRS 1.
+  // - lpddr5: LPDDR5-6400, Ramulator2 python/ramulator/dram/lpddr5.py, timing preset
+  //   LPDDR5_6400 and organisation LPDDR5_8Gb_x16 (bank-group mode): tCK 1.25 ns (CK
+  //   800 MHz, WCK 4:1), nBL_min 2 (BL16 on a x16 channel = 32 B per burst), CL 17, CWL 9,
+  //   tRCD 15, tRPpb 15, tRAS 34, tWR 28, tRTP 8, tCCD_S/L 2/4, tWTR_S/L 5/10, and the
+  //   secondary timings that file derives: tRRD_S/L 4/4 (5 ns), tFAW 16 (20 ns), tREFI 3125
+  //   (3906 ns), tRFCab 168 (210 ns, 8 Gb); its read-to-write rule CL + BL + 2 - CWL gives
+  //   tRTRS 2. 4 bank groups x 4 banks, 1024 columns of 16 bits = 2 KiB rows.
+  // Read-to-write follows from the data bus (DRAMsim3's RL + BL - WL + tRTRS), write-to-read
+  // is WL + BL + tWTR, write-to-precharge WL + BL + tWR, as both simulators derive them.
+  auto timing = [&d](uint32_t tck, uint32_t cl, uint32_t cwl, uint32_t rcd, uint32_t rcd_write,
+                     uint32_t rp, uint32_t ras) {
+    d.tck_ps = tck, d.tcl = cl, d.tcwl = cwl, d.trcd = rcd, d.trcd_write = rcd_write;
+    d.trp = rp, d.tras = ras;
+  };
+  auto spacing = [&d](uint32_t rrd_s, uint32_t rrd_l, uint32_t faw, uint32_t ccd_s,
+                      uint32_t ccd_l, uint32_t wtr_s, uint32_t wtr_l) {
+    d.trrd_s = rrd_s, d.trrd_l = rrd_l, d.tfaw = faw, d.tccd_s = ccd_s, d.tccd_l = ccd_l;
+    d.twtr_s = wtr_s, d.twtr_l = wtr_l;
+  };
+  auto recovery = [&d](uint32_t wr, uint32_t rtp, uint32_t rtrs, uint32_t refi, uint32_t rfc) {
+    d.twr = wr, d.trtp = rtp, d.trtrs = rtrs, d.trefi = refi, d.trfc = rfc;
+  };
+  auto shape = [&d](uint32_t burst_cycles, uint32_t burst_bytes, uint32_t groups,
+                    uint32_t banks, uint32_t row_bytes) {
+    d.burst_cycles = burst_cycles, d.burst_bytes = burst_bytes, d.bank_groups = groups;
+    d.banks = banks, d.row_bytes = row_bytes;
+  };
   if (part == "lpddr4-3200") {
-    d.part = part, d.tck_ps = 625, d.tcl = 28, d.trcd = 29, d.trp = 29, d.tras = 68;
-    d.burst_cycles = 8, d.burst_bytes = 64, d.banks = 8, d.row_bytes = 2048;
+    timing(625, 28, 14, 29, 29, 29, 68);
+    spacing(16, 16, 64, 8, 8, 16, 16);
+    recovery(29, 12, 1, 6246, 448);
+    shape(8, 64, 1, 8, 4096);
   } else if (part == "ddr4-2400") {
-    d.part = part, d.tck_ps = 833, d.tcl = 16, d.trcd = 16, d.trp = 16, d.tras = 39;
-    d.burst_cycles = 4, d.burst_bytes = 64, d.banks = 16, d.row_bytes = 8192;
+    timing(833, 17, 12, 17, 17, 17, 39);
+    spacing(4, 6, 26, 4, 6, 3, 9);
+    recovery(18, 9, 1, 9360, 420);
+    shape(4, 64, 4, 16, 8192);
   } else if (part == "gddr6") {
-    d.part = part, d.tck_ps = 660, d.tcl = 24, d.trcd = 24, d.trp = 15, d.tras = 32;
-    d.burst_cycles = 4, d.burst_bytes = 32, d.banks = 16, d.row_bytes = 2048;
+    timing(570, 24, 6, 27, 16, 27, 53);
+    spacing(8, 8, 29, 2, 4, 9, 11);
+    recovery(27, 4, 1, 3333, 211);
+    shape(2, 32, 4, 16, 2048);
+  } else if (part == "lpddr5") {
+    timing(1250, 17, 9, 15, 15, 15, 34);
+    spacing(4, 4, 16, 2, 4, 5, 10);
+    recovery(28, 8, 2, 3125, 168);
+    shape(2, 32, 4, 16, 2048);
   } else {
     std::string all;
     for (auto& n : dram_part_names()) all += (all.empty() ? "" : " | ") + n;
     throw InputError("dram.part", "unknown DRAM part '" + part + "' (" + all + ")");
   }
+  d.part = part;
 }
 
 std::vector<std::string> preset_names() { return {"mobile", "desktop"}; }
@@ -173,13 +296,22 @@ HardwareConfig preset(const std::string& name) {
     c.ist_units = 4;
     c.l1_node = {32 * 1024, 64, 4, 2, 16};
     c.l1_triangle = {32 * 1024, 64, 4, 2, 16};
-    c.l2 = {2 * 1024 * 1024, 64, 16, 30, 64};
+    c.l2 = {2 * 1024 * 1024, 64, 16, 30, 64, 4, 1};
     apply_dram_part(c.dram, "ddr4-2400");
     c.dram.channels = 2;
   } else {
     throw InputError("preset", "unknown preset '" + name + "' (mobile | desktop)");
   }
   return c;
+}
+
+std::pair<uint32_t, uint32_t> parse_tile(const std::string& text) {
+  unsigned w = 0, h = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%ux%u%c", &w, &h, &tail) != 2 || w == 0 || h == 0 || w > 4096 ||
+      h > 4096 || text.find_first_not_of("0123456789x") != std::string::npos)
+    throw InputError("raygen.tile", "'" + text + "' is not WxH with 1..4096 each");
+  return {w, h};
 }
 
 namespace {
@@ -200,6 +332,12 @@ void check_cache(const std::string& key, const CacheConfig& c) {
 }  // namespace
 
 void validate(const HardwareConfig& c) {
+  parse_tile(c.raygen_tile);
+  if (c.triangle_packing == "line" && c.l1_triangle.line_bytes < c.triangle_bytes)
+    throw InputError("memory.triangle_packing", "'line' needs l1_triangle.line_bytes (" +
+                                                    std::to_string(c.l1_triangle.line_bytes) +
+                                                    ") >= memory.triangle_bytes (" +
+                                                    std::to_string(c.triangle_bytes) + ")");
   check_cache("l1_node", c.l1_node);
   check_cache("l1_triangle", c.l1_triangle);
   check_cache("l2", c.l2);
@@ -214,18 +352,29 @@ void validate(const HardwareConfig& c) {
   if (!is_pow2(d.row_bytes)) throw InputError("dram.row_bytes", "must be a power of two");
   if (d.row_bytes < c.l2.line_bytes)
     throw InputError("dram.row_bytes", "must hold at least one l2 line");
-  // The mapping must name each field exactly once.
+  if (!is_pow2(d.bank_groups)) throw InputError("dram.bank_groups", "must be a power of two");
+  if (d.banks % d.bank_groups != 0)
+    throw InputError("dram.bank_groups",
+                     "must divide dram.banks (" + std::to_string(d.banks) + ")");
+  if (d.tccd_s > d.tccd_l) throw InputError("dram.tccd_s", "must not exceed dram.tccd_l");
+  if (d.trrd_s > d.trrd_l) throw InputError("dram.trrd_s", "must not exceed dram.trrd_l");
+  if (d.twtr_s > d.twtr_l) throw InputError("dram.twtr_s", "must not exceed dram.twtr_l");
+  if (d.trefi != 0 && d.trfc >= d.trefi)
+    throw InputError("dram.trfc", "must be shorter than dram.trefi");
+  if (d.write_drain_low >= d.write_drain_high)
+    throw InputError("dram.write_drain_low", "must be below dram.write_drain_high");
+  // The mapping must name each field exactly once; bankgroup is optional.
   std::set<std::string> seen;
   std::stringstream in(d.address_mapping);
   std::string field;
   while (std::getline(in, field, ':')) {
     if (field != "row" && field != "rank" && field != "bank" && field != "column" &&
-        field != "channel")
+        field != "channel" && field != "bankgroup")
       throw InputError("dram.address_mapping", "unknown field '" + field + "'");
     if (!seen.insert(field).second)
       throw InputError("dram.address_mapping", "field '" + field + "' appears twice");
   }
-  if (seen.size() != 5)
+  if (seen.size() - seen.count("bankgroup") != 5)
     throw InputError("dram.address_mapping",
                      "must name row, rank, bank, column and channel once each");
 }

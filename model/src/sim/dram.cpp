@@ -16,77 +16,459 @@ uint32_t log2_exact(uint64_t v) {
 constexpr size_t kHistogramBuckets = 16384;  // 1 ns each
 }  // namespace
 
+PagePolicy parse_page_policy(const std::string& name) {
+  if (name == "open") return PagePolicy::Open;
+  if (name == "closed") return PagePolicy::Closed;
+  if (name == "timeout") return PagePolicy::Timeout;
+  throw InputError("dram.page_policy", "unknown policy '" + name + "' (open | closed | timeout)");
+}
+
+const char* dram_command_name(DramCommandKind kind) {
+  switch (kind) {
+    case DramCommandKind::Activate: return "ACT";
+    case DramCommandKind::Precharge: return "PRE";
+    case DramCommandKind::Read: return "RD";
+    case DramCommandKind::Write: return "WR";
+    case DramCommandKind::Refresh: return "REF";
+  }
+  return "?";
+}
+
+// ------------------------------------------------------------------ address map
+
 DramAddressMap::DramAddressMap(const DramConfig& c, uint32_t access_bytes) {
   offset_bits_ = log2_exact(access_bytes);
+  const uint32_t groups = std::max<uint32_t>(1, c.bank_groups);
+  banks_per_group_ = std::max<uint32_t>(1, c.banks / groups);
   const uint32_t column_bits = log2_exact(std::max<uint64_t>(1, c.row_bytes / access_bytes));
   std::vector<std::string> names;
   std::stringstream in(c.address_mapping);
   std::string field;
   while (std::getline(in, field, ':')) names.push_back(field);
+  group_field_ = std::find(names.begin(), names.end(), "bankgroup") != names.end();
   // Least significant first: the last name sits right above the access offset.
-  uint32_t shift = offset_bits_;
   for (auto it = names.rbegin(); it != names.rend(); ++it) {
     Field f{};
-    if (*it == "row") f.which = 0, f.bits = 64 - shift;  // whatever is left
-    else if (*it == "rank") f.which = 1, f.bits = log2_exact(c.ranks);
-    else if (*it == "bank") f.which = 2, f.bits = log2_exact(c.banks);
-    else if (*it == "column") f.which = 3, f.bits = column_bits;
-    else if (*it == "channel") f.which = 4, f.bits = log2_exact(c.channels);
+    if (*it == "row") f.which = Row, f.bits = it + 1 == names.rend() ? 64 : 24;
+    else if (*it == "rank") f.which = Rank, f.bits = log2_exact(c.ranks);
+    else if (*it == "bank")
+      f.which = Bank, f.bits = log2_exact(group_field_ ? banks_per_group_ : c.banks);
+    else if (*it == "bankgroup") f.which = BankGroup, f.bits = log2_exact(groups);
+    else if (*it == "column") f.which = Column, f.bits = column_bits;
+    else if (*it == "channel") f.which = Channel, f.bits = log2_exact(c.channels);
     else throw InputError("dram.address_mapping", "unknown field '" + *it + "'");
-    if (f.which == 0 && it + 1 != names.rend())
-      f.bits = 0;  // row not on top: computed below
-    f.shift = shift;
     fields_.push_back(f);
-    shift += f.bits;
   }
-  // A row field below other fields gets a fixed width so the fields above have room;
-  // row numbers then wrap, which only matters for images larger than 2^40 bytes.
-  uint32_t total = offset_bits_;
+  // A row field below other fields gets a fixed width (24 bits) so the fields above
+  // have room; row numbers then wrap, which only matters for images above 2^40 bytes.
+  // A row on top takes whatever is left.
+  uint32_t shift = offset_bits_;
   for (auto& f : fields_) {
-    if (f.which == 0 && f.bits == 0) f.bits = 24;
-    f.shift = total;
-    total += f.bits;
+    f.shift = shift;
+    if (f.which == Row && f.bits == 64) f.bits = 64 - std::min<uint32_t>(64, shift);
+    shift += f.bits;
   }
 }
 
 DramAddress DramAddressMap::decode(uint64_t address) const {
   DramAddress out;
+  uint32_t bank_field = 0, group_field = 0;
   for (const Field& f : fields_) {
+    if (f.bits == 0 || f.shift >= 64) continue;
     const uint64_t value = f.bits >= 64 ? (address >> f.shift)
                                         : (address >> f.shift) & ((uint64_t(1) << f.bits) - 1);
     switch (f.which) {
-      case 0: out.row = value; break;
-      case 1: out.rank = uint32_t(value); break;
-      case 2: out.bank = uint32_t(value); break;
-      case 3: out.column = uint32_t(value); break;
-      case 4: out.channel = uint32_t(value); break;
+      case Row: out.row = value; break;
+      case Rank: out.rank = uint32_t(value); break;
+      case Bank: bank_field = uint32_t(value); break;
+      case BankGroup: group_field = uint32_t(value); break;
+      case Column: out.column = uint32_t(value); break;
+      case Channel: out.channel = uint32_t(value); break;
     }
   }
+  out.bank = group_field_ ? group_field * banks_per_group_ + bank_field : bank_field;
+  out.bank_group = out.bank / banks_per_group_;
   return out;
 }
 
+// ------------------------------------------------------------------------ model
+
 DramModel::DramModel(const DramConfig& config, uint32_t access_bytes)
-    : config_(config), map_(config, access_bytes), access_bytes_(access_bytes),
-      tck_(config.tck_ps), channels_(config.channels),
-      latency_histogram_ns_(kHistogramBuckets + 1, 0) {
-  const uint64_t bursts = (access_bytes + config.burst_bytes - 1) / config.burst_bytes;
-  transfer_ps_ = bursts * config.burst_cycles * tck_;
-  for (auto& ch : channels_) ch.banks.resize(size_t(config.ranks) * config.banks);
+    : config_(config), map_(config, access_bytes), policy_(parse_page_policy(config.page_policy)),
+      access_bytes_(access_bytes), tck_(config.tck_ps), channels_(config.channels),
+      read_histogram_ns_(kHistogramBuckets + 1, 0), write_histogram_ns_(kHistogramBuckets + 1, 0) {
+  config_.bank_groups = std::max<uint32_t>(1, config_.bank_groups);
+  banks_per_group_ = std::max<uint32_t>(1, config_.banks / config_.bank_groups);
+  bursts_ = std::max<uint32_t>(1, (access_bytes + config.burst_bytes - 1) / config.burst_bytes);
+  const uint64_t tck = tck_;
+  transfer_ps_ = uint64_t(bursts_) * config.burst_cycles * tck;
+  cl_ = config.tcl * tck, cwl_ = config.tcwl * tck;
+  rcd_ = config.trcd * tck, rcd_write_ = config.trcd_write * tck;
+  rp_ = config.trp * tck, ras_ = config.tras * tck;
+  rrd_s_ = config.trrd_s * tck, rrd_l_ = config.trrd_l * tck, faw_ = config.tfaw * tck;
+  // One access is `bursts_` column bursts back to back; its bank group's column path
+  // is busy for all of them.
+  column_s_ = uint64_t(bursts_) * config.tccd_s * tck;
+  column_l_ = uint64_t(bursts_) * config.tccd_l * tck;
+  // tRTP counts from the access's last burst.
+  read_to_pre_ = (uint64_t(bursts_ - 1) * config.tccd_l + config.trtp) * tck;
+  write_to_pre_ = cwl_ + transfer_ps_ + config.twr * tck;
+  write_to_read_s_ = cwl_ + transfer_ps_ + config.twtr_s * tck;
+  write_to_read_l_ = cwl_ + transfer_ps_ + config.twtr_l * tck;
+  rtrs_ = config.trtrs * tck;
+  refi_ = uint64_t(config.trefi) * tck, rfc_ = uint64_t(config.trfc) * tck;
+  page_timeout_ = uint64_t(config.page_timeout) * tck;
+  const double queue = double(config.queue_entries);
+  drain_high_ = std::max<uint32_t>(1, uint32_t(std::ceil(queue * config.write_drain_high)));
+  drain_low_ = std::min<uint32_t>(uint32_t(std::floor(queue * config.write_drain_low)),
+                                  drain_high_ - 1);
+  const size_t banks = size_t(config.ranks) * config.banks;
+  for (uint32_t i = 0; i < config.channels; ++i) {
+    Channel& ch = channels_[i];
+    ch.index = i;
+    ch.banks.resize(banks);
+    ch.groups.resize(size_t(config.ranks) * config_.bank_groups);
+    ch.ranks.resize(config.ranks);
+    // Ranks refresh staggered over the interval, so a channel never loses all at once.
+    for (uint32_t r = 0; r < config.ranks; ++r)
+      ch.ranks[r].refresh_due_ps = refi_ ? edge(refi_ * (r + 1) / config.ranks) : UINT64_MAX;
+    ch.queue.reserve(config.queue_entries);
+    ch.active_hit_mark.assign(banks, 0);
+    ch.any_hit_mark.assign(banks, 0);
+    ch.column_mark.assign(banks, 0);
+    ch.row_mark.assign(banks, 0);
+  }
 }
 
 uint64_t DramModel::latency_ps(RowOutcome outcome) const {
-  const uint64_t cl = uint64_t(config_.tcl) * tck_;
   switch (outcome) {
-    case RowOutcome::Hit: return cl + transfer_ps_;
-    case RowOutcome::Closed: return uint64_t(config_.trcd) * tck_ + cl + transfer_ps_;
-    case RowOutcome::Conflict:
-      return uint64_t(config_.trp + config_.trcd) * tck_ + cl + transfer_ps_;
+    case RowOutcome::Hit: return cl_ + transfer_ps_;
+    case RowOutcome::Closed: return rcd_ + cl_ + transfer_ps_;
+    case RowOutcome::Conflict: return rp_ + rcd_ + cl_ + transfer_ps_;
   }
   return 0;
 }
 
 double DramModel::peak_bytes_per_second() const {
   return double(config_.channels) * access_bytes_ / (double(transfer_ps_) * 1e-12);
+}
+
+// ------------------------------------------------------------- timing rules
+
+uint64_t DramModel::earliest_activate(Channel& ch, uint32_t rank, uint32_t bank, uint64_t t) {
+  const Rank& r = ch.ranks[rank];
+  t = std::max({t, bank_of(ch, rank, bank).act_ready_ps, r.activate_ready_ps,
+                group_of(ch, rank, bank).activate_ready_ps, r.refresh_end_ps});
+  if (r.acts_seen == 4) t = std::max(t, r.recent_acts_ps[r.oldest_act] + faw_);
+  return command_slot(ch, t);
+}
+
+uint64_t DramModel::earliest_precharge(Channel& ch, uint32_t rank, uint32_t bank, uint64_t t) {
+  return command_slot(ch, std::max(t, bank_of(ch, rank, bank).pre_ready_ps));
+}
+
+uint64_t DramModel::earliest_column(Channel& ch, uint32_t rank, uint32_t bank, bool write,
+                                    uint64_t t) {
+  const Bank& k = bank_of(ch, rank, bank);
+  const Group& g = group_of(ch, rank, bank);
+  const Rank& r = ch.ranks[rank];
+  t = std::max({t, write ? k.write_ready_ps : k.read_ready_ps, r.column_ready_ps,
+                g.column_ready_ps});
+  if (!write) t = std::max({t, r.read_after_write_ps, g.read_after_write_ps});
+  if (ch.bus_used) {
+    // Data may not overlap the previous burst; a change of direction or rank idles
+    // the bus tRTRS (read to write = tCL + tBURST - tCWL + tRTRS, as DRAMsim3 has it).
+    const bool turn = ch.bus_last_write != write || ch.bus_last_rank != rank;
+    const uint64_t data_from = ch.bus_free_ps + (turn ? rtrs_ : 0);
+    const uint64_t latency = write ? cwl_ : cl_;
+    if (t + latency < data_from) t = edge(data_from - latency);
+  }
+  return command_slot(ch, t);
+}
+
+uint64_t DramModel::earliest_refresh(Channel& ch, uint32_t rank, uint64_t t) {
+  const Rank& r = ch.ranks[rank];
+  t = std::max({t, r.refresh_due_ps, r.refresh_end_ps});
+  for (uint32_t b = 0; b < config_.banks; ++b) t = std::max(t, bank_of(ch, rank, b).act_ready_ps);
+  return command_slot(ch, t);
+}
+
+uint64_t DramModel::command_slot(const Channel& ch, uint64_t t) const {
+  if (!lt_) return std::max(t, ch.command_free_ps);
+  // Loosely timed: commands are placed ahead of time, so later requests' row commands
+  // may take free slots before earlier requests' column commands.
+  auto it = std::lower_bound(ch.reserved_slots.begin(), ch.reserved_slots.end(), t);
+  while (it != ch.reserved_slots.end() && *it == t) t += tck_, ++it;
+  return t;
+}
+
+void DramModel::take_command_slot(Channel& ch, uint64_t t) {
+  if (!lt_) {
+    ch.command_free_ps = t + tck_;
+    return;
+  }
+  ch.reserved_slots.insert(
+      std::lower_bound(ch.reserved_slots.begin(), ch.reserved_slots.end(), t), t);
+}
+
+void DramModel::emit(DramCommandKind kind, uint64_t t, const Channel& ch, uint32_t rank,
+                     uint32_t bank, uint64_t row) {
+  if (!observer_) return;
+  DramCommand c;
+  c.kind = kind, c.time_ps = t, c.channel = ch.index, c.rank = rank;
+  c.bank_group = bank / banks_per_group_, c.bank = bank, c.row = row;
+  observer_(c);
+}
+
+void DramModel::activate(Channel& ch, uint32_t rank, uint32_t bank, uint64_t row, uint64_t t) {
+  Bank& k = bank_of(ch, rank, bank);
+  Rank& r = ch.ranks[rank];
+  k.open_row = int64_t(row);
+  k.read_ready_ps = t + rcd_;
+  k.write_ready_ps = t + rcd_write_;
+  k.pre_ready_ps = t + ras_;
+  k.last_use_ps = t;
+  r.activate_ready_ps = t + rrd_s_;
+  group_of(ch, rank, bank).activate_ready_ps = t + rrd_l_;
+  r.recent_acts_ps[r.oldest_act] = t;
+  r.oldest_act = (r.oldest_act + 1) % 4;
+  r.acts_seen = std::min<uint32_t>(4, r.acts_seen + 1);
+  take_command_slot(ch, t);
+  ++counters_.activates;
+  emit(DramCommandKind::Activate, t, ch, rank, bank, row);
+}
+
+void DramModel::precharge(Channel& ch, uint32_t rank, uint32_t bank, uint64_t t,
+                          bool command_bus) {
+  Bank& k = bank_of(ch, rank, bank);
+  const uint64_t row = uint64_t(k.open_row);
+  k.open_row = -1;
+  k.auto_close_after_ps = UINT64_MAX;
+  k.act_ready_ps = t + rp_;
+  if (command_bus) take_command_slot(ch, t);
+  ++counters_.precharges;
+  emit(DramCommandKind::Precharge, t, ch, rank, bank, row);
+}
+
+uint64_t DramModel::column(Channel& ch, uint32_t rank, uint32_t bank, bool write, uint64_t t) {
+  Bank& k = bank_of(ch, rank, bank);
+  Group& g = group_of(ch, rank, bank);
+  Rank& r = ch.ranks[rank];
+  const uint64_t done = t + (write ? cwl_ : cl_) + transfer_ps_;
+  if (ch.bus_used && ch.bus_last_write != write) ++counters_.turnarounds;
+  ch.bus_free_ps = done;
+  ch.bus_used = true, ch.bus_last_write = write, ch.bus_last_rank = rank;
+  counters_.bus_busy_ps += transfer_ps_;
+  r.column_ready_ps = t + column_s_;
+  g.column_ready_ps = t + column_l_;
+  if (write) {
+    r.read_after_write_ps = std::max(r.read_after_write_ps, t + write_to_read_s_);
+    g.read_after_write_ps = std::max(g.read_after_write_ps, t + write_to_read_l_);
+    k.pre_ready_ps = std::max(k.pre_ready_ps, t + write_to_pre_);
+  } else {
+    k.pre_ready_ps = std::max(k.pre_ready_ps, t + read_to_pre_);
+  }
+  k.last_use_ps = t;
+  take_command_slot(ch, t);
+  emit(write ? DramCommandKind::Write : DramCommandKind::Read, t, ch, rank, bank,
+       uint64_t(k.open_row));
+  return done;
+}
+
+void DramModel::refresh(Channel& ch, uint32_t rank, uint64_t t) {
+  Rank& r = ch.ranks[rank];
+  r.refresh_end_ps = t + rfc_;
+  r.refresh_due_ps += refi_;  // from the due time, so the average rate is exact
+  take_command_slot(ch, t);
+  ++counters_.refreshes;
+  emit(DramCommandKind::Refresh, t, ch, rank, 0, 0);
+}
+
+// ------------------------------------------------------------------ scheduler
+
+void DramModel::update_drain_mode(Channel& ch) const {
+  // Reads first. Writes drain from the high watermark down to the low one; below it
+  // they also go while no read waits, until one does.
+  const uint32_t reads = ch.reads_queued, writes = ch.writes_queued;
+  if (writes == 0) {
+    ch.draining_writes = false;
+  } else if (writes >= drain_high_ && !(ch.draining_writes && ch.drain_to_low)) {
+    ch.draining_writes = true, ch.drain_to_low = true;
+  } else if (!ch.draining_writes) {
+    if (reads == 0) ch.draining_writes = true, ch.drain_to_low = false;
+  } else if (reads > 0 && (!ch.drain_to_low || writes <= drain_low_)) {
+    ch.draining_writes = false;
+  }
+}
+
+void DramModel::consider(Choice& best, const Choice& c) const {
+  if (c.time_ps < best.time_ps ||
+      (c.time_ps == best.time_ps &&
+       (c.priority < best.priority || (c.priority == best.priority && c.age < best.age))))
+    best = c;
+}
+
+DramModel::Choice DramModel::decide(Channel& ch, bool requests) {
+  return decide_until(ch, requests, UINT64_MAX, UINT64_MAX);
+}
+
+DramModel::Choice DramModel::decide_until(Channel& ch, bool requests, uint64_t refresh_horizon,
+                                          uint64_t timeout_horizon) {
+  Choice best;
+  const uint32_t banks = config_.banks;
+  if (++ch.stamp == 0) {  // wrapped: forget all marks
+    for (auto* marks : {&ch.active_hit_mark, &ch.any_hit_mark, &ch.column_mark, &ch.row_mark})
+      std::fill(marks->begin(), marks->end(), 0);
+    ch.stamp = 1;
+  }
+  const uint32_t stamp = ch.stamp;
+  if (requests && !ch.queue.empty()) {
+    update_drain_mode(ch);
+    const bool writes = ch.draining_writes;
+    // Banks with a queued hit on their open row: of the serviced direction (their row
+    // stays open for it), of any direction (the page policies keep the row).
+    for (const Pending& p : ch.queue) {
+      const size_t b = size_t(p.where.rank) * banks + p.where.bank;
+      if (ch.banks[b].open_row != int64_t(p.where.row)) continue;
+      ch.any_hit_mark[b] = stamp;
+      if (p.request.write == writes) ch.active_hit_mark[b] = stamp;
+    }
+    for (size_t i = 0; i < ch.queue.size(); ++i) {
+      const Pending& p = ch.queue[i];
+      if (p.request.write != writes) continue;
+      const uint32_t r = p.where.rank, bank = p.where.bank;
+      const size_t b = size_t(r) * banks + bank;
+      const uint64_t due = ch.ranks[r].refresh_due_ps;  // nothing new for the rank from then
+      Choice c;
+      c.age = i, c.rank = r, c.bank = bank;
+      if (ch.banks[b].open_row == int64_t(p.where.row)) {
+        if (ch.column_mark[b] == stamp) continue;  // an older hit to this bank goes first
+        ch.column_mark[b] = stamp;
+        c.time_ps = earliest_column(ch, r, bank, p.request.write, p.ready_ps);
+        if (c.time_ps >= due) continue;
+        c.priority = 1, c.action = Action::Column;
+      } else {
+        if (ch.row_mark[b] == stamp) continue;  // row commands serve the bank's oldest
+        ch.row_mark[b] = stamp;
+        if (ch.active_hit_mark[b] == stamp) continue;  // hits first
+        if (ch.banks[b].open_row >= 0) {
+          c.time_ps = earliest_precharge(ch, r, bank, p.ready_ps);
+          c.action = Action::Precharge, c.conflict = true;
+        } else {
+          c.time_ps = earliest_activate(ch, r, bank, p.ready_ps);
+          if (c.time_ps >= due) continue;
+          c.action = Action::Activate;
+        }
+        c.priority = 2;
+      }
+      consider(best, c);
+    }
+  }
+  // Refresh: a rank whose refresh is due closes its banks, then refreshes. Its
+  // commands come no earlier than the due time, so a later one cannot compete.
+  for (uint32_t r = 0; r < config_.ranks; ++r) {
+    const uint64_t due = ch.ranks[r].refresh_due_ps;
+    if (due == UINT64_MAX || due > refresh_horizon || due > best.time_ps) continue;
+    bool any_open = false;
+    for (uint32_t b = 0; b < banks; ++b) {
+      if (bank_of(ch, r, b).open_row < 0) continue;
+      any_open = true;
+      Choice c;
+      c.time_ps = earliest_precharge(ch, r, b, due), c.priority = 0, c.age = 0;
+      c.action = Action::Precharge, c.rank = r, c.bank = b;
+      consider(best, c);
+    }
+    if (!any_open) {
+      Choice c;
+      c.time_ps = earliest_refresh(ch, r, 0), c.priority = 0, c.age = 0;
+      c.action = Action::Refresh, c.rank = r;
+      consider(best, c);
+    }
+  }
+  if (policy_ == PagePolicy::Timeout) {
+    for (uint32_t r = 0; r < config_.ranks; ++r)
+      for (uint32_t bank = 0; bank < banks; ++bank) {
+        const size_t b = size_t(r) * banks + bank;
+        const Bank& k = ch.banks[b];
+        if (k.open_row < 0 || ch.any_hit_mark[b] == stamp) continue;
+        const uint64_t deadline = k.last_use_ps + page_timeout_;
+        if (deadline > timeout_horizon || deadline > best.time_ps) continue;
+        Choice c;
+        c.time_ps = earliest_precharge(ch, r, bank, deadline);
+        c.priority = 3, c.action = Action::Precharge, c.rank = r, c.bank = bank;
+        consider(best, c);
+      }
+  }
+  return best;
+}
+
+void DramModel::count_request(bool write, RowOutcome outcome, uint64_t latency) {
+  if (write) {
+    ++counters_.writes;
+    counters_.bytes_written += access_bytes_;
+    counters_.write_latency_sum_ps += latency;
+    counters_.write_latency_max_ps = std::max(counters_.write_latency_max_ps, latency);
+    write_histogram_ns_[std::min<uint64_t>(latency / 1000, kHistogramBuckets)]++;
+  } else {
+    ++counters_.reads;
+    counters_.bytes += access_bytes_;
+    counters_.read_latency_sum_ps += latency;
+    counters_.read_latency_max_ps = std::max(counters_.read_latency_max_ps, latency);
+    read_histogram_ns_[std::min<uint64_t>(latency / 1000, kHistogramBuckets)]++;
+  }
+  if (outcome == RowOutcome::Hit) ++counters_.row_hits;
+  else if (outcome == RowOutcome::Closed) ++counters_.row_closed;
+  else ++counters_.row_conflicts;
+}
+
+void DramModel::execute(Channel& ch, const Choice& c, std::vector<DramCompletion>& issued) {
+  Bank& k = bank_of(ch, c.rank, c.bank);
+  switch (c.action) {
+    case Action::Column: {
+      const Pending p = ch.queue[c.age];
+      ch.queue.erase(ch.queue.begin() + long(c.age));
+      (p.request.write ? ch.writes_queued : ch.reads_queued)--;
+      const uint64_t done = column(ch, c.rank, c.bank, p.request.write, c.time_ps);
+      count_request(p.request.write, p.outcome,
+                    done - std::min(done, p.request.arrival_ps));
+      issued.push_back({p.request.tag, done, p.outcome, p.request.write});
+      if (policy_ == PagePolicy::Closed) {
+        // Auto-precharge unless another queued request still hits the row.
+        bool hit_waits = false;
+        for (const Pending& q : ch.queue)
+          if (q.where.rank == c.rank && q.where.bank == c.bank && q.where.row == p.where.row)
+            hit_waits = true;
+        if (!hit_waits) precharge(ch, c.rank, c.bank, k.pre_ready_ps, false);
+      }
+      break;
+    }
+    case Action::Activate: {
+      Pending& p = ch.queue[c.age];
+      p.outcome = k.conflict_pending ? RowOutcome::Conflict : RowOutcome::Closed;
+      k.conflict_pending = false;
+      activate(ch, c.rank, c.bank, p.where.row, c.time_ps);
+      break;
+    }
+    case Action::Precharge:
+      if (c.conflict) k.conflict_pending = true;
+      precharge(ch, c.rank, c.bank, c.time_ps, true);
+      break;
+    case Action::Refresh: refresh(ch, c.rank, c.time_ps); break;
+  }
+}
+
+void DramModel::run(Channel& ch, uint64_t until, std::vector<DramCompletion>& issued) {
+  for (;;) {
+    // A choice stays valid until a command executes or a request arrives.
+    if (!ch.choice_valid) ch.choice = decide(ch, true), ch.choice_valid = true;
+    const Choice& c = ch.choice;
+    if (c.time_ps == UINT64_MAX || c.time_ps > until) {
+      ch.next_decision_ps = ch.queue.empty() ? UINT64_MAX : c.time_ps;
+      return;
+    }
+    ch.choice_valid = false;
+    execute(ch, Choice(c), issued);
+  }
 }
 
 bool DramModel::can_accept(uint64_t address) const {
@@ -99,12 +481,26 @@ bool DramModel::idle() const {
   return true;
 }
 
-void DramModel::enqueue(const DramRequest& request) {
-  Pending p{request, map_.decode(request.address), false, RowOutcome::Hit};
-  Channel& ch = channels_[p.where.channel];
-  ch.queue.push_back(p);
-  ch.next_decision_ps = std::min(ch.next_decision_ps, std::max(request.arrival_ps,
-                                                              ch.command_free_ps));
+void DramModel::enqueue(const DramRequest& request, uint64_t now_ps) {
+  const DramAddress where = map_.decode(request.address);
+  Channel& ch = channels_[where.channel];
+  const uint64_t ready = edge(now_ps);
+  // Decisions before this request could take part: idle-time refreshes and timeouts,
+  // or requests the caller did not advance for.
+  if (ready > 0) run(ch, ready - 1, pending_completions_);
+  ch.queue.push_back({request, where, ready, RowOutcome::Hit});
+  (request.write ? ch.writes_queued : ch.reads_queued)++;
+  ch.choice = decide(ch, true), ch.choice_valid = true;
+  ch.next_decision_ps = ch.choice.time_ps;
+}
+
+bool DramModel::try_enqueue(const DramRequest& request, uint64_t now_ps) {
+  if (!can_accept(request.address)) {
+    note_rejection();
+    return false;
+  }
+  enqueue(request, now_ps);
+  return true;
 }
 
 uint64_t DramModel::next_decision_ps() const {
@@ -114,131 +510,96 @@ uint64_t DramModel::next_decision_ps() const {
   return t;
 }
 
-void DramModel::prepare_rows(Channel& ch, uint64_t now) {
-  // Row commands (precharge, activate) go to every bank whose oldest waiting request
-  // needs another row, as soon as no queued request still hits the open row; they
-  // overlap the data transfers of other banks.
-  for (size_t i = 0; i < ch.queue.size(); ++i) {
-    Pending& p = ch.queue[i];
-    if (p.prepared) continue;
-    Bank& bank = ch.banks[size_t(p.where.rank) * config_.banks + p.where.bank];
-    if (bank.open_row == int64_t(p.where.row)) {
-      p.prepared = true;
-      p.outcome = RowOutcome::Hit;
-      continue;
-    }
-    bool blocked = false;  // an older request to this bank, or a queued hit on its open row
-    for (size_t j = 0; j < ch.queue.size() && !blocked; ++j) {
-      const Pending& q = ch.queue[j];
-      if (j == i || q.where.rank != p.where.rank || q.where.bank != p.where.bank) continue;
-      if (int64_t(q.where.row) == bank.open_row || (j < i && !q.prepared)) blocked = true;
-    }
-    if (blocked) continue;
-    uint64_t act;
-    if (bank.open_row < 0) {
-      p.outcome = RowOutcome::Closed;
-      act = std::max(now, bank.act_ready_ps);
-    } else {
-      p.outcome = RowOutcome::Conflict;
-      // Precharge once the row has been open tRAS and its last column command issued.
-      const uint64_t pre = std::max({now, bank.act_ps + uint64_t(config_.tras) * tck_,
-                                     bank.col_ready_ps});
-      act = pre + uint64_t(config_.trp) * tck_;
-    }
-    bank.open_row = int64_t(p.where.row);
-    bank.act_ps = act;
-    bank.col_ready_ps = act + uint64_t(config_.trcd) * tck_;
-    p.prepared = true;
-  }
-}
-
-void DramModel::record_latency(uint64_t latency) {
-  counters_.latency_sum_ps += latency;
-  counters_.latency_max_ps = std::max(counters_.latency_max_ps, latency);
-  latency_histogram_ns_[std::min<uint64_t>(latency / 1000, kHistogramBuckets)]++;
-}
-
-void DramModel::schedule(Channel& ch, uint64_t now, std::vector<DramCompletion>& issued) {
-  while (!ch.queue.empty() && now >= ch.command_free_ps) {
-    prepare_rows(ch, now);
-    // Column reads: the oldest request whose row is open and whose data, issued
-    // now, would not arrive before the bus frees (issuing later would idle the bus).
-    size_t chosen = SIZE_MAX;
-    uint64_t wake = UINT64_MAX;
-    for (size_t i = 0; i < ch.queue.size(); ++i) {
-      const Pending& p = ch.queue[i];
-      if (!p.prepared) continue;
-      const Bank& bank = ch.banks[size_t(p.where.rank) * config_.banks + p.where.bank];
-      if (bank.open_row != int64_t(p.where.row)) continue;
-      if (bank.col_ready_ps > now) {  // the bank cannot take a column command yet
-        wake = std::min(wake, bank.col_ready_ps);
-        continue;
-      }
-      const uint64_t start = now + uint64_t(config_.tcl) * tck_;
-      if (start >= ch.bus_free_ps) {
-        chosen = i;
-        break;
-      }
-      wake = std::min(wake, ch.bus_free_ps - uint64_t(config_.tcl) * tck_);
-    }
-    if (chosen == SIZE_MAX) {
-      ch.next_decision_ps = wake == UINT64_MAX ? std::max(now + 1, ch.bus_free_ps) : wake;
-      return;
-    }
-    const Pending p = ch.queue[chosen];
-    ch.queue.erase(ch.queue.begin() + chosen);
-    Bank& bank = ch.banks[size_t(p.where.rank) * config_.banks + p.where.bank];
-    const uint64_t col = now;
-    const uint64_t start = std::max(col + uint64_t(config_.tcl) * tck_, ch.bus_free_ps);
-    const uint64_t done = start + transfer_ps_;
-    // Column commands to one bank are spaced by a burst (tCCD).
-    bank.col_ready_ps = col + uint64_t(config_.burst_cycles) * tck_;
-    ch.bus_free_ps = done;
-    ch.command_free_ps = now + tck_;
-    counters_.reads++;
-    counters_.bytes += access_bytes_;
-    counters_.bus_busy_ps += transfer_ps_;
-    if (p.outcome == RowOutcome::Hit) counters_.row_hits++;
-    else if (p.outcome == RowOutcome::Closed) counters_.row_closed++;
-    else counters_.row_conflicts++;
-    record_latency(done - p.request.arrival_ps);
-    issued.push_back({p.request.tag, done, p.outcome});
-  }
-  ch.next_decision_ps = ch.queue.empty() ? UINT64_MAX : std::max(now + 1, ch.command_free_ps);
-}
-
 void DramModel::advance(uint64_t now_ps, std::vector<DramCompletion>& issued) {
+  if (!pending_completions_.empty()) {
+    issued.insert(issued.end(), pending_completions_.begin(), pending_completions_.end());
+    pending_completions_.clear();
+  }
   for (auto& ch : channels_)
-    if (!ch.queue.empty() && ch.next_decision_ps <= now_ps) schedule(ch, now_ps, issued);
+    if (!ch.queue.empty() && ch.next_decision_ps <= now_ps) run(ch, now_ps, issued);
 }
 
-uint64_t DramModel::lt_access(uint64_t address, uint64_t now_ps, uint64_t window_ps) {
-  Channel& ch = channels_[map_.decode(address).channel];
-  const uint64_t ready = now_ps + uint64_t(config_.trcd + config_.tcl) * tck_;
-  const uint64_t start =
-      std::max(ready, ch.bus_free_ps > window_ps ? ch.bus_free_ps - window_ps : 0);
-  const uint64_t done = start + transfer_ps_;
-  ch.bus_free_ps = std::max(ch.bus_free_ps, start) + transfer_ps_;
-  counters_.reads++;
-  counters_.bytes += access_bytes_;
-  counters_.bus_busy_ps += transfer_ps_;
-  record_latency(done - now_ps);
+void DramModel::settle(uint64_t now_ps) {
+  for (auto& ch : channels_) run(ch, now_ps, pending_completions_);
+}
+
+// ---------------------------------------------------------------- loosely timed
+
+uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps) {
+  lt_ = true;
+  const DramAddress w = map_.decode(address);
+  Channel& ch = channels_[w.channel];
+  // A request is never placed before one answered earlier (first come first served).
+  const uint64_t t0 = std::max(edge(now_ps), ch.lt_floor_ps);
+  ch.lt_floor_ps = t0;
+  Bank& k = bank_of(ch, w.rank, w.bank);
+  if (policy_ == PagePolicy::Closed) {
+    // A row auto-precharges after its column command unless the next request to the
+    // bank hits it and had arrived by then (it would have been queued behind it).
+    for (uint32_t r = 0; r < config_.ranks; ++r)
+      for (uint32_t b = 0; b < config_.banks; ++b) {
+        Bank& other = bank_of(ch, r, b);
+        if (other.open_row < 0 || other.auto_close_after_ps == UINT64_MAX) continue;
+        const bool mine = &other == &k;
+        if (mine && other.open_row == int64_t(w.row) && other.auto_close_after_ps >= t0)
+          other.auto_close_after_ps = UINT64_MAX;  // kept open for this hit
+        else if (mine || other.auto_close_after_ps < t0)
+          precharge(ch, r, b, other.pre_ready_ps, false);
+      }
+  }
+  // First the refreshes due by the time this request reaches the data bus, and the
+  // rows idle past the timeout when it arrives, each as early as the rules allow.
+  for (;;) {
+    const Choice c = decide_until(ch, false, std::max(t0, ch.bus_free_ps), t0);
+    if (c.time_ps == UINT64_MAX) break;
+    execute(ch, c, pending_completions_);  // never a column command: nothing is queued
+  }
+  // Command slots before t0 are never asked for again.
+  auto& slots = ch.reserved_slots;
+  slots.erase(slots.begin(), std::lower_bound(slots.begin(), slots.end(), t0));
+  RowOutcome outcome = RowOutcome::Hit;
+  if (k.open_row != int64_t(w.row)) {
+    outcome = RowOutcome::Closed;
+    if (k.open_row >= 0) {
+      precharge(ch, w.rank, w.bank, earliest_precharge(ch, w.rank, w.bank, t0), true);
+      outcome = RowOutcome::Conflict;
+    }
+    activate(ch, w.rank, w.bank, w.row, earliest_activate(ch, w.rank, w.bank, t0));
+  }
+  const uint64_t issue = earliest_column(ch, w.rank, w.bank, write, t0);
+  const uint64_t done = column(ch, w.rank, w.bank, write, issue);
+  if (policy_ == PagePolicy::Closed) k.auto_close_after_ps = issue;  // decided by the next request
+  count_request(write, outcome, done - now_ps);
   return done;
 }
 
-void DramModel::count_access(uint64_t) {
-  counters_.reads++;
-  counters_.bytes += access_bytes_;
+void DramModel::count_access(uint64_t, bool write) {
+  if (write) {
+    ++counters_.writes;
+    counters_.bytes_written += access_bytes_;
+  } else {
+    ++counters_.reads;
+    counters_.bytes += access_bytes_;
+  }
 }
 
-double DramModel::latency_percentile_ns(double fraction) const {
+// ------------------------------------------------------------------ statistics
+
+void DramModel::reset_counters() {
+  counters_ = Counters{};
+  std::fill(read_histogram_ns_.begin(), read_histogram_ns_.end(), 0);
+  std::fill(write_histogram_ns_.begin(), write_histogram_ns_.end(), 0);
+}
+
+double DramModel::latency_percentile_ns(double fraction, bool write) const {
+  const std::vector<uint64_t>& histogram = write ? write_histogram_ns_ : read_histogram_ns_;
   uint64_t total = 0;
-  for (uint64_t n : latency_histogram_ns_) total += n;
+  for (uint64_t n : histogram) total += n;
   if (total == 0) return 0;
-  const uint64_t wanted = uint64_t(std::ceil(fraction * double(total)));
+  const uint64_t wanted = std::max<uint64_t>(1, uint64_t(std::ceil(fraction * double(total))));
   uint64_t seen = 0;
-  for (size_t i = 0; i < latency_histogram_ns_.size(); ++i) {
-    seen += latency_histogram_ns_[i];
+  for (size_t i = 0; i < histogram.size(); ++i) {
+    seen += histogram[i];
     if (seen >= wanted) return double(i);
   }
   return double(kHistogramBuckets);
@@ -249,28 +610,49 @@ void DramModel::report(StatsRegistry& s, const std::string& prefix, bool row_tim
   const Counters& c = counters_;
   s.set(prefix + ".reads", c.reads, "requests", "line reads that reached DRAM");
   s.set(prefix + ".bytes", c.bytes, "bytes", "bytes read from DRAM");
+  s.set(prefix + ".writes", c.writes, "requests", "line writes that reached DRAM");
+  s.set(prefix + ".bytes_written", c.bytes_written, "bytes", "bytes written to DRAM");
   s.set(prefix + ".channels", config_.channels, "channels", "DRAM channels");
   s.set_real(prefix + ".peak_bandwidth", peak_bytes_per_second() / 1e9, "GB/s",
              "sum over channels of access bytes per tBURST");
   if (row_timing) {
-    s.set(prefix + ".row_hits", c.row_hits, "requests", "reads to the open row");
-    s.set(prefix + ".row_misses", c.row_closed, "requests", "reads to a closed (precharged) bank");
+    s.set(prefix + ".row_hits", c.row_hits, "requests", "reads and writes to the open row");
+    s.set(prefix + ".row_misses", c.row_closed, "requests",
+          "reads and writes to a closed (precharged) bank");
     s.set(prefix + ".row_conflicts", c.row_conflicts, "requests",
-          "reads to a bank with another row open");
-    s.set(prefix + ".queue_full_stalls", c.queue_full_rejections, "events",
-          "requests refused because a channel queue was full");
+          "reads and writes to a bank with another row open");
+    s.set(prefix + ".activates", c.activates, "commands", "row activates (ACT)");
+    s.set(prefix + ".precharges", c.precharges, "commands",
+          "row precharges (PRE, including auto-precharge, timeout and refresh)");
+    s.set(prefix + ".refreshes", c.refreshes, "commands",
+          "all-bank refreshes (REF) over all ranks");
+    s.set(prefix + ".turnarounds", c.turnarounds, "events",
+          "data bus switches between reading and writing");
+    s.set(prefix + ".queue_full_stalls", c.queue_full_refusals, "events",
+          "attempts refused because a channel queue was full");
   }
   if (timed) {
-    const double reads = double(std::max<uint64_t>(1, c.reads));
-    s.set_real(prefix + ".latency_avg", c.reads ? double(c.latency_sum_ps) / reads / 1000.0 : 0,
-               "ns", "mean arrival-to-last-beat latency");
-    s.set_real(prefix + ".latency_p99", latency_percentile_ns(0.99), "ns",
-               "99th percentile latency (1 ns resolution)");
-    s.set_real(prefix + ".latency_max", double(c.latency_max_ps) / 1000.0, "ns",
-               "largest latency");
+    auto mean_ns = [](uint64_t sum, uint64_t n) {
+      return n ? double(sum) / double(n) / 1000.0 : 0;
+    };
+    s.set_real(prefix + ".latency_avg", mean_ns(c.read_latency_sum_ps, c.reads), "ns",
+               "mean read latency, first attempt to last data beat (queue-full waits included)");
+    s.set_real(prefix + ".latency_p99", latency_percentile_ns(0.99, false), "ns",
+               "99th percentile read latency (1 ns resolution)");
+    s.set_real(prefix + ".latency_max", double(c.read_latency_max_ps) / 1000.0, "ns",
+               "largest read latency");
+    s.set_real(prefix + ".write_latency_avg", mean_ns(c.write_latency_sum_ps, c.writes), "ns",
+               "mean write latency, first attempt to last data beat written (posted)");
+    s.set_real(prefix + ".write_latency_p99", latency_percentile_ns(0.99, true), "ns",
+               "99th percentile write latency (1 ns resolution)");
+    s.set_real(prefix + ".write_latency_max", double(c.write_latency_max_ps) / 1000.0, "ns",
+               "largest write latency");
     const double seconds = double(sim_ps) * 1e-12;
     s.set_real(prefix + ".bandwidth", seconds > 0 ? double(c.bytes) / seconds / 1e9 : 0, "GB/s",
                "achieved read bandwidth over the simulated time");
+    s.set_real(prefix + ".write_bandwidth",
+               seconds > 0 ? double(c.bytes_written) / seconds / 1e9 : 0, "GB/s",
+               "achieved write bandwidth over the simulated time");
     s.set_real(prefix + ".bus_utilisation",
                sim_ps ? double(c.bus_busy_ps) / (double(sim_ps) * config_.channels) : 0, "ratio",
                "fraction of time the data buses carried data");

@@ -33,54 +33,100 @@ FunctionalMemory::FunctionalMemory(const HardwareConfig& c)
     l1_triangle.push_back(std::make_unique<CacheModel>(c.l1_triangle, "l1_triangle"));
 }
 
-uint32_t FunctionalMemory::l1_line_bytes(Requester who) const {
+uint32_t FunctionalMemory::line_bytes(Requester who) const {
   return (who == Requester::Trv ? l1_node : l1_triangle).front()->config().line_bytes;
 }
 
-uint64_t FunctionalMemory::read(Requester who, uint32_t unit, const LineAccess& a,
-                                uint64_t issue_ps) {
+void FunctionalMemory::to_l2(const LineAccess& a) {
+  const CacheModel::Result r = l2.access(a);
+  if (r.writeback.dirty) dram.count_access(r.writeback.line, true);
+  if (r.fetch) dram.count_access(a.line, false);
+}
+
+uint64_t FunctionalMemory::access(Requester who, uint32_t unit, const LineAccess& a,
+                                  uint64_t issue_ps) {
   CacheModel& l1 = *(who == Requester::Trv ? l1_node : l1_triangle)[unit];
-  if (l1.access(a)) return issue_ps;
-  const LineAccess to_l2{l2.line_of(a.line), l1.config().line_bytes, a.kind, a.ray_type};
-  if (!l2.access(to_l2)) dram.count_access(to_l2.line);
+  const CacheModel::Result r = l1.access(a);
+  const uint32_t l1_line = l1.config().line_bytes;
+  if (r.writeback.dirty)
+    to_l2({l2.line_of(r.writeback.line), l1_line, AccessKind::Stack, a.ray_type, true});
+  if (r.fetch) to_l2({l2.line_of(a.line), l1_line, a.kind, a.ray_type, false});
   return issue_ps;
+}
+
+void FunctionalMemory::reset_counters() {
+  for (auto& c : l1_node) c->reset_counters();
+  for (auto& c : l1_triangle) c->reset_counters();
+  l2.reset_counters();
+  dram.reset_counters();
+}
+
+void FunctionalMemorySink::on_access(const MemoryAccess& a, RayType type) {
+  append_line_accesses(a, type, memory_->line_bytes(requester_of(a.kind)), lines_);
+}
+
+void FunctionalMemorySink::on_step_end() {
+  for (const LineAccess& line : lines_) memory_->access(requester_of(line.kind), 0, line, 0);
+  lines_.clear();
 }
 
 // ---------------------------------------------------------------- loosely timed
 
 LtCache::LtCache(sc_core::sc_module_name name, const CacheConfig& config, uint64_t cycle_ps)
-    : sc_module(name), target("target"), next("next"), model(config, std::string(name)),
-      latency_(from_ps(uint64_t(config.hit_latency_cycles) * cycle_ps)) {
+    : sc_module(name), target("target"), next("next"), model(config, std::string(name), cycle_ps) {
   target.register_b_transport(this, &LtCache::b_transport);
+  writeback_extension_ = new AccessExtension;
+  writeback_.set_extension(writeback_extension_);
+  writeback_.set_command(tlm::TLM_WRITE_COMMAND);
+  writeback_.set_data_ptr(nullptr);
+  writeback_extension_->kind = AccessKind::Stack;
 }
 
 void LtCache::b_transport(int, tlm::tlm_generic_payload& p, sc_time& delay) {
   auto* ext = p.get_extension<AccessExtension>();
+  const bool write = p.is_write();
   const LineAccess a{model.line_of(p.get_address()), p.get_data_length(), ext->kind,
-                     ext->ray_type};
-  delay += latency_;  // tag check: a hit returns the data, a miss goes on from here
-  if (!model.access(a)) {
+                     ext->ray_type, write};
+  const uint64_t kernel = now_ps();
+  const uint64_t start = model.reserve_port(kernel + to_ps(delay));
+  const CacheModel::Result r = model.access(a, start);
+  const uint64_t tag_checked = start + model.hit_latency_ps();
+  uint64_t ready = tag_checked;
+  if (r.outcome == CacheModel::Outcome::Merged) ready = std::max(ready, r.ready_ps);
+  if (r.fetch) {
     // Ask the next level for the whole line with the same payload, then restore it.
     const uint64_t address = p.get_address();
     const unsigned length = p.get_data_length();
     p.set_address(a.line);
     p.set_data_length(model.config().line_bytes);
-    next->b_transport(p, delay);
+    sc_time next_delay = from_ps(tag_checked - kernel);
+    next->b_transport(p, next_delay);
     p.set_address(address);
     p.set_data_length(length);
+    ready = kernel + to_ps(next_delay) + model.fill_latency_ps();
+    model.set_arrival(a.line, ready);
   }
+  if (r.writeback.dirty) {
+    // Posted: the dirty line goes down at the tag check; nobody waits for it.
+    writeback_.set_address(r.writeback.line);
+    writeback_.set_data_length(model.config().line_bytes);
+    writeback_extension_->ray_type = a.ray_type;
+    writeback_.set_response_status(tlm::TLM_INCOMPLETE_RESPONSE);
+    sc_time wb_delay = from_ps(tag_checked - kernel);
+    next->b_transport(writeback_, wb_delay);
+  }
+  delay = from_ps(ready - kernel);
   p.set_response_status(tlm::TLM_OK_RESPONSE);
 }
 
-LtDram::LtDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes,
-               uint64_t window_ps)
-    : sc_module(name), target("target"), model(config, access_bytes), window_ps_(window_ps) {
+LtDram::LtDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes)
+    : sc_module(name), target("target"), model(config, access_bytes) {
   target.register_b_transport(this, &LtDram::b_transport);
 }
 
 void LtDram::b_transport(int, tlm::tlm_generic_payload& p, sc_time& delay) {
   const uint64_t now = now_ps() + to_ps(delay);
-  const uint64_t done = model.lt_access(p.get_address(), now, window_ps_);
+  const uint64_t done = model.lt_access(p.get_address(), p.is_write(), now);
   delay += from_ps(done - now);
   p.set_response_status(tlm::TLM_OK_RESPONSE);
 }
@@ -91,9 +137,7 @@ LtSystem::LtSystem(sc_core::sc_module_name name, const HardwareConfig& config,
       progress_(std::move(progress)) {
   const uint64_t cycle_ps = uint64_t(std::llround(config.clock_period_ps()));
   l2 = std::make_unique<LtCache>("l2", config.l2, cycle_ps);
-  // Requests reach DRAM out of time order by up to a quantum (temporal decoupling).
-  dram = std::make_unique<LtDram>("dram", config.dram, config.l2.line_bytes,
-                                  uint64_t(config.lt_quantum_cycles) * cycle_ps);
+  dram = std::make_unique<LtDram>("dram", config.dram, config.l2.line_bytes);
   l2->next.bind(dram->target);
   for (uint32_t u = 0; u < config.trv_units; ++u) {
     const std::string id = std::to_string(u);
@@ -118,21 +162,21 @@ LtSystem::LtSystem(sc_core::sc_module_name name, const HardwareConfig& config,
   extension_ = new AccessExtension;
   payload_.set_extension(extension_);
   payload_.set_data_ptr(buffer_);
-  payload_.set_command(tlm::TLM_READ_COMMAND);
   SC_THREAD(thread);
 }
 
-uint32_t LtSystem::l1_line_bytes(Requester who) const {
+uint32_t LtSystem::line_bytes(Requester who) const {
   return who == Requester::Trv ? config_.l1_node.line_bytes : config_.l1_triangle.line_bytes;
 }
 
-uint64_t LtSystem::read(Requester who, uint32_t unit, const LineAccess& a, uint64_t issue_ps) {
+uint64_t LtSystem::access(Requester who, uint32_t unit, const LineAccess& a, uint64_t issue_ps) {
   const uint64_t now = now_ps();
-  // A slot may lag the kernel by less than a quantum: it then issues "now".
+  // The engine runs events in time order, at or ahead of the kernel.
   const uint64_t issue = std::max(issue_ps, now);
   sc_time delay = from_ps(issue - now);
   payload_.set_address(a.line);
   payload_.set_data_length(a.bytes);
+  payload_.set_command(a.write ? tlm::TLM_WRITE_COMMAND : tlm::TLM_READ_COMMAND);
   payload_.set_response_status(tlm::TLM_INCOMPLETE_RESPONSE);
   extension_->kind = a.kind;
   extension_->ray_type = a.ray_type;
@@ -141,18 +185,26 @@ uint64_t LtSystem::read(Requester who, uint32_t unit, const LineAccess& a, uint6
   return now + to_ps(delay);
 }
 
+void LtSystem::reset_counters() {
+  for (auto& c : l1_node) c->model.reset_counters();
+  for (auto& c : l1_triangle) c->model.reset_counters();
+  l2->model.reset_counters();
+  dram->model.reset_counters();
+}
+
 void LtSystem::thread() {
   engine.run(
       *this,
-      [this](uint64_t earliest_ps) {
-        // Temporal decoupling: the engine runs ahead of the kernel until its
-        // earliest slot is a quantum ahead, then lets the kernel catch up.
+      [this](uint64_t event_ps) {
+        // Temporal decoupling: the engine runs ahead of the kernel by up to a
+        // quantum, then lets the kernel catch up. Only how often it yields
+        // depends on the quantum: every time comes from the events themselves.
         const uint64_t now = now_ps();
-        if (earliest_ps <= now) return;
-        quantum_.set(from_ps(earliest_ps - now));
+        if (event_ps <= now) return;
+        quantum_.set(from_ps(event_ps - now));
         if (quantum_.need_sync()) quantum_.sync();
       },
-      progress_);
+      [this] { reset_counters(); }, progress_);
 }
 
 }  // namespace rtsim::sim

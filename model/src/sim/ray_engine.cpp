@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace rtsim::sim {
 
@@ -22,25 +23,34 @@ uint64_t UnitTime::occupied_ps() const {
   return total;
 }
 
-namespace {
-// Pipeline slot reservation for requests that arrive out of time order (the
-// round-robin visits slots in a fixed order, not by time): a request may take a
-// slot up to `window` before the unit's running reservation end, while the end
-// still advances by one interval per request, so throughput stays capped.
-uint64_t reserve(uint64_t& pipe_free, uint64_t data, uint64_t interval, uint64_t window) {
-  const uint64_t start = std::max(data, pipe_free > window ? pipe_free - window : 0);
-  pipe_free = std::max(pipe_free, start) + interval;
-  return start;
+void append_line_accesses(const MemoryAccess& a, RayType type, uint32_t line_bytes,
+                          std::vector<LineAccess>& out) {
+  const uint64_t end = a.address + a.bytes;
+  for (uint64_t line = a.address & ~uint64_t(line_bytes - 1); line < end; line += line_bytes) {
+    const uint32_t bytes = uint32_t(std::min(line + line_bytes, end) - std::max(line, a.address));
+    bool merged = false;
+    for (LineAccess& l : out)
+      if (l.line == line && l.write == a.write && requester_of(l.kind) == requester_of(a.kind)) {
+        l.bytes = std::min(line_bytes, l.bytes + bytes);
+        merged = true;
+        break;
+      }
+    if (!merged) out.push_back(LineAccess{line, bytes, a.kind, type, a.write});
+  }
 }
+
+namespace {
 uint64_t interval_ps(double per_cycle, uint64_t cycle_ps) {
-  return uint64_t(std::llround(double(cycle_ps) / per_cycle));
+  return std::max<uint64_t>(1, uint64_t(std::llround(double(cycle_ps) / per_cycle)));
 }
 }  // namespace
 
 RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, bool timed)
     : config_(config), workload_(&workload), timed_(timed),
       cycle_ps_(uint64_t(std::llround(config.clock_period_ps()))),
-      rays_(workload.initial_rays), ready_ps_(rays_.size(), 0),
+      dispatcher_(IssuePolicy::from(config), workload.initial_rays, workload.width,
+                  workload.height, workload.spawn_secondary),
+      visit_order_(free_slot_order(config.trv_units, config.trv_ray_slots)),
       trv_free_(config.trv_units, 0), ist_free_(config.ist_units, 0),
       trv_time_(config.trv_units), ist_time_(config.ist_units), trv_nodes_(config.trv_units, 0),
       ist_tests_(config.ist_units, 0) {
@@ -48,13 +58,14 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
   ist_interval_ps_ = interval_ps(config.ist_tests_per_cycle, cycle_ps_);
   shading_interval_ps_ = interval_ps(config.shading_rays_per_cycle, cycle_ps_);
   raygen_interval_ps_ = interval_ps(config.raygen_rays_per_cycle, cycle_ps_);
-  // Within one quantum the loosely-timed model does not resolve the order of events.
-  trv_window_ps_ = ist_window_ps_ = uint64_t(config.lt_quantum_cycles) * cycle_ps_;
-  slots_.reserve(size_t(config.trv_units) * config.trv_ray_slots);
-  for (uint32_t i = 0; i < config.trv_units * config.trv_ray_slots; ++i)
-    slots_.emplace_back(*workload.context);
-  // Spilled stack entries live past the scene's memory image, one area per slot.
-  stack_base_ = (workload.context->image().end_address() + 4095) & ~uint64_t(4095);
+  box_latency_ps_ = uint64_t(config.trv_box_test_latency) * cycle_ps_;
+  test_latency_ps_ = uint64_t(config.ist_test_latency) * cycle_ps_;
+  shading_latency_ps_ = uint64_t(config.shading_latency) * cycle_ps_;
+  const uint32_t count = config.trv_units * config.trv_ray_slots;
+  slots_.reserve(count);
+  for (uint32_t id = 0; id < count; ++id)
+    slots_.emplace_back(*workload.context, id, id / config.trv_ray_slots);
+  arrive_ps_.assign(count, 0);
 }
 
 CounterTotals RayEngine::total() const {
@@ -63,155 +74,218 @@ CounterTotals RayEngine::total() const {
   return t;
 }
 
-uint64_t RayEngine::fetch(MemoryPort& port, Requester who, uint32_t unit, uint64_t address,
-                          uint32_t bytes, DataKind kind, RayType type, uint64_t issue_ps) {
-  // One access per L1 line the fetch touches; they go out together.
-  const uint64_t line_bytes = line_bytes_[size_t(who)];
-  const uint64_t end = address + bytes;
-  if ((address & ~(line_bytes - 1)) + line_bytes >= end)  // the common case: one line
-    return std::max(issue_ps, port.read(who, unit, LineAccess{address & ~(line_bytes - 1), bytes,
-                                                              kind, type}, issue_ps));
-  uint64_t done = issue_ps;
-  for (uint64_t line = address & ~(line_bytes - 1); line < end; line += line_bytes) {
-    const uint64_t lo = std::max(line, address), hi = std::min(line + line_bytes, end);
-    done = std::max(done, port.read(who, unit, LineAccess{line, uint32_t(hi - lo), kind, type},
-                                    issue_ps));
-  }
-  return done;
+void RayEngine::reset_counters() {
+  for (auto& t : trv_time_) t = UnitTime{};
+  for (auto& t : ist_time_) t = UnitTime{};
+  shading_time_ = UnitTime{};
+  std::fill(trv_nodes_.begin(), trv_nodes_.end(), 0);
+  std::fill(ist_tests_.begin(), ist_tests_.end(), 0);
+  per_type_ = {};
+  shaded_ = 0;
 }
 
-uint64_t RayEngine::stack_traffic(MemoryPort& port, Slot& slot, uint32_t slot_index,
-                                  uint32_t unit) {
-  // Entries that overflowed the short stack were written out, refilled ones read
-  // back: both go through the TRV unit's L1 as kind 'other'.
-  const RayCounters& c = slot.traversal.counters();
-  uint64_t done = slot.time_ps;
-  const uint32_t entry = config_.trv_stack_entry_bytes;
-  const uint64_t area = stack_base_ + uint64_t(slot_index) * 256 * entry;
-  while (slot.seen_overflows < c.stack_overflows || slot.seen_refills < c.stack_refills) {
-    const bool spill = slot.seen_overflows < c.stack_overflows;
-    (spill ? slot.seen_overflows : slot.seen_refills)++;
-    const uint64_t address =
-        area + uint64_t(std::min<uint32_t>(slot.traversal.stack_size(), 255)) * entry;
-    stack_spill_bytes_ += entry;
-    done = std::max(done, fetch(port, Requester::Trv, unit, address, entry, DataKind::Other,
-                                slot.traversal.ray().type, slot.time_ps));
+uint64_t RayEngine::issue(MemoryPort& port, Slot& slot, const std::vector<MemoryAccess>& list,
+                          size_t begin, size_t end, uint64_t t) {
+  const RayType type = slot.traversal.ray().type;
+  uint64_t ready = t;
+  for (int who = 0; who < 2; ++who) {
+    lines_.clear();
+    for (size_t i = begin; i < end; ++i)
+      if (requester_of(list[i].kind) == Requester(who))
+        append_line_accesses(list[i], type, line_bytes_[size_t(who)], lines_);
+    const uint32_t unit = who == 0 ? slot.unit : slot.unit % config_.ist_units;
+    for (const LineAccess& line : lines_) {
+      const uint64_t done = port.access(Requester(who), unit, line, t);
+      if (!line.write) ready = std::max(ready, done);
+    }
   }
-  return done;
+  if (workload_->observer)
+    for (size_t i = begin; i < end; ++i) workload_->observer(slot.traversal.ray(), list[i]);
+  return ready;
 }
 
-void RayEngine::finish(Slot& slot, uint32_t unit) {
+bool RayEngine::start_next_ray(Slot& slot, uint64_t now_ps, uint64_t* start_ps) {
+  uint32_t ray = 0;
+  if (!dispatcher_.next(now_ps, &ray)) return false;
+  slot.ray = ray;
+  slot.traversal.reset(dispatcher_.rays()[ray]);
+  slot.active = true;
+  const uint64_t start = std::max(now_ps, raygen_free_);
+  raygen_free_ = start + raygen_interval_ps_;
+  slot.start_ps = start;
+  *start_ps = start;
+  return true;
+}
+
+void RayEngine::finish(Slot& slot, uint64_t t) {
   const RayTraversal& trv = slot.traversal;
   per_type_[size_t(trv.ray().type)].add(trv.counters(), trv.hit().hit());
-  if (timed_) trv_time_[unit].add_span(slot.start_ps, slot.time_ps);
+  if (timed_) trv_time_[slot.unit].add_span(slot.start_ps, t);
   slot.active = false;
-  end_ps_ = std::max(end_ps_, slot.time_ps);
+  ++done_rays_;
+  end_ps_ = std::max(end_ps_, t);
   if (!workload_->spawn_secondary) return;
   spawned_.clear();
-  spawn_secondary_rays(*workload_->scene, workload_->plan, workload_->settings, trv.ray(),
-                       slot.ray, trv.hit(), spawned_);
-  const uint64_t start =
-      reserve(shading_free_, slot.time_ps, shading_interval_ps_, trv_window_ps_);
-  shading_time_.busy_ps += shading_interval_ps_;
-  const uint64_t ready = start + uint64_t(config_.shading_latency) * cycle_ps_;
-  shading_time_.add_span(start, ready);
-  end_ps_ = std::max(end_ps_, ready);
-  for (const Ray& r : spawned_) {
-    rays_.push_back(r);
-    ready_ps_.push_back(ready);
+  // dispatcher_.rays() may grow below: take what spawning needs first.
+  const Ray ray = trv.ray();
+  spawn_secondary_rays(*workload_->scene, workload_->plan, workload_->settings, ray, slot.ray,
+                       trv.hit(), spawned_);
+  ++shaded_;
+  uint64_t ready = 0;
+  if (timed_) {
+    const uint64_t start = std::max(t, shading_free_);
+    shading_free_ = start + shading_interval_ps_;
+    shading_time_.busy_ps += shading_interval_ps_;
+    ready = start + shading_latency_ps_;
+    shading_time_.add_span(start, ready);
+    end_ps_ = std::max(end_ps_, ready);
   }
+  if (spawned_.empty()) return;
+  dispatcher_.add_spawned(spawned_, ready);
+  if (timed_) schedule(ready, 0, EventKind::Dispatch);
+}
+
+void RayEngine::schedule(uint64_t t, uint32_t slot, EventKind kind) {
+  events_.push(Event{t, sequence_++, slot, kind});
 }
 
 void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
+                    const std::function<void()>& frame_start,
                     const std::function<void(uint64_t)>& progress) {
-  line_bytes_[size_t(Requester::Trv)] = port.l1_line_bytes(Requester::Trv);
-  line_bytes_[size_t(Requester::Ist)] = port.l1_line_bytes(Requester::Ist);
-  const uint32_t slots_per_unit = config_.trv_ray_slots;
-  const uint64_t box_latency = uint64_t(config_.trv_box_test_latency) * cycle_ps_;
-  const uint64_t test_latency = uint64_t(config_.ist_test_latency) * cycle_ps_;
-  size_t next_ray = 0;
-  uint64_t done_rays = 0, reported = 0;
-  bool any_active = true;
-  while (any_active || next_ray < rays_.size()) {
-    any_active = false;
-    uint64_t earliest = UINT64_MAX;
-    for (uint32_t s = 0; s < slots_.size(); ++s) {
-      Slot& slot = slots_[s];
-      const uint32_t unit = s / slots_per_unit;
-      if (!slot.active) {
-        if (next_ray >= rays_.size()) continue;
-        slot.ray = uint32_t(next_ray);
-        slot.traversal.reset(rays_[next_ray]);
-        slot.seen_overflows = slot.seen_refills = 0;
-        if (timed_) {
-          const uint64_t issue =
-              reserve(raygen_next_, std::max(slot.time_ps, ready_ps_[next_ray]),
-                      raygen_interval_ps_, trv_window_ps_);
-          slot.time_ps = slot.start_ps = issue;
-        }
-        ++next_ray;
-        slot.active = true;
-      }
-      RayTraversal& trv = slot.traversal;
-      const RayType type = trv.ray().type;
-      switch (trv.action()) {
-        case TraversalAction::FetchNode: {
-          const uint64_t data = fetch(port, Requester::Trv, unit, trv.node_address(),
-                                      trv.node_bytes(), DataKind::Node, type, slot.time_ps);
-          if (timed_) {
-            const uint64_t start =
-                reserve(trv_free_[unit], data, trv_interval_ps_, trv_window_ps_);
-            trv_time_[unit].busy_ps += trv_interval_ps_;
-            slot.time_ps = start + box_latency;
-          }
-          trv.process_node();
-          ++trv_nodes_[unit];
-          break;
-        }
-        case TraversalAction::TestTriangles: {
-          const uint32_t ist = unit % config_.ist_units;
-          const uint32_t k = trv.leaf_cursor();
-          uint64_t data = fetch(port, Requester::Ist, ist, trv.triangle_address(k),
-                                trv.triangle_bytes(), DataKind::Triangle, type, slot.time_ps);
-          if (k == 0)
-            data = std::max(data, fetch(port, Requester::Ist, ist, trv.prim_refs_address(),
-                                        trv.prim_refs_bytes(), DataKind::Other, type,
-                                        slot.time_ps));
-          if (timed_) {
-            const uint64_t start =
-                reserve(ist_free_[ist], data, ist_interval_ps_, ist_window_ps_);
-            ist_time_[ist].busy_ps += ist_interval_ps_;
-            ist_time_[ist].add_span(slot.time_ps, start + test_latency);
-            slot.time_ps = start + test_latency;
-          }
-          trv.process_triangle();
-          ++ist_tests_[ist];
-          break;
-        }
-        case TraversalAction::Done: break;
-      }
-      const RayCounters& counters = trv.counters();
-      if (slot.seen_overflows != counters.stack_overflows ||
-          slot.seen_refills != counters.stack_refills)
-        slot.time_ps = stack_traffic(port, slot, s, unit);
-      if (trv.done()) {
-        finish(slot, unit);
-        ++done_rays;
-      } else {
-        any_active = true;
-        earliest = std::min(earliest, slot.time_ps);
-      }
+  line_bytes_[size_t(Requester::Trv)] = port.line_bytes(Requester::Trv);
+  line_bytes_[size_t(Requester::Ist)] = port.line_bytes(Requester::Ist);
+  const uint32_t frames = std::max<uint32_t>(1, workload_->frames);
+  for (uint32_t frame = 0; frame < frames; ++frame) {
+    if (frame > 0) {
+      frame_start();
+      reset_counters();
+      dispatcher_.restart();
+      frame_start_ps_ = end_ps_;
     }
-    if (timed_ && earliest != UINT64_MAX) sync(earliest);
-    if (done_rays - reported >= 4096) {
-      progress(done_rays);
-      reported = done_rays;
+    if (timed_) run_timed(port, sync, progress);
+    else run_rounds(port, progress);
+  }
+  progress(done_rays_);
+}
+
+void RayEngine::run_rounds(MemoryPort& port, const std::function<void(uint64_t)>& progress) {
+  uint64_t reported = done_rays_;
+  bool any_active = true;
+  while (any_active || !dispatcher_.empty()) {
+    any_active = false;
+    for (uint32_t id : visit_order_) {
+      Slot& slot = slots_[id];
+      uint64_t start = 0;
+      if (!slot.active && !start_next_ray(slot, UINT64_MAX, &start)) continue;
+      RayTraversal& trv = slot.traversal;
+      const bool node_step = trv.action() == TraversalAction::FetchNode;
+      if (!trv.done()) {
+        const std::vector<MemoryAccess>& reads = trv.step_reads();
+        issue(port, slot, reads, 0, reads.size(), 0);
+        trv.process();
+        if (node_step) ++trv_nodes_[slot.unit];
+        else ist_tests_[slot.unit % config_.ist_units] += trv.last_step_tests();
+        const std::vector<MemoryAccess>& stack = trv.stack_accesses();
+        issue(port, slot, stack, 0, stack.size(), 0);
+      }
+      if (trv.done()) finish(slot, 0);
+      else any_active = true;
+    }
+    if (done_rays_ - reported >= 4096) {
+      progress(done_rays_);
+      reported = done_rays_;
     }
   }
-  progress(done_rays);
-  for (auto& s : slots_) end_ps_ = std::max(end_ps_, s.time_ps);
-  for (uint64_t t : trv_free_) end_ps_ = std::max(end_ps_, t);
-  for (uint64_t t : ist_free_) end_ps_ = std::max(end_ps_, t);
+}
+
+void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>& sync,
+                          const std::function<void(uint64_t)>& progress) {
+  uint64_t reported = done_rays_;
+  idle_slots_.assign(visit_order_.begin(), visit_order_.end());
+  schedule(frame_start_ps_, 0, EventKind::Dispatch);
+  while (!events_.empty()) {
+    const Event e = events_.top();
+    events_.pop();
+    const uint64_t t = e.time_ps;
+    sync(t);
+    if (e.kind == EventKind::Dispatch) {
+      while (!idle_slots_.empty()) {
+        Slot& slot = slots_[idle_slots_.front()];
+        uint64_t start = 0;
+        if (!start_next_ray(slot, t, &start)) break;
+        schedule(start, idle_slots_.front(), EventKind::Issue);
+        idle_slots_.pop_front();
+      }
+      continue;
+    }
+    Slot& slot = slots_[e.slot];
+    RayTraversal& trv = slot.traversal;
+    switch (e.kind) {
+      case EventKind::Issue: {
+        if (trv.done()) {  // a ray with nothing to do (e.g. an unusable direction)
+          schedule(t, e.slot, EventKind::Complete);
+          break;
+        }
+        const std::vector<MemoryAccess>& reads = trv.step_reads();
+        const size_t independent = trv.step_independent_reads();
+        const uint64_t back = issue(port, slot, reads, 0, independent, t);
+        schedule(back, e.slot, independent < reads.size() ? EventKind::Dependent : EventKind::Arrive);
+        break;
+      }
+      case EventKind::Dependent: {
+        const std::vector<MemoryAccess>& reads = trv.step_reads();
+        const uint64_t back = issue(port, slot, reads, trv.step_independent_reads(), reads.size(), t);
+        schedule(back, e.slot, EventKind::Arrive);
+        break;
+      }
+      case EventKind::Arrive: {
+        uint64_t ready;
+        if (trv.action() == TraversalAction::FetchNode) {
+          const uint64_t start = std::max(t, trv_free_[slot.unit]);
+          trv_free_[slot.unit] = start + trv_interval_ps_;
+          trv_time_[slot.unit].busy_ps += trv_interval_ps_;
+          ready = start + box_latency_ps_;
+          trv.process();
+          ++trv_nodes_[slot.unit];
+        } else {
+          trv.process();
+          const uint32_t tests = trv.last_step_tests();
+          const uint32_t ist = slot.unit % config_.ist_units;
+          const uint64_t start = std::max(t, ist_free_[ist]);
+          ist_free_[ist] = start + tests * ist_interval_ps_;
+          ist_time_[ist].busy_ps += tests * ist_interval_ps_;
+          ready = start + (tests - 1) * ist_interval_ps_ + test_latency_ps_;
+          ist_time_[ist].add_span(t, ready);
+          ist_tests_[ist] += tests;
+        }
+        schedule(ready, e.slot, EventKind::Complete);
+        break;
+      }
+      case EventKind::Complete: {
+        const std::vector<MemoryAccess>& stack = trv.stack_accesses();
+        const uint64_t next = stack.empty() ? t : issue(port, slot, stack, 0, stack.size(), t);
+        if (!trv.done()) {
+          schedule(next, e.slot, EventKind::Issue);
+          break;
+        }
+        finish(slot, next);
+        uint64_t start = 0;
+        if (start_next_ray(slot, next, &start)) schedule(start, e.slot, EventKind::Issue);
+        else idle_slots_.push_back(e.slot);
+        break;
+      }
+      case EventKind::Dispatch: break;
+    }
+    if (done_rays_ - reported >= 4096) {
+      progress(done_rays_);
+      reported = done_rays_;
+    }
+  }
+  for (const Slot& slot : slots_)
+    if (slot.active) throw std::logic_error("lt engine: events ran out with rays in flight");
+  if (!dispatcher_.empty()) throw std::logic_error("lt engine: events ran out with rays queued");
+  for (uint64_t f : trv_free_) end_ps_ = std::max(end_ps_, f);
+  for (uint64_t f : ist_free_) end_ps_ = std::max(end_ps_, f);
 }
 
 }  // namespace rtsim::sim

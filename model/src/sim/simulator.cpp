@@ -65,7 +65,8 @@ void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCou
   s.set_real("ops.per_ray", total.per_ray(total.ops()), "ops/ray", "(TRV + IST ops) / rays");
   s.set("fetches.node", total.node_fetches, "fetches", "node records read by TRV (before caches)");
   s.set("fetches.prim_ref", total.prim_ref_fetches, "fetches", "leaf prim-ref lists read by IST");
-  s.set("fetches.triangle", total.triangle_fetches, "fetches", "triangles read by IST");
+  s.set("fetches.triangle", total.triangle_fetches, "fetches",
+        "triangle records read by IST (an any-hit ray may read some of its last step it does not test)");
   s.set("fetches.bytes", total.bytes(), "bytes", "bytes of all fetches before caches");
   s.set("stack.overflows", total.stack_overflows, "entries",
         "pushes that found the short stack full and spilled to memory");
@@ -95,30 +96,37 @@ void report_memory(StatsRegistry& s, const std::vector<const CacheModel*>& l1_no
     l1_triangle[i]->report(s, "l1_triangle.unit" + std::to_string(i));
   l2.report(s, "l2");
   dram.report(s, "dram", row_timing, timed, sim_ps);
-  // Every DRAM byte is an L2 fill: attribute them the same way.
+  // Every DRAM byte read is an L2 fill: attribute them the same way.
   l2.filled().report(s, "dram.bytes_by_type", "bytes read from DRAM");
   s.set_real("dram.bytes_per_ray", rays ? double(dram.counters().bytes) / double(rays) : 0,
-             "bytes/ray", "DRAM bytes / rays");
+             "bytes/ray", "DRAM bytes read / rays");
+}
+
+void report_layout(StatsRegistry& s, const MemoryImage& image, uint64_t triangles) {
+  const MemoryFootprint& f = image.footprint();
+  s.set("memory.node_records", f.node_records, "records", "node records in memory");
+  s.set("memory.node_bytes", f.node_bytes, "bytes", "bytes of node records");
+  s.set("memory.prim_ref_bytes", f.prim_ref_bytes, "bytes", "bytes of leaf prim-ref lists");
+  s.set("memory.triangle_records", f.triangle_records, "records",
+        "triangle records (inline storage: one per leaf reference)");
+  s.set("memory.triangle_bytes", f.triangle_bytes, "bytes", "bytes of triangle records, padding included");
+  s.set("memory.total_bytes", f.total_bytes(), "bytes", "footprint of the BVH and its triangles");
+  s.set_real("memory.bytes_per_triangle", triangles ? double(f.total_bytes()) / double(triangles) : 0,
+             "bytes/triangle", "footprint / scene triangles");
 }
 
 void report_time(StatsRegistry& s, const HardwareConfig& c, uint64_t sim_ps, uint64_t rays,
-                 bool estimate) {
+                 bool estimate, uint32_t frames) {
   const double cycle_ps = c.clock_period_ps();
   const uint64_t cycles = uint64_t(std::llround(double(sim_ps) / cycle_ps));
   const std::string how = estimate ? " (analytic estimate)" : "";
-  s.set("time.cycles", cycles, "cycles", "simulated accelerator cycles" + how);
-  s.set_real("time.seconds", double(sim_ps) * 1e-12, "s", "simulated time" + how);
+  s.set("time.cycles", cycles, "cycles", "simulated accelerator cycles of the last frame" + how);
+  s.set_real("time.seconds", double(sim_ps) * 1e-12, "s", "simulated time of the last frame" + how);
   s.set_real("time.rays_per_second", sim_ps ? double(rays) / (double(sim_ps) * 1e-12) : 0, "rays/s",
              "rays per second at the simulated clock" + how);
   s.set("time.clock_mhz", c.clock_mhz, "MHz", "accelerator clock");
-}
-
-MemoryImage make_image(const SimulationRequest& r) {
-  MemoryLayoutConfig layout;
-  layout.node_layout =
-      r.config.node_layout == "single-32" ? NodeLayout::SingleBox32 : NodeLayout::Bvh2Wide64;
-  layout.triangle_bytes = r.config.triangle_bytes;
-  return MemoryImage(*r.bvh, r.scene->triangle_count(), layout);
+  s.set("time.frames", frames, "frames",
+        "frames simulated back to back (the same rays, caches warm); every figure is the last's");
 }
 
 bool& systemc_used() {
@@ -128,10 +136,32 @@ bool& systemc_used() {
 
 }  // namespace
 
+MemoryLayoutConfig memory_layout_for(const HardwareConfig& c) {
+  MemoryLayoutConfig layout;
+  layout.node_layout = c.node_layout == "single-32" ? NodeLayout::SingleBox32 : NodeLayout::Bvh2Wide64;
+  layout.node_order = c.node_order == "breadth-first" ? NodeOrder::BreadthFirst : NodeOrder::DepthFirst;
+  layout.triangle_storage =
+      c.triangle_storage == "inline" ? TriangleStorage::Inline : TriangleStorage::Indexed;
+  layout.triangle_packing = c.triangle_packing == "line" ? TrianglePacking::Line : TrianglePacking::Packed;
+  layout.triangle_bytes = c.triangle_bytes;
+  layout.line_bytes = c.l1_triangle.line_bytes;
+  return layout;
+}
+
+TraversalConfig traversal_config_for(const HardwareConfig& c) {
+  TraversalConfig t;
+  t.stack_limit = c.trv_stack_entries;
+  t.stack_entry_bytes = c.trv_stack_entry_bytes;
+  t.overflow_policy = StackOverflowPolicy::SpillToMemory;
+  t.triangles_per_step = c.ist_triangles_in_flight;
+  return t;
+}
+
 SimulationResult simulate(const SimulationRequest& request) {
   if (!request.scene || !request.bvh) throw InputError("simulate", "scene and BVH are required");
   if (request.rays.empty() && !request.camera)
     throw InputError("simulate", "a camera or a ray set is required");
+  if (request.frames < 1 || request.frames > 1000) throw InputError("--frames", "must be 1..1000");
   const HardwareConfig& config = request.config;
   validate(config);
   if (request.fidelity != Fidelity::Functional) {
@@ -140,16 +170,17 @@ SimulationResult simulate(const SimulationRequest& request) {
     systemc_used() = true;
   }
 
-  const MemoryImage image = make_image(request);
-  TraversalConfig traversal;
-  traversal.stack_limit = config.trv_stack_entries;
-  traversal.overflow_policy = StackOverflowPolicy::SpillToMemory;
-  const TraversalContext context(*request.scene, *request.bvh, image, traversal);
+  const MemoryImage image(*request.scene, *request.bvh, memory_layout_for(config));
+  const TraversalContext context(*request.scene, *request.bvh, image, traversal_config_for(config));
 
   Workload work;
   work.scene = request.scene;
   work.context = &context;
   work.settings = request.settings;
+  work.width = request.settings.width;
+  work.height = request.settings.height;
+  work.frames = request.frames;
+  work.observer = request.observer;
   SimulationResult result;
   if (request.rays.empty()) {
     work.plan = plan_effects(*request.scene, request.settings);
@@ -176,7 +207,7 @@ SimulationResult simulate(const SimulationRequest& request) {
       functional = std::make_unique<FunctionalMemory>(config);
       own_engine = std::make_unique<RayEngine>(config, work, false);
       engine = own_engine.get();
-      engine->run(*functional, [](uint64_t) {}, progress);
+      engine->run(*functional, [](uint64_t) {}, [&] { functional->reset_counters(); }, progress);
     } else {
       lt = std::make_unique<LtSystem>("lt", config, work, progress);
       engine = &lt->engine;
@@ -199,11 +230,12 @@ SimulationResult simulate(const SimulationRequest& request) {
       dram = &functional->dram;
       // Analytic estimate: the busiest resource bounds the run.
       const double bytes_per_cycle = dram->peak_bytes_per_second() * cycle_ps * 1e-12;
+      const uint64_t dram_bytes = dram->counters().bytes;
       const double cycles = std::max(
           {double(total.trv_ops) / (config.trv_units * config.trv_nodes_per_cycle),
            double(total.ist_ops) / (config.ist_units * config.ist_tests_per_cycle),
            double(total.rays) / config.raygen_rays_per_cycle,
-           double(dram->counters().bytes) / bytes_per_cycle});
+           double(dram_bytes) / bytes_per_cycle});
       result.simulated_ps = uint64_t(std::llround(std::ceil(cycles) * cycle_ps));
       s.set_real("time.bound_trv_cycles",
                  double(total.trv_ops) / (config.trv_units * config.trv_nodes_per_cycle), "cycles",
@@ -211,12 +243,12 @@ SimulationResult simulate(const SimulationRequest& request) {
       s.set_real("time.bound_ist_cycles",
                  double(total.ist_ops) / (config.ist_units * config.ist_tests_per_cycle), "cycles",
                  "IST ops / IST throughput");
-      s.set_real("time.bound_dram_cycles", double(dram->counters().bytes) / bytes_per_cycle,
-                 "cycles", "DRAM bytes / peak DRAM bytes per cycle");
+      s.set_real("time.bound_dram_cycles", double(dram_bytes) / bytes_per_cycle,
+                 "cycles", "DRAM bytes read / peak DRAM bytes per cycle");
       // Untimed: a unit is busy for its work / throughput, idle for the rest of the
       // estimate; stalls are not modelled at this level.
-      const auto unit_busy_ps = [&](uint64_t work, double per_cycle) {
-        return uint64_t(std::llround(double(work) / per_cycle * cycle_ps));
+      const auto unit_busy_ps = [&](uint64_t work_done, double per_cycle) {
+        return uint64_t(std::llround(double(work_done) / per_cycle * cycle_ps));
       };
       for (size_t u = 0; u < engine->trv_nodes().size(); ++u) {
         const uint64_t busy = unit_busy_ps(engine->trv_nodes()[u], config.trv_nodes_per_cycle);
@@ -233,8 +265,8 @@ SimulationResult simulate(const SimulationRequest& request) {
       for (auto& c : lt->l1_triangle) l1t.push_back(&c->model);
       l2 = &lt->l2->model;
       dram = &lt->dram->model;
-      result.simulated_ps = engine->end_ps();
-      // Per-unit figures of the engine's analytic unit timing.
+      result.simulated_ps = engine->end_ps() - engine->start_ps();
+      // Per-unit figures of the engine's unit timing.
       for (size_t u = 0; u < engine->trv_time().size(); ++u) {
         const UnitTime& t = engine->trv_time()[u];
         report_unit(s, "trv.unit" + std::to_string(u), {t.busy_ps, t.occupied_ps(), 0},
@@ -250,25 +282,25 @@ SimulationResult simulate(const SimulationRequest& request) {
       if (work.spawn_secondary) {
         const UnitTime& t = engine->shading_time();
         report_unit(s, "shading", {t.busy_ps, t.occupied_ps(), 0}, result.simulated_ps, cycle_ps,
-                    uint64_t(std::llround(double(t.busy_ps) * config.shading_rays_per_cycle / cycle_ps)),
-                    "rays", "rays shaded");
+                    engine->shaded(), "rays", "rays shaded");
       }
     }
-    report_memory(s, l1n, l1t, *l2, *dram, false, lt != nullptr, result.simulated_ps, total.rays);
-    report_time(s, config, result.simulated_ps, total.rays, functional != nullptr);
+    report_memory(s, l1n, l1t, *l2, *dram, lt != nullptr, lt != nullptr, result.simulated_ps,
+                  total.rays);
+    report_time(s, config, result.simulated_ps, total.rays, functional != nullptr, request.frames);
   } else {
     CycleSystem system("accelerator", config, work, progress);
     sc_core::sc_start();
     result.host_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     result.cpu_seconds = cpu_now() - cpu_start;
-    if (system.rays_done != system.raygen->rays().size())
+    if (!system.finished)
       throw std::runtime_error("cycle model stopped with " +
-                               std::to_string(system.raygen->rays().size() - system.rays_done) +
+                               std::to_string(system.raygen->issued() - system.rays_done) +
                                " rays unfinished");
     result.per_type = system.per_type;
     result.rays = system.rays_done;
-    result.simulated_ps = system.end_ps;
+    result.simulated_ps = system.end_ps - system.frame_start_ps;
     const uint64_t T = result.simulated_ps;
     for (size_t u = 0; u < system.trv.size(); ++u) {
       const Occupancy& o = system.trv[u]->occupancy;
@@ -293,9 +325,15 @@ SimulationResult simulate(const SimulationRequest& request) {
     for (auto& c : system.l1_node) l1n.push_back(&c->model);
     for (auto& c : system.l1_triangle) l1t.push_back(&c->model);
     report_memory(s, l1n, l1t, system.l2->model, system.dram->model, true, true, T, result.rays);
-    report_time(s, config, T, result.rays, false);
+    s.set("l2.downstream_stall_cycles",
+          uint64_t(std::llround(double(system.l2->downstream_stall_ps) / cycle_ps)), "cycles",
+          "cycles the L2's outbound queue waited because the DRAM queue was full");
+    s.set("l2.downstream_refusals", system.l2->downstream_refusals, "requests",
+          "requests the DRAM did not take at once (its channel queue was full)");
+    report_time(s, config, T, result.rays, false, request.frames);
   }
   report_counts(s, result.per_type);
+  report_layout(s, image, request.scene->triangle_count());
   result.cycles = uint64_t(std::llround(double(result.simulated_ps) / cycle_ps));
   result.peak_memory_bytes = peak_rss_bytes();
   return result;

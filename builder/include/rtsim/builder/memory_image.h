@@ -1,16 +1,28 @@
 #pragma once
-// Lays a built BVH and the scene's triangles out in the accelerator's external
-// memory, so that every node and triangle fetch has a real byte address.
+// Lays a built BVH and the triangles it references out in the accelerator's
+// external memory, so that every node and triangle fetch has a real byte address.
+// The layout is decided here, from the tree alone: the input file's face order
+// never reaches an address.
 //
 // Regions, each starting at its base and aligned to `region_alignment`:
-//   nodes      node i at nodes_base + i * node_bytes   (BVH2 64-byte: both child
-//              boxes in the parent; single-box 32-byte: one box per node)
-//   prim_refs  leaf triangle-index lists, 4 bytes each
-//   triangles  triangle j (by scene index) at triangles_base + j * triangle_bytes
+//   nodes      one record per node that the format fetches on its own, in
+//              `node_order` (BVH2 64-byte: inner nodes only, each record holding
+//              both child boxes, so leaves take no node slot; single-box 32-byte:
+//              every node)
+//   prim_refs  (indexed storage) each leaf's list of 4-byte triangle record
+//              indices, leaves in the same order as the node records
+//   triangles  triangle records. Indexed: one record per triangle, placed where
+//              the leaf order first reaches it. Inline: each leaf's records
+//              contiguous, in leaf order, no prim refs (a triangle referenced by
+//              several leaves, as SBVH does, is stored once per leaf).
+// Within a leaf, triangles are ordered by their geometry
+// (triangle_geometric_less), and the IST unit reads and tests them in that order.
 #include <rtsim/builder/bvh.h>
+#include <rtsim/workloads/scene.h>
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace rtsim {
 
@@ -19,35 +31,83 @@ enum class NodeLayout {
   SingleBox32,   // 32 bytes: own box (24 B) + link and count
 };
 
+// Order of node records and of leaf data in memory.
+enum class NodeOrder {
+  DepthFirst,    // pre-order, first child's subtree before the second's
+  BreadthFirst,  // level by level
+};
+
+enum class TriangleStorage {
+  Indexed,  // leaf -> prim-ref list -> triangle record (records shared between leaves)
+  Inline,   // leaf -> its own contiguous triangle records
+};
+
+enum class TrianglePacking {
+  Packed,  // records at a stride of triangle_bytes
+  Line,    // a record that would cross a line_bytes boundary starts at the next line
+};
+
 struct MemoryLayoutConfig {
   NodeLayout node_layout = NodeLayout::Bvh2Wide64;
-  uint32_t triangle_bytes = 36;  // 3 vertices x 3 floats; 48 with padding/precomputed data
+  NodeOrder node_order = NodeOrder::DepthFirst;
+  TriangleStorage triangle_storage = TriangleStorage::Indexed;
+  TrianglePacking triangle_packing = TrianglePacking::Packed;
+  uint32_t triangle_bytes = 36;  // 3 vertices x 3 floats; 48 or 64 with padding/precomputed data
+  uint32_t line_bytes = 64;      // the line TrianglePacking::Line keeps records within
   uint64_t base_address = 0x1000'0000;
   uint64_t region_alignment = 4096;
 };
 
+// Bytes the image occupies, by region.
+struct MemoryFootprint {
+  uint64_t node_records = 0, node_bytes = 0;
+  uint64_t prim_refs = 0, prim_ref_bytes = 0;
+  uint64_t triangle_records = 0, triangle_bytes = 0;  // triangle bytes include packing padding
+  uint64_t total_bytes() const { return node_bytes + prim_ref_bytes + triangle_bytes; }
+};
+
 class MemoryImage {
  public:
-  MemoryImage(const Bvh& bvh, size_t scene_triangle_count, const MemoryLayoutConfig& config = {});
+  // Throws InputError ("memory.*") for a bad configuration or a tree whose links
+  // are broken (a child before its parent, a leaf range past prim_refs, a
+  // triangle index past the scene).
+  MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutConfig& config = {});
 
+  const MemoryLayoutConfig& config() const { return config_; }
   uint32_t node_bytes() const { return node_bytes_; }
   uint32_t triangle_bytes() const { return config_.triangle_bytes; }
-  uint64_t node_address(uint32_t node) const { return nodes_base_ + uint64_t(node) * node_bytes_; }
-  uint64_t prim_ref_address(uint32_t ref) const { return prim_refs_base_ + uint64_t(ref) * 4; }
-  uint64_t triangle_address(uint32_t tri) const {
-    return triangles_base_ + uint64_t(tri) * config_.triangle_bytes;
-  }
+  bool indexed() const { return config_.triangle_storage == TriangleStorage::Indexed; }
+
+  // The node's own record; only for nodes the format fetches (has_record).
+  bool has_record(uint32_t node) const { return record_address_[node] != kNoRecord; }
+  uint64_t node_address(uint32_t node) const { return record_address_[node]; }
+
+  // A leaf's triangles occupy slots [leaf_first(leaf), leaf_first(leaf) + count)
+  // in memory order; slots are numbered in leaf order.
+  uint32_t leaf_first(uint32_t leaf) const { return leaf_first_[leaf]; }
+  uint32_t slot_count() const { return uint32_t(slot_triangle_.size()); }
+  uint32_t slot_triangle(uint32_t slot) const { return slot_triangle_[slot]; }  // scene index
+  uint64_t slot_address(uint32_t slot) const { return slot_address_[slot]; }     // its record
+  // Indexed storage: the leaf's prim-ref list (leaf size x 4 bytes).
+  uint64_t prim_refs_address(uint32_t leaf) const { return prim_refs_base_ + uint64_t(leaf_first_[leaf]) * 4; }
+
   uint64_t nodes_base() const { return nodes_base_; }
   uint64_t prim_refs_base() const { return prim_refs_base_; }
   uint64_t triangles_base() const { return triangles_base_; }
   uint64_t end_address() const { return end_; }
-  const MemoryLayoutConfig& config() const { return config_; }
+  const MemoryFootprint& footprint() const { return footprint_; }
   std::string describe() const;  // one line per region: base, size
 
  private:
+  static constexpr uint64_t kNoRecord = ~uint64_t(0);
   MemoryLayoutConfig config_;
   uint32_t node_bytes_;
-  uint64_t nodes_base_, prim_refs_base_, triangles_base_, end_;
+  uint64_t nodes_base_ = 0, prim_refs_base_ = 0, triangles_base_ = 0, end_ = 0;
+  std::vector<uint64_t> record_address_;  // per node
+  std::vector<uint32_t> leaf_first_;      // per node (leaves only)
+  std::vector<uint32_t> slot_triangle_;
+  std::vector<uint64_t> slot_address_;
+  MemoryFootprint footprint_;
 };
 
 }  // namespace rtsim

@@ -5,85 +5,149 @@ namespace rtsim::sim {
 using tlm::tlm_generic_payload;
 
 CycleCache::CycleCache(sc_core::sc_module_name name, const CacheConfig& config, uint64_t cycle_ps)
-    : sc_module(name), target("target"), next("next"), model(config, std::string(name)),
-      hit_ps_(uint64_t(config.hit_latency_cycles) * cycle_ps) {
+    : sc_module(name), target("target"), next("next"), model(config, std::string(name), cycle_ps) {
   target.register_nb_transport_fw(this, &CycleCache::nb_transport_fw);
   next.register_nb_transport_bw(this, &CycleCache::nb_transport_bw);
-  SC_METHOD(on_fill);
-  sensitive << fills_.event();
+  SC_METHOD(on_event);
+  sensitive << queue_.event();
   dont_initialize();
+}
+
+void CycleCache::reset_counters() {
+  model.reset_counters();
+  downstream_stall_ps = downstream_refusals = 0;
+  if (awaiting_end_req_) refused_since_ps_ = now_ps();
+}
+
+bool CycleCache::serve(int id, tlm_generic_payload* p, uint64_t t_ps, bool* completed,
+                       uint64_t* done_ps) {
+  const AccessExtension& ext = PayloadPool::extension(*p);
+  const LineAccess a{model.line_of(p->get_address()), p->get_data_length(), ext.kind,
+                     ext.ray_type, p->is_write()};
+  const CacheModel::Result r = model.request(a);
+  if (r.outcome == CacheModel::Outcome::Blocked) return false;
+  const uint64_t tag_done = t_ps + model.hit_latency_ps();
+  if (r.writeback.dirty)
+    send_down(r.writeback.line, true, AccessKind::Stack, a.ray_type, tag_done);
+  *completed = r.outcome == CacheModel::Outcome::Hit ||
+               (r.outcome == CacheModel::Outcome::Miss && !r.fetch);  // a write miss allocates at once
+  *done_ps = tag_done;
+  if (*completed) return true;
+  waiting_[a.line].push_back({id, p});
+  if (r.fetch) send_down(a.line, false, a.kind, a.ray_type, tag_done);
+  return true;
 }
 
 tlm::tlm_sync_enum CycleCache::nb_transport_fw(int id, tlm_generic_payload& p,
                                                tlm::tlm_phase& phase, sc_core::sc_time& delay) {
   if (phase != tlm::BEGIN_REQ) return tlm::TLM_ACCEPTED;
-  const uint64_t d = to_ps(delay);
-  auto* ext = p.get_extension<AccessExtension>();
-  const LineAccess a{model.line_of(p.get_address()), p.get_data_length(), ext->kind, ext->ray_type};
-  const CacheModel::Outcome outcome = model.request(a);
-  if (outcome == CacheModel::Outcome::Hit) {
-    delay = from_ps(d + hit_ps_);
+  const uint64_t now = now_ps();
+  const uint64_t t = model.reserve_port(now + to_ps(delay));
+  bool completed = false;
+  uint64_t done = 0;
+  if (!serve(id, &p, t, &completed, &done)) {
+    blocked_.push_back({id, &p});  // taken, answered once an MSHR frees
+  } else if (completed) {
+    delay = from_ps(done - now);
     phase = tlm::BEGIN_RESP;
     p.set_response_status(tlm::TLM_OK_RESPONSE);
     return tlm::TLM_COMPLETED;
   }
-  if (outcome == CacheModel::Outcome::Blocked) {
-    blocked_.push_back({id, &p});
-    return tlm::TLM_ACCEPTED;
-  }
-  waiting_[a.line].push_back({id, &p});
-  if (outcome == CacheModel::Outcome::Miss) {
-    tlm_generic_payload* q = payloads_.get();
-    AccessExtension* own = &PayloadPool::extension(*q);
-    own->kind = a.kind, own->ray_type = a.ray_type, own->token = a.line;
-    q->set_address(a.line);
-    q->set_data_length(model.config().line_bytes);
-    tlm::tlm_phase fw = tlm::BEGIN_REQ;
-    sc_core::sc_time fw_delay = from_ps(d + hit_ps_);
-    if (next->nb_transport_fw(*q, fw, fw_delay) == tlm::TLM_COMPLETED) {
-      fills_.push(now_ps() + to_ps(fw_delay), a.line);
+  phase = tlm::END_REQ;
+  return tlm::TLM_UPDATED;
+}
+
+void CycleCache::send_down(uint64_t line, bool write, AccessKind kind, RayType type, uint64_t at_ps) {
+  tlm_generic_payload* q = payloads_.get();
+  AccessExtension& ext = PayloadPool::extension(*q);
+  ext.kind = kind, ext.ray_type = type, ext.token = line, ext.first_try_ps = at_ps;
+  q->set_command(write ? tlm::TLM_WRITE_COMMAND : tlm::TLM_READ_COMMAND);
+  q->set_address(line);
+  q->set_data_length(model.config().line_bytes);
+  outbound_.push_back(q);
+  queue_.push(at_ps, Item{Item::Send, 0});
+}
+
+void CycleCache::try_send() {
+  const uint64_t now = now_ps();
+  while (!awaiting_end_req_ && !outbound_.empty()) {
+    tlm_generic_payload* q = outbound_.front();
+    AccessExtension& ext = PayloadPool::extension(*q);
+    if (ext.first_try_ps > now) break;  // its Send item is due later
+    tlm::tlm_phase phase = tlm::BEGIN_REQ;
+    sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
+    outbound_.pop_front();
+    const tlm::tlm_sync_enum status = next->nb_transport_fw(*q, phase, delay);
+    if (status == tlm::TLM_COMPLETED) {  // the next level hit
+      if (!q->is_write()) queue_.push(now + to_ps(delay) + model.fill_latency_ps(), Item{Item::Fill, ext.token});
       payloads_.put(q);
+    } else if (status == tlm::TLM_ACCEPTED && phase == tlm::BEGIN_REQ) {
+      // Taken but not accepted (a full queue below): nothing more goes down until END_REQ.
+      awaiting_end_req_ = true;
+      refused_since_ps_ = now;
+      ++downstream_refusals;
     }
   }
-  return tlm::TLM_ACCEPTED;
 }
 
 tlm::tlm_sync_enum CycleCache::nb_transport_bw(tlm_generic_payload& q, tlm::tlm_phase& phase,
                                                sc_core::sc_time& delay) {
+  if (phase == tlm::END_REQ) {
+    awaiting_end_req_ = false;
+    downstream_stall_ps += now_ps() - refused_since_ps_;
+    queue_.push(now_ps(), Item{Item::Send, 0});
+    return tlm::TLM_ACCEPTED;
+  }
   if (phase != tlm::BEGIN_RESP) return tlm::TLM_ACCEPTED;
-  fills_.push(now_ps() + to_ps(delay), q.get_extension<AccessExtension>()->token);
+  if (!q.is_write())
+    queue_.push(now_ps() + to_ps(delay) + model.fill_latency_ps(),
+                Item{Item::Fill, PayloadPool::extension(q).token});
   payloads_.put(&q);
   return tlm::TLM_COMPLETED;
 }
 
-void CycleCache::on_fill() {
-  fills_.drain([this](uint64_t line) {
-    model.fill(line);
-    auto it = waiting_.find(line);
-    if (it != waiting_.end()) {
-      std::vector<Waiter> waiters = std::move(it->second);
-      waiting_.erase(it);
-      for (const Waiter& w : waiters) {
-        tlm::tlm_phase phase = tlm::BEGIN_RESP;
-        sc_core::sc_time zero = sc_core::SC_ZERO_TIME;
-        w.p->set_response_status(tlm::TLM_OK_RESPONSE);
-        target[w.id]->nb_transport_bw(*w.p, phase, zero);
-      }
-    }
-    // An MSHR is free again: requests that found them all busy try again, in order.
-    while (!blocked_.empty() && model.mshrs_in_use() < model.config().mshrs) {
-      Waiter w = blocked_.front();
-      blocked_.pop_front();
-      tlm::tlm_phase phase = tlm::BEGIN_REQ;
+void CycleCache::on_fill(uint64_t line) {
+  const Eviction e = model.fill(line);
+  if (e.dirty) send_down(e.line, true, AccessKind::Stack, RayType::Primary, now_ps());
+  auto it = waiting_.find(line);
+  if (it != waiting_.end()) {
+    std::vector<Waiter> waiters = std::move(it->second);
+    waiting_.erase(it);
+    for (const Waiter& w : waiters) {
+      tlm::tlm_phase phase = tlm::BEGIN_RESP;
       sc_core::sc_time zero = sc_core::SC_ZERO_TIME;
-      if (nb_transport_fw(w.id, *w.p, phase, zero) == tlm::TLM_COMPLETED) {
-        target[w.id]->nb_transport_bw(*w.p, phase, zero);
-      }
+      w.p->set_response_status(tlm::TLM_OK_RESPONSE);
+      target[w.id]->nb_transport_bw(*w.p, phase, zero);
     }
+  }
+  // An MSHR is free again: requests that found them all busy try again, in order.
+  const uint64_t now = now_ps();
+  while (!blocked_.empty() && model.mshrs_in_use() < model.config().mshrs) {
+    const Waiter w = blocked_.front();
+    blocked_.pop_front();
+    bool completed = false;
+    uint64_t done = 0;
+    if (!serve(w.id, w.p, model.reserve_port(now), &completed, &done)) {
+      blocked_.push_front(w);
+      break;
+    }
+    if (completed) {
+      tlm::tlm_phase phase = tlm::BEGIN_RESP;
+      sc_core::sc_time delay = from_ps(done - now);
+      w.p->set_response_status(tlm::TLM_OK_RESPONSE);
+      target[w.id]->nb_transport_bw(*w.p, phase, delay);
+    }
+  }
+}
+
+void CycleCache::on_event() {
+  queue_.drain([this](const Item& item) {
+    if (item.kind == Item::Fill) on_fill(item.line);
+    else try_send();
   });
 }
 
-// ------------------------------------------------------------------------ DRAM
+// ---------------------------------------------------------------- DRAM
 
 CycleDram::CycleDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes)
     : sc_module(name), target("target"), model(config, access_bytes) {
@@ -104,48 +168,56 @@ uint32_t CycleDram::slot_for(int id, tlm_generic_payload* p) {
   return s;
 }
 
+void CycleDram::admit(uint32_t r, uint64_t now) {
+  tlm_generic_payload* p = in_flight_[r].p;
+  model.enqueue({p->get_address(), std::min(now, PayloadPool::extension(*p).first_try_ps), r,
+                 p->is_write()});
+  if (decide_at_ > now) {
+    decide_at_ = now;
+    queue_.push(now, Item{Item::Decide, 0});
+  }
+}
+
 tlm::tlm_sync_enum CycleDram::nb_transport_fw(int id, tlm_generic_payload& p, tlm::tlm_phase& phase,
-                                              sc_core::sc_time& delay) {
+                                              sc_core::sc_time&) {
   if (phase != tlm::BEGIN_REQ) return tlm::TLM_ACCEPTED;
-  queue_.push(now_ps() + to_ps(delay), Item{Item::Arrive, slot_for(id, &p)});
+  const uint32_t r = slot_for(id, &p);
+  if (held_.empty() && model.can_accept(p.get_address())) {
+    admit(r, now_ps());
+    phase = tlm::END_REQ;
+    return tlm::TLM_UPDATED;
+  }
+  // The channel queue is full: hold the request without END_REQ, which stops the sender.
+  held_.push_back(r);
+  model.note_rejection();
   return tlm::TLM_ACCEPTED;
 }
 
 void CycleDram::on_event() {
   const uint64_t now = now_ps();
   queue_.drain([&](const Item& item) {
-    if (item.kind == Item::Arrive) {
-      held_.push_back(item.request);
-    } else if (item.kind == Item::Respond) {
+    if (item.kind == Item::Respond) {
       InFlight f = in_flight_[item.request];
       free_slots_.push_back(item.request);
       tlm::tlm_phase phase = tlm::BEGIN_RESP;
       sc_core::sc_time zero = sc_core::SC_ZERO_TIME;
       f.p->set_response_status(tlm::TLM_OK_RESPONSE);
       target[f.id]->nb_transport_bw(*f.p, phase, zero);
-    } else if (item.kind == Item::Decide) {
+    } else {
       decide_at_ = UINT64_MAX;
     }
   });
-  // Held arrivals enter their channel's queue in order while it has room.
-  for (size_t i = 0; i < held_.size();) {
-    const uint32_t r = held_[i];
-    const uint64_t address = in_flight_[r].p->get_address();
-    if (model.can_accept(address)) {
-      model.enqueue({address, now, r});
-      held_.erase(held_.begin() + long(i));
-    } else {
-      model.note_rejection();
-      ++i;
-    }
-  }
   issued_.clear();
   model.advance(now, issued_);
   for (const DramCompletion& c : issued_) queue_.push(c.done_ps, Item{Item::Respond, uint32_t(c.tag)});
-  if (!issued_.empty() && !held_.empty()) {
-    // Issues freed queue entries: try the held requests again right away.
-    queue_.push(now, Item{Item::Decide, 0});
-    decide_at_ = now;
+  // Issues freed queue entries: held requests enter in order, each sender told by END_REQ.
+  while (!held_.empty() && model.can_accept(in_flight_[held_.front()].p->get_address())) {
+    const uint32_t r = held_.front();
+    held_.pop_front();
+    admit(r, now);
+    tlm::tlm_phase phase = tlm::END_REQ;
+    sc_core::sc_time zero = sc_core::SC_ZERO_TIME;
+    target[in_flight_[r].id]->nb_transport_bw(*in_flight_[r].p, phase, zero);
   }
   const uint64_t next = model.next_decision_ps();
   if (next != UINT64_MAX && next < decide_at_) {

@@ -1,12 +1,14 @@
 #include <rtsim/model/sim/cycle/cycle_ist.h>
+#include <rtsim/model/sim/cycle/cycle_system.h>
 #include <rtsim/model/sim/cycle/cycle_trv.h>
 
 #include <cmath>
 
 namespace rtsim::sim {
 
-CycleIst::CycleIst(sc_core::sc_module_name name, const HardwareConfig& config)
-    : sc_module(name), memory("memory"), config_(config), jobs_(config.ist_queue_entries) {
+CycleIst::CycleIst(sc_core::sc_module_name name, const HardwareConfig& config, CycleSystem& system)
+    : sc_module(name), memory("memory"), config_(config), system_(system),
+      jobs_(config.ist_queue_entries) {
   const uint64_t cycle_ps = uint64_t(std::llround(config.clock_period_ps()));
   interval_ps_ = uint64_t(std::llround(double(cycle_ps) / config.ist_tests_per_cycle));
   latency_ps_ = uint64_t(config.ist_test_latency) * cycle_ps;
@@ -17,10 +19,19 @@ CycleIst::CycleIst(sc_core::sc_module_name name, const HardwareConfig& config)
   dont_initialize();
 }
 
-void CycleIst::accept(CycleTrv* from, uint32_t slot, RayTraversal* traversal, uint64_t t) {
+void CycleIst::reset_counters() {
+  const uint32_t resident = occupancy.resident;
+  occupancy = Occupancy{};
+  occupancy.resident = resident;
+  occupancy.since_ps = now_ps();
+  tests = 0;
+}
+
+void CycleIst::accept(CycleTrv* from, uint32_t slot, RayTraversal* traversal, uint32_t ray,
+                      uint64_t t) {
   const uint32_t j = free_jobs_.back();
   free_jobs_.pop_back();
-  jobs_[j] = Job{from, slot, traversal, 0};
+  jobs_[j] = Job{from, slot, ray, traversal, 0, false};
   occupancy.enter(t);
   queue_.push(t, Item{Item::Fetch, j});
 }
@@ -29,21 +40,27 @@ void CycleIst::on_event() {
   queue_.drain([this](const Item& item) { handle(item); });
 }
 
-void CycleIst::fetch(uint32_t j, uint64_t address, uint32_t bytes, DataKind kind) {
-  const uint64_t line_bytes = config_.l1_triangle.line_bytes;
-  const uint64_t end = address + bytes;
-  for (uint64_t line = address & ~(line_bytes - 1); line < end; line += line_bytes) {
-    const uint64_t lo = std::max(line, address), hi = std::min(line + line_bytes, end);
+void CycleIst::send(uint32_t j, const std::vector<MemoryAccess>& reads, size_t begin, size_t end) {
+  Job& job = jobs_[j];
+  const RayType type = job.traversal->ray().type;
+  lines_.clear();
+  for (size_t i = begin; i < end; ++i) {
+    system_.observe(job.traversal->ray(), reads[i]);
+    append_line_accesses(reads[i], type, config_.l1_triangle.line_bytes, lines_);
+  }
+  const uint64_t now = now_ps();
+  for (const LineAccess& line : lines_) {
     tlm::tlm_generic_payload* p = payloads_.get();
     AccessExtension& ext = PayloadPool::extension(*p);
-    ext.kind = kind, ext.ray_type = jobs_[j].traversal->ray().type, ext.token = j;
-    p->set_address(line);
-    p->set_data_length(uint32_t(hi - lo));
-    ++jobs_[j].pending;
+    ext.kind = line.kind, ext.ray_type = type, ext.token = j;
+    p->set_command(tlm::TLM_READ_COMMAND);
+    p->set_address(line.line);
+    p->set_data_length(line.bytes);
+    ++job.pending;
     tlm::tlm_phase phase = tlm::BEGIN_REQ;
     sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
     if (memory->nb_transport_fw(*p, phase, delay) == tlm::TLM_COMPLETED) {
-      queue_.push(now_ps() + to_ps(delay), Item{Item::MemoryBack, j});
+      queue_.push(now + to_ps(delay), Item{Item::MemoryBack, j});
       payloads_.put(p);
     }
   }
@@ -58,32 +75,44 @@ tlm::tlm_sync_enum CycleIst::nb_transport_bw(tlm::tlm_generic_payload& p, tlm::t
   return tlm::TLM_COMPLETED;
 }
 
+void CycleIst::tests_start(uint32_t j) {
+  // The step's data is here: the core tests its triangles (an any-hit ray may
+  // stop early), and the tests it made go through the pipeline.
+  RayTraversal& trv = *jobs_[j].traversal;
+  trv.process();
+  const uint32_t n = trv.last_step_tests();
+  const uint64_t start = std::max(now_ps(), pipe_free_ps_);
+  pipe_free_ps_ = start + n * interval_ps_;
+  occupancy.busy_ps += n * interval_ps_;
+  tests += n;
+  queue_.push(start + (n - 1) * interval_ps_ + latency_ps_, Item{Item::TestDone, j});
+}
+
 void CycleIst::handle(const Item& item) {
   const uint64_t now = now_ps();
   Job& job = jobs_[item.job];
+  RayTraversal& trv = *job.traversal;
   switch (item.kind) {
     case Item::Fetch: {
-      RayTraversal& trv = *job.traversal;
-      const uint32_t k = trv.leaf_cursor();
-      if (k == 0) fetch(item.job, trv.prim_refs_address(), trv.prim_refs_bytes(), DataKind::Other);
-      fetch(item.job, trv.triangle_address(k), trv.triangle_bytes(), DataKind::Triangle);
+      const std::vector<MemoryAccess>& reads = trv.step_reads();
+      const size_t independent = trv.step_independent_reads();
+      job.dependent_sent = independent == reads.size();
+      send(item.job, reads, 0, independent);
       break;
     }
     case Item::MemoryBack:
       if (--job.pending > 0) break;
-      {
-        const uint64_t start = std::max(now, pipe_free_ps_);
-        pipe_free_ps_ = start + interval_ps_;
-        occupancy.busy_ps += interval_ps_;
-        queue_.push(start + latency_ps_, Item{Item::TestDone, item.job});
+      if (!job.dependent_sent) {  // the prim refs are here: now the triangles they point to
+        job.dependent_sent = true;
+        const std::vector<MemoryAccess>& reads = trv.step_reads();
+        send(item.job, reads, trv.step_independent_reads(), reads.size());
+        break;
       }
+      tests_start(item.job);
       break;
-    case Item::TestDone: {
-      RayTraversal& trv = *job.traversal;
-      trv.process_triangle();
-      ++tests;
+    case Item::TestDone:
       if (trv.action() == TraversalAction::TestTriangles && trv.leaf_cursor() > 0) {
-        queue_.push(now, Item{Item::Fetch, item.job});  // next triangle of this leaf
+        queue_.push(now, Item{Item::Fetch, item.job});  // the leaf's next triangles
         break;
       }
       // Leaf finished: back to TRV, and the entry is free for a waiting leaf.
@@ -92,7 +121,6 @@ void CycleIst::handle(const Item& item) {
       occupancy.leave(now);
       for (CycleTrv* client : clients_) client->ist_has_space(now);
       break;
-    }
   }
 }
 

@@ -1,13 +1,16 @@
 #include <rtsim/model/sim/cycle/cycle_raygen.h>
 #include <rtsim/model/sim/cycle/cycle_trv.h>
+#include <rtsim/model/sim/ray_engine.h>
 
 #include <cmath>
 
 namespace rtsim::sim {
 
 CycleRayGen::CycleRayGen(sc_core::sc_module_name name, const HardwareConfig& config,
-                         std::vector<Ray> rays)
-    : sc_module(name), rays_(std::move(rays)), ready_ps_(rays_.size(), 0) {
+                         const Workload& workload)
+    : sc_module(name),
+      dispatcher_(IssuePolicy::from(config), workload.initial_rays, workload.width,
+                  workload.height, workload.spawn_secondary) {
   const double cycle_ps = config.clock_period_ps();
   interval_ps_ = uint64_t(std::llround(cycle_ps / config.raygen_rays_per_cycle));
   SC_METHOD(on_event);
@@ -17,22 +20,28 @@ CycleRayGen::CycleRayGen(sc_core::sc_module_name name, const HardwareConfig& con
 
 void CycleRayGen::slot_free(CycleTrv* trv, uint32_t slot, uint64_t t) {
   free_slots_.emplace_back(trv, slot);
+  if (no_slot_since_ != UINT64_MAX) stalled_ps += t - no_slot_since_, no_slot_since_ = UINT64_MAX;
   wake_.push(t, 0);
 }
 
 void CycleRayGen::add_rays(const std::vector<Ray>& rays, uint64_t ready_ps) {
-  for (const Ray& r : rays) {
-    rays_.push_back(r);
-    ready_ps_.push_back(ready_ps);
-  }
-  if (!rays.empty()) wake_.push(ready_ps, 0);
+  if (rays.empty()) return;
+  dispatcher_.add_spawned(rays, ready_ps);
+  wake_.push(ready_ps, 0);
+}
+
+void CycleRayGen::restart(uint64_t t) {
+  dispatcher_.restart();
+  issued_ = 0;
+  wake_.push(t, 0);
 }
 
 void CycleRayGen::on_event() {
   wake_.drain([](int) {});
   const uint64_t now = now_ps();
-  while (next_ < rays_.size()) {
-    const uint64_t issue = std::max({now, ready_ps_[next_], next_issue_ps_});
+  while (!dispatcher_.empty()) {
+    const uint64_t ready = dispatcher_.next_ready_ps();
+    const uint64_t issue = std::max({now, ready, next_issue_ps_});
     if (issue > now) {
       wake_.push(issue, 0);
       break;
@@ -41,11 +50,12 @@ void CycleRayGen::on_event() {
       if (no_slot_since_ == UINT64_MAX) no_slot_since_ = now;
       break;
     }
-    if (no_slot_since_ != UINT64_MAX) stalled_ps += now - no_slot_since_, no_slot_since_ = UINT64_MAX;
+    uint32_t ray = 0;
+    if (!dispatcher_.next(now, &ray)) break;
     auto [trv, slot] = free_slots_.front();
     free_slots_.pop_front();
-    trv->start_ray(slot, uint32_t(next_), rays_[next_], now);
-    ++next_;
+    trv->start_ray(slot, ray, dispatcher_.rays()[ray], now);
+    ++issued_;
     next_issue_ps_ = now + interval_ps_;
   }
 }

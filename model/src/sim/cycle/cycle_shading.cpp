@@ -1,20 +1,24 @@
-#include <rtsim/model/sim/cycle/cycle_raygen.h>
 #include <rtsim/model/sim/cycle/cycle_shading.h>
-#include <rtsim/model/sim/ray_engine.h>
+#include <rtsim/model/sim/cycle/cycle_system.h>
 
 #include <cmath>
 
 namespace rtsim::sim {
 
 CycleShading::CycleShading(sc_core::sc_module_name name, const HardwareConfig& config,
-                           const Workload& workload, CycleRayGen& raygen)
-    : sc_module(name), workload_(workload), raygen_(raygen) {
+                           const Workload& workload, CycleSystem& system)
+    : sc_module(name), workload_(workload), system_(system) {
   const double cycle_ps = config.clock_period_ps();
   interval_ps_ = uint64_t(std::llround(cycle_ps / config.shading_rays_per_cycle));
   latency_ps_ = uint64_t(config.shading_latency) * uint64_t(std::llround(cycle_ps));
   SC_METHOD(on_event);
   sensitive << queue_.event();
   dont_initialize();
+}
+
+void CycleShading::reset_counters() {
+  busy_ps = shaded = spawned = 0;
+  occupancy = Occupancy{};
 }
 
 void CycleShading::shade(uint32_t ray_index, const Ray& ray, const HitRecord& hit, uint64_t t) {
@@ -33,7 +37,7 @@ void CycleShading::on_event() {
     ++shaded;
     spawned += out_.size();
     occupancy.leave(now_ps());
-    raygen_.add_rays(out_, now_ps());
+    system_.spawned(out_, now_ps());
   });
 }
 

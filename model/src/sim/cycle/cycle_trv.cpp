@@ -5,26 +5,37 @@
 
 namespace rtsim::sim {
 
+namespace {
+constexpr uint64_t kWriteToken = uint64_t(1) << 32;  // a posted write: nobody waits for its answer
+}
+
 CycleTrv::CycleTrv(sc_core::sc_module_name name, const HardwareConfig& config,
-                   const TraversalContext& context, uint32_t unit, uint64_t stack_base,
-                   CycleSystem& system)
+                   const TraversalContext& context, uint32_t unit, CycleSystem& system)
     : sc_module(name), memory("memory"), config_(config), system_(system), unit_(unit),
-      cycle_ps_(uint64_t(std::llround(config.clock_period_ps()))), stack_base_(stack_base) {
+      cycle_ps_(uint64_t(std::llround(config.clock_period_ps()))) {
   interval_ps_ = uint64_t(std::llround(double(cycle_ps_) / config.trv_nodes_per_cycle));
   latency_ps_ = uint64_t(config.trv_box_test_latency) * cycle_ps_;
   slots_.reserve(config.trv_ray_slots);
-  for (uint32_t s = 0; s < config.trv_ray_slots; ++s) slots_.emplace_back(context);
+  for (uint32_t s = 0; s < config.trv_ray_slots; ++s)
+    slots_.emplace_back(context, unit * config.trv_ray_slots + s);
   memory.register_nb_transport_bw(this, &CycleTrv::nb_transport_bw);
   SC_METHOD(on_event);
   sensitive << queue_.event();
   dont_initialize();
 }
 
+void CycleTrv::reset_counters() {
+  const uint32_t resident = occupancy.resident;
+  occupancy = Occupancy{};
+  occupancy.resident = resident;
+  occupancy.since_ps = now_ps();
+  nodes = 0;
+}
+
 void CycleTrv::start_ray(uint32_t s, uint32_t ray_index, const Ray& ray, uint64_t t) {
   Slot& slot = slots_[s];
   slot.traversal.reset(ray);
   slot.ray = ray_index;
-  slot.seen_overflows = slot.seen_refills = 0;
   slot.phase = Phase::WaitStack;
   occupancy.enter(t);
   queue_.push(t, Item{Item::Continue, s});
@@ -33,59 +44,68 @@ void CycleTrv::start_ray(uint32_t s, uint32_t ray_index, const Ray& ray, uint64_
 void CycleTrv::leaf_done(uint32_t s, uint64_t t) { queue_.push(t, Item{Item::Continue, s}); }
 
 void CycleTrv::ist_has_space(uint64_t t) {
-  if (!waiting_for_ist_.empty()) queue_.push(t, Item{Item::Continue, UINT32_MAX});
+  if (!waiting_for_ist_.empty()) queue_.push(t, Item{Item::IstSpace, 0});
 }
 
 void CycleTrv::on_event() {
   queue_.drain([this](const Item& item) { handle(item); });
 }
 
-void CycleTrv::fetch(uint32_t s, uint64_t address, uint32_t bytes, DataKind kind) {
-  const uint64_t line_bytes = config_.l1_node.line_bytes;
-  const uint64_t end = address + bytes;
-  for (uint64_t line = address & ~(line_bytes - 1); line < end; line += line_bytes) {
-    const uint64_t lo = std::max(line, address), hi = std::min(line + line_bytes, end);
+uint32_t CycleTrv::send(uint32_t s, const std::vector<MemoryAccess>& accesses) {
+  Slot& slot = slots_[s];
+  const RayType type = slot.traversal.ray().type;
+  lines_.clear();
+  for (const MemoryAccess& a : accesses) {
+    system_.observe(slot.traversal.ray(), a);
+    append_line_accesses(a, type, config_.l1_node.line_bytes, lines_);
+  }
+  uint32_t reads = 0;
+  const uint64_t now = now_ps();
+  for (const LineAccess& line : lines_) {
     tlm::tlm_generic_payload* p = payloads_.get();
     AccessExtension& ext = PayloadPool::extension(*p);
-    ext.kind = kind, ext.ray_type = slots_[s].traversal.ray().type, ext.token = s;
-    p->set_address(line);
-    p->set_data_length(uint32_t(hi - lo));
-    ++slots_[s].pending;
+    ext.kind = line.kind, ext.ray_type = type, ext.token = s | (line.write ? kWriteToken : 0);
+    p->set_command(line.write ? tlm::TLM_WRITE_COMMAND : tlm::TLM_READ_COMMAND);
+    p->set_address(line.line);
+    p->set_data_length(line.bytes);
+    if (!line.write) ++reads, ++slot.pending;
     tlm::tlm_phase phase = tlm::BEGIN_REQ;
     sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
     if (memory->nb_transport_fw(*p, phase, delay) == tlm::TLM_COMPLETED) {
-      queue_.push(now_ps() + to_ps(delay), Item{Item::MemoryBack, s});
+      if (!line.write) queue_.push(now + to_ps(delay), Item{Item::MemoryBack, s});
       payloads_.put(p);
     }
   }
+  return reads;
 }
 
 tlm::tlm_sync_enum CycleTrv::nb_transport_bw(tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                              sc_core::sc_time& delay) {
   if (phase != tlm::BEGIN_RESP) return tlm::TLM_ACCEPTED;
-  queue_.push(now_ps() + to_ps(delay),
-              Item{Item::MemoryBack, uint32_t(PayloadPool::extension(p).token)});
+  const uint64_t token = PayloadPool::extension(p).token;
+  if (!(token & kWriteToken))
+    queue_.push(now_ps() + to_ps(delay), Item{Item::MemoryBack, uint32_t(token)});
   payloads_.put(&p);
   return tlm::TLM_COMPLETED;
 }
 
 void CycleTrv::handle(const Item& item) {
   const uint64_t now = now_ps();
-  if (item.slot == UINT32_MAX) {  // the IST unit has room again
+  if (item.kind == Item::IstSpace) {  // the IST unit has room again
     CycleIst& ist = system_.ist_for(unit_);
     while (!waiting_for_ist_.empty() && ist.can_accept()) {
       const uint32_t s = waiting_for_ist_.front();
       waiting_for_ist_.pop_front();
       if (waiting_for_ist_.empty()) occupancy.stalled_ps += now - stalled_since_;
       slots_[s].phase = Phase::InIst;
-      ist.accept(this, s, &slots_[s].traversal, now);
+      ist.accept(this, s, &slots_[s].traversal, slots_[s].ray, now);
     }
     return;
   }
   Slot& slot = slots_[item.slot];
   switch (item.kind) {
     case Item::Continue:
-      proceed(item.slot);
+      after_step(item.slot);
       break;
     case Item::MemoryBack:
       if (--slot.pending > 0) break;
@@ -100,30 +120,19 @@ void CycleTrv::handle(const Item& item) {
       }
       break;
     case Item::NodeDone:
-      slot.traversal.process_node();
+      slot.traversal.process();
       ++nodes;
-      proceed(item.slot);
+      after_step(item.slot);
       break;
+    case Item::IstSpace: break;
   }
 }
 
-void CycleTrv::proceed(uint32_t s) {
-  // Entries that overflowed the short stack are written out, refilled ones read back.
+void CycleTrv::after_step(uint32_t s) {
+  // The stack traffic the last step caused: spills are posted, refills waited for.
   Slot& slot = slots_[s];
-  const RayCounters& c = slot.traversal.counters();
-  const uint32_t entry = config_.trv_stack_entry_bytes;
-  const uint64_t area =
-      stack_base_ + (uint64_t(unit_) * config_.trv_ray_slots + s) * 256 * entry;
-  bool traffic = false;
-  while (slot.seen_overflows < c.stack_overflows || slot.seen_refills < c.stack_refills) {
-    const bool spill = slot.seen_overflows < c.stack_overflows;
-    (spill ? slot.seen_overflows : slot.seen_refills)++;
-    slot.phase = Phase::WaitStack;
-    fetch(s, area + uint64_t(std::min<uint32_t>(slot.traversal.stack_size(), 255)) * entry, entry,
-          DataKind::Other);
-    traffic = true;
-  }
-  if (!traffic) next_action(s);
+  slot.phase = Phase::WaitStack;
+  if (send(s, slot.traversal.stack_accesses()) == 0) next_action(s);
 }
 
 void CycleTrv::next_action(uint32_t s) {
@@ -132,13 +141,13 @@ void CycleTrv::next_action(uint32_t s) {
   switch (slot.traversal.action()) {
     case TraversalAction::FetchNode:
       slot.phase = Phase::WaitNode;
-      fetch(s, slot.traversal.node_address(), slot.traversal.node_bytes(), DataKind::Node);
+      send(s, slot.traversal.step_reads());
       break;
     case TraversalAction::TestTriangles: {
       CycleIst& ist = system_.ist_for(unit_);
       if (ist.can_accept() && waiting_for_ist_.empty()) {
         slot.phase = Phase::InIst;
-        ist.accept(this, s, &slot.traversal, now);
+        ist.accept(this, s, &slot.traversal, slot.ray, now);
       } else {
         slot.phase = Phase::WaitIst;
         if (waiting_for_ist_.empty()) stalled_since_ = now;  // the unit starts stalling

@@ -103,4 +103,14 @@ struct Scene {
   uint64_t content_hash() const;
 };
 
+// A strict order of a scene's triangles by their geometry alone: the centroid of
+// the bounds, then the bounds, then the vertices as stored, and only for exact
+// duplicates the index. Builders break ties with it and the memory layout orders
+// a leaf's triangles by it, so that no result depends on the file's face order.
+bool triangle_geometric_less(const Scene& scene, uint32_t a, uint32_t b);
+
+// Permutes the triangles (with their material ids) by a seeded shuffle: the same
+// geometry in another face order, to check that results do not depend on it.
+void shuffle_triangles(Scene& scene, uint64_t seed);
+
 }  // namespace rtsim

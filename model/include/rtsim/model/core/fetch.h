@@ -1,27 +1,32 @@
 #pragma once
-// Every memory read the traversal issues, before any cache: the functional cache
-// simulator, statistics and trace writers plug in as a FetchSink.
+// Every memory access the traversal makes, before any cache: what the functional
+// cache simulator, the SystemC units, statistics and trace writers consume. The
+// traversal core decides them (RayTraversal::step_reads, stack_accesses); the
+// drivers only time them.
 #include <rtsim/model/core/ray.h>
 
 #include <cstdint>
 
 namespace rtsim {
 
-enum class FetchKind : uint8_t { Node = 0, PrimRef = 1, Triangle = 2 };
-constexpr int kFetchKindCount = 3;
-const char* fetch_kind_name(FetchKind kind);  // "node", "prim_ref", "triangle"
+enum class AccessKind : uint8_t { Node = 0, PrimRef = 1, Triangle = 2, Stack = 3 };
+constexpr int kAccessKindCount = 4;
+const char* access_kind_name(AccessKind kind);  // "node", "prim_ref", "triangle", "stack"
 
-struct Fetch {
-  uint64_t address = 0;  // byte address in the MemoryImage
+struct MemoryAccess {
+  uint64_t address = 0;  // byte address in the MemoryImage (or the stack spill area)
   uint32_t bytes = 0;
-  FetchKind kind = FetchKind::Node;
-  RayType ray_type = RayType::Primary;
+  AccessKind kind = AccessKind::Node;
+  bool write = false;    // only stack spills write
 };
 
-class FetchSink {
+class AccessSink {
  public:
-  virtual ~FetchSink() = default;
-  virtual void on_fetch(const Fetch& fetch) = 0;
+  virtual ~AccessSink() = default;
+  virtual void on_access(const MemoryAccess& access, RayType ray_type) = 0;
+  // After the accesses of one step (its reads and the stack traffic it caused):
+  // a unit sends one request per line and step.
+  virtual void on_step_end() {}
 };
 
 }  // namespace rtsim

@@ -33,11 +33,11 @@ struct CounterTotals {
 };
 
 // Traces rays[i] into results[i] (resized). threads = 0: all cores. When `sink`
-// is given, every fetch reaches it in ray order (rays traced in parallel in
-// chunks, their fetches recorded and replayed), so cache statistics are
+// is given, every access reaches it in ray order (rays traced in parallel in
+// chunks, their accesses recorded and replayed), so cache statistics are
 // deterministic too.
 void trace_rays(const TraversalContext& context, const std::vector<Ray>& rays,
-                std::vector<TraceResult>& results, FetchSink* sink = nullptr,
+                std::vector<TraceResult>& results, AccessSink* sink = nullptr,
                 uint32_t threads = 0);
 
 // One frame: primary rays, then waves of secondary rays until none are left.
@@ -52,10 +52,10 @@ struct FrameRun {
   double trace_seconds = 0.0;  // host time in trace_rays
 };
 FrameRun run_frame(const TraversalContext& context, const Camera& camera,
-                   const EffectSettings& settings, FetchSink* sink = nullptr, uint32_t threads = 0);
+                   const EffectSettings& settings, AccessSink* sink = nullptr, uint32_t threads = 0);
 // Replays a given ray set (e.g. from a ray file): no secondary rays are spawned.
 FrameRun run_rays(const TraversalContext& context, std::vector<Ray> rays, uint32_t width,
-                  uint32_t height, FetchSink* sink = nullptr, uint32_t threads = 0);
+                  uint32_t height, AccessSink* sink = nullptr, uint32_t threads = 0);
 
 // Pictures of a frame (run.width x run.height).
 // TRV + IST ops of every ray (all types) credited to its pixel, averaged over samples.

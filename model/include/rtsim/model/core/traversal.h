@@ -1,38 +1,44 @@
 #pragma once
 // The functional ray core: stack-based BVH2 traversal and watertight triangle
-// tests over a MemoryImage, written ONCE as a resumable per-ray state machine.
+// tests over a MemoryImage, written ONCE as a resumable per-ray state machine
+// that also owns its memory access sequence.
 //
-// The functional level drives it in a tight loop (trace_ray below). The SystemC
-// TRV / IST units drive the same object step by step: they look at action(),
-// issue the fetch it names through their caches, and when the data has arrived
-// call process_node() (TRV) or process_triangle() (IST). Because every count is
-// taken inside this class, TRV/IST ops and fetch counts are identical at every
-// fidelity level.
+// A ray advances in steps. Each step names the reads it needs (step_reads);
+// once they have arrived, process() does the step's work, and stack_accesses()
+// then lists the spills (writes) and refills (reads) that work caused:
 //
-//   RayTraversal trv(context);
-//   trv.reset(ray);                      // mode from the ray type, or given
+//   RayTraversal trv(context, slot);
+//   trv.reset(ray);
 //   while (!trv.done()) {
-//     if (trv.action() == TraversalAction::FetchNode) {
-//       fetch(trv.node_address(), trv.node_bytes());        // TRV + L1 node cache
-//       trv.process_node();                                  // one TRV op
-//     } else {                                               // TestTriangles
-//       if (trv.leaf_cursor() == 0) fetch(trv.prim_refs_address(), trv.prim_refs_bytes());
-//       fetch(trv.triangle_address(trv.leaf_cursor()), trv.triangle_bytes());
-//       trv.process_triangle();                              // one IST op
-//     }
+//     issue(trv.step_reads());   // reads [0, independent) together, the rest after them
+//     trv.process();             // one TRV op, or up to triangles_per_step IST ops
+//     issue(trv.stack_accesses());
 //   }
-//   trv.hit(); trv.counters();
 //
-// Node semantics follow the MemoryImage layout:
-//  - Bvh2Wide64: an inner node's 64-byte record holds both child boxes and links.
-//    One TRV op = fetch the record, test the two child boxes, descend into the
-//    nearer hit child and push the farther one. Leaf children are reached through
-//    their parent's record (no fetch of their own); the root is fetched first.
-//  - SingleBox32: each node's 32-byte record holds its own box. One TRV op =
-//    fetch the node, test its box; a hit leaf goes to IST, a hit inner node pushes
-//    its children, nearer first by the ray direction along the node's longest axis.
+// The functional tracer (trace_ray below), the functional, lt and cycle levels
+// all drive this one sequence and only time it, so TRV/IST ops, fetch counts and
+// every ray's address stream are identical at every fidelity level.
+//
+// Steps:
+//  - FetchNode: read the node's record; one TRV op.
+//    Bvh2Wide64: the 64-byte record holds both child boxes and links: test the two
+//    boxes, descend into the nearer hit child and push the farther. Leaf children
+//    are reached through their parent's record (no fetch of their own); the root
+//    is fetched first. SingleBox32: each node's record holds its own box: test it;
+//    a hit leaf goes to IST, a hit inner node pushes its children, nearer first by
+//    the ray direction along the node's longest axis.
+//  - TestTriangles: the next triangles_per_step triangles of the leaf (memory
+//    order) are read together and tested in order; in indexed storage the leaf's
+//    first step reads its prim-ref list first, and the triangles, whose addresses
+//    it holds, after it. Any-hit rays stop at their first hit, so they may have
+//    read up to triangles_per_step - 1 triangles they do not test.
 // Closest-hit rays skip popped entries whose entry distance lies beyond the
 // closest hit so far (no fetch, no op). Any-hit rays finish at their first hit.
+//
+// The short stack: the top stack_limit entries live on chip; a push onto a full
+// stack spills the bottom on-chip entry to the ray slot's spill area (a write),
+// and a pop that leaves a spilled entry at the bottom of the on-chip part reads it
+// back (a refill).
 #include <rtsim/builder/bvh.h>
 #include <rtsim/builder/memory_image.h>
 #include <rtsim/model/core/fetch.h>
@@ -52,11 +58,13 @@ enum class StackOverflowPolicy : uint8_t {
 };
 
 struct TraversalConfig {
-  // Entries the ray's stack holds before overflowing. The functional default is
-  // deeper than any BVH the builders make (max depth 64), so it never overflows;
-  // if it does, the counters say so.
+  // Entries the ray's stack holds on chip. The functional default is deeper than
+  // any BVH the builders make (max depth 64), so it never overflows; if it does,
+  // the counters say so.
   uint32_t stack_limit = 128;
   StackOverflowPolicy overflow_policy = StackOverflowPolicy::SpillToMemory;
+  uint32_t stack_entry_bytes = 8;   // node index + entry distance
+  uint32_t triangles_per_step = 4;  // triangles of a leaf read together (overlapping fetches)
 };
 
 // Per-ray counts. Definitions as in shared/DESIGN.md.
@@ -66,8 +74,8 @@ struct RayCounters {
   uint32_t ist_ops = 0;           // ray-triangle tests
   uint32_t ist_exact_steps = 0;   // steps of those tests redone in double (see intersect.h)
   uint32_t node_fetches = 0;      // node records read (before caches)
-  uint32_t prim_ref_fetches = 0;  // leaf prim-ref lists read (one per leaf visit)
-  uint32_t triangle_fetches = 0;  // triangles read (one per IST op)
+  uint32_t prim_ref_fetches = 0;  // leaf prim-ref lists read (first step of a leaf, indexed storage)
+  uint32_t triangle_fetches = 0;  // triangle records read (>= ist_ops: any-hit rays stop early)
   uint32_t node_bytes = 0, prim_ref_bytes = 0, triangle_bytes = 0;
   uint32_t max_stack_depth = 0;   // most entries on the stack at once
   uint32_t stack_overflows = 0;   // pushes that found the stack full (spilled or dropped)
@@ -82,7 +90,7 @@ struct PackedTriangle {
 };
 
 // Everything shared by all rays of one (scene, BVH, memory layout). The scene,
-// BVH and image must outlive it. Checks the BVH's links once (InputError "bvh: ...").
+// BVH and image must outlive it.
 class TraversalContext {
  public:
   TraversalContext(const Scene& scene, const Bvh& bvh, const MemoryImage& image,
@@ -91,8 +99,14 @@ class TraversalContext {
   const Bvh& bvh() const { return *bvh_; }
   const MemoryImage& image() const { return *image_; }
   const TraversalConfig& config() const { return config_; }
-  const PackedTriangle& triangle(uint32_t prim) const { return triangles_[prim]; }
+  // Triangle data by memory slot (see MemoryImage): the leaf's triangles in order.
+  const PackedTriangle& slot_data(uint32_t slot) const { return triangles_[slot]; }
   bool wide_nodes() const { return wide_nodes_; }
+  // Spill area of ray slot `slot`: past the memory image, kStackAreaEntries entries each.
+  static constexpr uint32_t kStackAreaEntries = 256;
+  uint64_t stack_area(uint32_t slot) const {
+    return stack_base_ + uint64_t(slot) * kStackAreaEntries * config_.stack_entry_bytes;
+  }
 
  private:
   const Scene* scene_;
@@ -100,14 +114,16 @@ class TraversalContext {
   const MemoryImage* image_;
   TraversalConfig config_;
   bool wide_nodes_;
-  std::vector<PackedTriangle> triangles_;
+  uint64_t stack_base_;
+  std::vector<PackedTriangle> triangles_;  // by slot
 };
 
 enum class TraversalAction : uint8_t { FetchNode, TestTriangles, Done };
 
 class RayTraversal {
  public:
-  explicit RayTraversal(const TraversalContext& context);  // idle: done() until reset
+  // idle (done()) until reset; stack_slot picks the spill area (the hardware ray slot).
+  explicit RayTraversal(const TraversalContext& context, uint32_t stack_slot = 0);
 
   // Starts a ray (counters and hit cleared, stack storage reused). A ray with a
   // NaN/Inf origin or direction, a zero direction, or an empty [tmin, tmax]
@@ -118,26 +134,20 @@ class RayTraversal {
   TraversalAction action() const { return action_; }
   bool done() const { return action_ == TraversalAction::Done; }
 
-  // --- FetchNode: the node record TRV must read next.
-  uint32_t node() const { return current_node_; }
-  uint64_t node_address() const;
-  uint32_t node_bytes() const;
-  // The record has arrived: one TRV op (box tests, stack update); moves to the next action.
-  void process_node();
+  // The reads the next step needs, in issue order. The first
+  // step_independent_reads() go out together; the rest need them first (the
+  // triangles whose addresses a prim-ref list holds). Valid until process().
+  const std::vector<MemoryAccess>& step_reads() const;
+  uint32_t step_independent_reads() const;
+  // The reads have arrived: one TRV op (FetchNode) or one IST step (TestTriangles).
+  void process();
+  // Spill writes and refill reads the last process() caused, in order.
+  const std::vector<MemoryAccess>& stack_accesses() const { return stack_accesses_; }
+  uint32_t last_step_tests() const { return last_tests_; }  // IST ops of the last process()
 
-  // --- TestTriangles: the current leaf, tested one triangle at a time in order.
-  uint32_t leaf_node() const { return current_node_; }
+  uint32_t node() const { return current_node_; }      // FetchNode: the node; else the leaf
   uint32_t leaf_size() const { return leaf_count_; }
-  uint32_t leaf_cursor() const { return leaf_cursor_; }  // next triangle to test
-  uint64_t prim_refs_address() const;                    // the whole leaf's prim-ref list
-  uint32_t prim_refs_bytes() const { return leaf_count_ * 4u; }
-  uint32_t triangle(uint32_t k) const;  // scene triangle index of the leaf's k-th ref
-  uint64_t triangle_address(uint32_t k) const;
-  uint32_t triangle_bytes() const;
-  // Triangle leaf_cursor() has arrived: one IST op (the first of a leaf also
-  // counts the prim-ref fetch). After the last triangle, or an any-hit hit,
-  // moves to the next action.
-  void process_triangle();
+  uint32_t leaf_cursor() const { return leaf_cursor_; }  // next triangle of the leaf to test
 
   const Ray& ray() const { return ray_; }
   TraversalMode mode() const { return mode_; }
@@ -152,12 +162,17 @@ class RayTraversal {
   };
   void push(uint32_t node, float tnear);
   void enter(uint32_t node);  // sets action for a node to visit next
+  void enter_leaf(uint32_t node);
   void pop_next();            // next non-culled stack entry, or Done
+  void process_node();
+  void process_triangles();
   void process_wide_node();
   void process_single_box_node();
+  uint64_t spill_address(uint32_t position) const;
 
   const TraversalContext* context_;
   const BvhNode* nodes_;
+  uint64_t stack_area_;
   Ray ray_;
   RayBoxPrecompute box_ray_;
   RayTrianglePrecompute tri_ray_;
@@ -167,12 +182,15 @@ class RayTraversal {
   float tfar_ = 0.0f;  // current far limit: tmax, then the closest hit
   RayCounters counters_;
   uint32_t current_node_ = 0;
-  uint32_t leaf_first_ = 0, leaf_count_ = 0, leaf_cursor_ = 0;
+  uint32_t leaf_slot_ = 0, leaf_count_ = 0, leaf_cursor_ = 0;
+  uint32_t last_tests_ = 0;
   std::vector<StackEntry> stack_;
+  std::vector<MemoryAccess> stack_accesses_;
+  mutable std::vector<MemoryAccess> reads_;  // built on demand by step_reads()
 };
 
-// The functional driver: runs the ray to completion, sending every fetch (node,
-// prim refs, triangle) to `sink` when given. Returns the hit.
-const HitRecord& trace_ray(RayTraversal& traversal, const Ray& ray, FetchSink* sink = nullptr);
+// The functional driver: runs the ray to completion, sending every access (step
+// reads, then the stack traffic of the step) to `sink` when given. Returns the hit.
+const HitRecord& trace_ray(RayTraversal& traversal, const Ray& ray, AccessSink* sink = nullptr);
 
 }  // namespace rtsim

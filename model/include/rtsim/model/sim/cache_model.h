@@ -1,7 +1,15 @@
 #pragma once
-// One cache level of the timing model: the functional core's CacheTags (the one
-// tag implementation) plus what timing needs around it - MSHR bookkeeping, hit /
-// miss / merge counters, and every byte attributed to (ray type, data kind).
+// One cache level of the memory hierarchy, at every fidelity level: the core's
+// CacheTags (the one tag implementation) plus MSHR bookkeeping, port timing, and
+// one accounting everywhere:
+//   accesses = hits + misses + mshr_merges   (a request refused for want of an
+//                                             MSHR retries and is counted once)
+//   hit_rate = hits / accesses;  mshr_merge_rate = mshr_merges / accesses
+// A merge is a read of a line whose fill is still on its way. The functional
+// level has no time, so it has no merges; lt and cycle do.
+// Policy: write-back, write-allocate without a fill (a write miss installs the
+// line dirty, as a cache with byte masks does); a dirty line that leaves is
+// written to the next level.
 #include <rtsim/model/core/cache_tags.h>
 #include <rtsim/model/core/fetch.h>
 #include <rtsim/model/sim/config.h>
@@ -15,22 +23,12 @@
 
 namespace rtsim::sim {
 
-// Data kinds the byte attribution uses: BVH nodes, triangles, and everything else
-// (leaf prim-ref lists, spilled traversal stack entries).
-enum class DataKind : uint8_t { Node = 0, Triangle = 1, Other = 2 };
-constexpr int kDataKindCount = 3;
-const char* data_kind_name(DataKind kind);
-inline DataKind data_kind_of(FetchKind kind) {
-  return kind == FetchKind::Node ? DataKind::Node
-                                 : kind == FetchKind::Triangle ? DataKind::Triangle
-                                                               : DataKind::Other;
-}
-
-// Bytes by (ray type, data kind).
+// Bytes by (ray type, access kind).
 struct TrafficMatrix {
-  std::array<std::array<uint64_t, kDataKindCount>, kRayTypeCount> bytes{};
-  void add(RayType type, DataKind kind, uint64_t n) { bytes[size_t(type)][size_t(kind)] += n; }
+  std::array<std::array<uint64_t, kAccessKindCount>, kRayTypeCount> bytes{};
+  void add(RayType type, AccessKind kind, uint64_t n) { bytes[size_t(type)][size_t(kind)] += n; }
   uint64_t total() const;
+  void add(const TrafficMatrix& o);
   // <prefix>.<ray type>.<kind> for every non-zero cell, plus <prefix>.total.
   void report(StatsRegistry& stats, const std::string& prefix, const std::string& what) const;
 };
@@ -39,42 +37,74 @@ struct TrafficMatrix {
 struct LineAccess {
   uint64_t line = 0;     // line-aligned address at this level
   uint32_t bytes = 0;    // bytes of the line the requester wants
-  DataKind kind = DataKind::Node;
+  AccessKind kind = AccessKind::Node;
   RayType ray_type = RayType::Primary;
+  bool write = false;
 };
 
 class CacheModel {
  public:
-  CacheModel(const CacheConfig& config, const std::string& name);
+  CacheModel(const CacheConfig& config, const std::string& name, uint64_t cycle_ps = 1000);
 
   const CacheConfig& config() const { return config_; }
   uint64_t line_of(uint64_t address) const { return tags_.line_address(address); }
 
-  // Functional / loosely timed: look up, fill on a miss at once. Returns hit.
-  bool access(const LineAccess& a);
-
-  // Cycle level: lookup only; a miss either merges into an MSHR (returns Merged),
-  // allocates one (Miss) or finds them all busy (Blocked: retry later).
   enum class Outcome { Hit, Miss, Merged, Blocked };
-  Outcome request(const LineAccess& a);
+  struct Result {
+    Outcome outcome = Outcome::Hit;
+    bool fetch = false;      // a read miss: the caller must read the line from the next level
+    Eviction writeback;      // a dirty line that left: the caller writes it to the next level
+    uint64_t ready_ps = 0;   // Merged (lt): when the line's data arrives
+  };
+
+  // Functional / lt: a miss installs the line at once (the caller fetches it);
+  // lt then says when the data arrives (set_arrival), and reads before that merge.
+  Result access(const LineAccess& a, uint64_t now_ps = 0);
+  void set_arrival(uint64_t line, uint64_t ready_ps);
+
+  // Cycle: a read miss merges into the line's MSHR, allocates one (Miss), or
+  // finds them all busy (Blocked: retry later, not counted yet).
+  Result request(const LineAccess& a);
   // The missing line arrived: installs it and frees its MSHR.
-  void fill(uint64_t line);
+  Eviction fill(uint64_t line);
   uint32_t mshrs_in_use() const { return uint32_t(mshr_.size()); }
+
+  // Ports: config.ports accesses per cycle. Returns when an access arriving at
+  // t_ps is served, and takes its slot.
+  uint64_t reserve_port(uint64_t t_ps);
+  uint64_t hit_latency_ps() const { return hit_ps_; }
+  uint64_t fill_latency_ps() const { return fill_ps_; }
+  uint64_t cycle_ps() const { return cycle_ps_; }
 
   struct Counters {
     uint64_t accesses = 0, hits = 0, misses = 0, mshr_merges = 0, mshr_full_stalls = 0;
+    uint64_t writes = 0, writebacks = 0, port_wait_ps = 0;
+    void add(const Counters& o);
   };
   const Counters& counters() const { return counters_; }
   const TrafficMatrix& requested() const { return requested_; }  // bytes asked of this level
   const TrafficMatrix& filled() const { return filled_; }        // bytes read from the next level
+  // Frames: counts start again; tags, MSHRs and port state stay.
+  void reset_counters();
   void report(StatsRegistry& stats, const std::string& prefix) const;
 
  private:
+  void count(const LineAccess& a, Outcome outcome);
+  Eviction install(uint64_t line, bool dirty);
+
   CacheConfig config_;
   CacheTags tags_;
+  uint64_t hit_ps_, fill_ps_, port_interval_ps_, cycle_ps_, port_free_ps_ = 0;
+  uint64_t latest_now_ps_ = 0;
+  size_t prune_at_ = 4096;
   Counters counters_;
   TrafficMatrix requested_, filled_;
-  std::unordered_map<uint64_t, uint32_t> mshr_;  // line -> requests waiting
+  struct Mshr {
+    uint32_t waiting = 0;
+    bool dirty_on_fill = false;  // a write met the line while its fill was on the way
+  };
+  std::unordered_map<uint64_t, Mshr> mshr_;        // cycle: missing lines
+  std::unordered_map<uint64_t, uint64_t> arrival_;  // lt: line -> when its fill lands
 };
 
 // Sums several same-role caches (e.g. every TRV unit's L1) for the summary stats.

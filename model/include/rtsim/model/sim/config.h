@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace rtsim::sim {
@@ -24,27 +25,50 @@ struct CacheConfig {
   uint32_t associativity = 4;
   uint32_t hit_latency_cycles = 2;  // accelerator cycles from request to data on a hit
   uint32_t mshrs = 8;               // outstanding distinct missing lines
+  uint32_t ports = 1;               // accesses accepted per cycle (ports or banks)
+  uint32_t fill_latency_cycles = 1; // next level's data arrival to data at the requester
   uint32_t sets() const { return size_bytes / (line_bytes * associativity); }
 };
 
 // DRAM timing is in DRAM clock cycles (tCK), as the datasheets and public DRAM
-// simulators state it; the model converts to picoseconds with tck_ps.
+// simulators state it; the model converts to picoseconds with tck_ps. The values
+// below are the lpddr4-3200 part (apply_dram_part lists every part's sources).
 struct DramConfig {
   std::string part = "lpddr4-3200";  // preset the timings below start from
   uint32_t channels = 2;
   uint32_t ranks = 1;
-  uint32_t banks = 8;
-  uint32_t row_bytes = 2048;       // bytes of one row in one channel (page size)
+  uint32_t bank_groups = 1;        // per rank; 1 for parts without bank groups (LPDDR4)
+  uint32_t banks = 8;              // per rank, over all bank groups
+  uint32_t row_bytes = 4096;       // bytes of one row in one channel (page size)
   uint32_t tck_ps = 625;           // DRAM clock period
   uint32_t tcl = 28;               // column read to first data (RL)
-  uint32_t trcd = 29;              // activate to column command
+  uint32_t tcwl = 14;              // column write to first data (WL)
+  uint32_t trcd = 29;              // activate to column read
+  uint32_t trcd_write = 29;        // activate to column write (GDDR6 tRCDWR; else tRCD)
   uint32_t trp = 29;               // precharge to activate
   uint32_t tras = 68;              // activate to precharge (minimum row open time)
+  uint32_t trrd_s = 16;            // activate to activate, other bank group
+  uint32_t trrd_l = 16;            // activate to activate, same bank group
+  uint32_t tfaw = 64;              // window holding at most four activates per rank
+  uint32_t tccd_s = 8;             // column to column, other bank group (per burst)
+  uint32_t tccd_l = 8;             // column to column, same bank group (per burst)
+  uint32_t twtr_s = 16;            // end of write data to read, other bank group
+  uint32_t twtr_l = 16;            // end of write data to read, same bank group
+  uint32_t twr = 29;               // end of write data to precharge (write recovery)
+  uint32_t trtp = 12;              // read to precharge
+  uint32_t trtrs = 1;              // idle data-bus cycles when its direction or rank changes
+  uint32_t trefi = 6246;           // all-bank refresh interval per rank (0: no refresh)
+  uint32_t trfc = 448;             // all-bank refresh: rank blocked this long
   uint32_t burst_cycles = 8;       // tCK the data bus is busy for one burst
   uint32_t burst_bytes = 64;       // bytes one burst carries
-  uint32_t queue_entries = 32;     // request queue per channel (bounded, FR-FCFS)
+  std::string page_policy = "timeout";  // open | closed | timeout
+  uint32_t page_timeout = 64;      // tCK a row may stay idle under the timeout policy
+  uint32_t queue_entries = 32;     // request queue per channel, reads and writes (FR-FCFS)
+  double write_drain_high = 0.5;   // writes queued (fraction of the queue) that start a drain
+  double write_drain_low = 0.25;   // a drain stops at this many writes if reads wait
   // Address bits above the access offset, most significant first.
-  std::string address_mapping = "row:rank:bank:column:channel";
+  std::string address_mapping = "row:rank:bank:column:bankgroup:channel";
+  uint32_t banks_per_group() const { return banks / bank_groups; }
 };
 
 struct HardwareConfig {
@@ -53,6 +77,9 @@ struct HardwareConfig {
 
   // Ray generation
   double raygen_rays_per_cycle = 1.0;
+  std::string raygen_order = "tiles";      // primary issue order: scanline | tiles | morton
+  std::string raygen_tile = "8x8";         // tile size for raygen_order = tiles
+  std::string raygen_secondary = "behind";  // secondary rays: behind their parent | after all primaries
 
   // TRV
   uint32_t trv_units = 4;
@@ -66,6 +93,7 @@ struct HardwareConfig {
   uint32_t ist_units = 2;
   uint32_t ist_queue_entries = 16;    // leaf jobs waiting per unit (back-pressure to TRV)
   uint32_t ist_test_latency = 8;      // cycles per triangle test
+  uint32_t ist_triangles_in_flight = 4;  // triangles of a leaf fetched together, then tested in order
   double ist_tests_per_cycle = 1.0;   // throughput per unit
 
   // Shading
@@ -74,14 +102,18 @@ struct HardwareConfig {
 
   CacheConfig l1_node{16 * 1024, 64, 4, 2, 8};
   CacheConfig l1_triangle{16 * 1024, 64, 4, 2, 8};
-  CacheConfig l2{512 * 1024, 64, 8, 20, 32};
+  CacheConfig l2{512 * 1024, 64, 8, 20, 32, 2, 1};  // two banks
   DramConfig dram;
 
-  // Memory image layout
+  // Memory image layout (builder/memory_image.h)
   std::string node_layout = "bvh2-64";  // bvh2-64 | single-32
+  std::string node_order = "depth-first";  // depth-first | breadth-first
+  std::string triangle_storage = "indexed";  // indexed (via prim refs) | inline (in the leaf)
+  std::string triangle_packing = "packed";   // packed | line (no record straddles an L1 line)
   uint32_t triangle_bytes = 36;
 
-  // Loosely timed: the quantum keeper's global quantum
+  // Loosely timed: the quantum keeper's global quantum. It sets only how often the
+  // lt thread yields to the SystemC kernel, never a result.
   uint32_t lt_quantum_cycles = 1000;
 
   double clock_period_ps() const { return 1e6 / clock_mhz; }
@@ -103,7 +135,7 @@ void for_each_parameter(HardwareConfig& config, const std::function<void(Paramet
 
 std::vector<std::string> preset_names();  // "mobile", "desktop"
 HardwareConfig preset(const std::string& name);  // throws InputError
-std::vector<std::string> dram_part_names();  // "lpddr4-3200", "ddr4-2400", "gddr6"
+std::vector<std::string> dram_part_names();  // "lpddr4-3200", "ddr4-2400", "gddr6", "lpddr5"
 void apply_dram_part(DramConfig& dram, const std::string& part);  // throws InputError
 
 // A preset name or a TOML file: `preset = "..."` (default "mobile") picks the base,
@@ -111,8 +143,11 @@ void apply_dram_part(DramConfig& dram, const std::string& part);  // throws Inpu
 // wrong types and out-of-range values throw InputError naming file and key.
 HardwareConfig load_hardware_config(const std::string& preset_or_path);
 HardwareConfig parse_hardware_config(const std::string& toml_text, const std::string& source_name);
-// Cross-parameter checks (powers of two, line sizes, set counts); throws InputError.
+// Cross-parameter checks (powers of two, line sizes, set counts, DRAM bank groups,
+// refresh and write-drain limits); throws InputError naming the key.
 void validate(const HardwareConfig& config);
+// raygen.tile "WxH" -> (W, H); throws InputError naming raygen.tile.
+std::pair<uint32_t, uint32_t> parse_tile(const std::string& text);
 // The resolved configuration as a JSON object text, keys sorted.
 std::string to_json(const HardwareConfig& config);
 // A documented TOML listing of every parameter with its value (model/presets/*.toml).

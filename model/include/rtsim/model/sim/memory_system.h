@@ -2,10 +2,14 @@
 // The memory hierarchy of the functional and loosely-timed levels: one L1 node
 // cache per TRV unit, one L1 triangle cache per IST unit, a shared L2 and DRAM.
 //  - FunctionalMemory: direct calls, tags and counts only, no time.
-//  - LtCache / LtDram: SystemC modules behind TLM-2.0 sockets (blocking transport),
-//    fixed latency per cache level, DRAM as latency plus a bandwidth cap. Any other
-//    TLM-2.0 LT target can stand in for LtDram (or for the whole hierarchy).
-// Both walk the same CacheModel objects in the same order, so their counts agree.
+//  - LtCache / LtDram: SystemC modules behind TLM-2.0 sockets (blocking transport).
+//    A cache serves a request at its next free port slot, a hit after its hit
+//    latency, a read miss when the next level's data is there plus its fill
+//    latency; reads of a line still on its way merge and wait for it. Dirty lines
+//    that leave are written to the next level (posted). LtDram answers each
+//    request in arrival order from its bank, bus and refresh state (DramModel).
+//    Any other TLM-2.0 LT target can stand in for LtDram (or for the whole hierarchy).
+// Both walk the same CacheModel objects, so their counts follow one definition.
 #include <rtsim/model/sim/cache_model.h>
 #include <rtsim/model/sim/dram.h>
 #include <rtsim/model/sim/ray_engine.h>
@@ -23,9 +27,10 @@ namespace rtsim::sim {
 
 // Carried by every TLM-2.0 payload of the model: what the bytes are and for whom.
 struct AccessExtension : tlm::tlm_extension<AccessExtension> {
-  DataKind kind = DataKind::Node;
+  AccessKind kind = AccessKind::Node;
   RayType ray_type = RayType::Primary;
   uint64_t token = 0;  // the requester's id for the response (cycle level)
+  uint64_t first_try_ps = 0;  // when the requester first tried to send it (DRAM latency)
   tlm::tlm_extension_base* clone() const override { return new AccessExtension(*this); }
   void copy_from(const tlm::tlm_extension_base& other) override {
     *this = static_cast<const AccessExtension&>(other);
@@ -52,12 +57,30 @@ class PayloadPool {
 class FunctionalMemory : public MemoryPort {
  public:
   explicit FunctionalMemory(const HardwareConfig& config);
-  uint64_t read(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps) override;
-  uint32_t l1_line_bytes(Requester who) const override;
+  uint64_t access(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps) override;
+  uint32_t line_bytes(Requester who) const override;
+  void reset_counters();
 
   std::vector<std::unique_ptr<CacheModel>> l1_node, l1_triangle;
   CacheModel l2;
   DramModel dram;
+
+ private:
+  void to_l2(const LineAccess& access);
+};
+
+// The functional hierarchy fed by the core's accesses as one TRV and one IST
+// unit would send them (one request per line and step): what `rtsim trace`
+// measures, with one ray in flight.
+class FunctionalMemorySink : public AccessSink {
+ public:
+  explicit FunctionalMemorySink(FunctionalMemory& memory) : memory_(&memory) {}
+  void on_access(const MemoryAccess& access, RayType ray_type) override;
+  void on_step_end() override;
+
+ private:
+  FunctionalMemory* memory_;
+  std::vector<LineAccess> lines_;  // this step's, in order
 };
 
 class LtCache : public sc_core::sc_module {
@@ -69,30 +92,30 @@ class LtCache : public sc_core::sc_module {
 
  private:
   void b_transport(int id, tlm::tlm_generic_payload& payload, sc_core::sc_time& delay);
-  sc_core::sc_time latency_;
+  tlm::tlm_generic_payload writeback_;  // owns its AccessExtension
+  AccessExtension* writeback_extension_;
 };
 
 class LtDram : public sc_core::sc_module {
  public:
   tlm_utils::multi_passthrough_target_socket<LtDram> target;
-  LtDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes,
-         uint64_t window_ps);
+  LtDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes);
   DramModel model;
 
  private:
-  uint64_t window_ps_;
   void b_transport(int id, tlm::tlm_generic_payload& payload, sc_core::sc_time& delay);
 };
 
-// The loosely-timed top level: the ray engine in one SC_THREAD, its fetches sent
+// The loosely-timed top level: the ray engine in one SC_THREAD, its accesses sent
 // by blocking transport through per-unit initiator sockets, the quantum keeper
 // deciding when the thread yields to the kernel.
 class LtSystem : public sc_core::sc_module, public MemoryPort {
  public:
   LtSystem(sc_core::sc_module_name name, const HardwareConfig& config, const Workload& workload,
            std::function<void(uint64_t)> progress);
-  uint64_t read(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps) override;
-  uint32_t l1_line_bytes(Requester who) const override;
+  uint64_t access(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps) override;
+  uint32_t line_bytes(Requester who) const override;
+  void reset_counters();
 
   RayEngine engine;
   std::vector<std::unique_ptr<LtCache>> l1_node, l1_triangle;

@@ -1,49 +1,68 @@
 #pragma once
-// The ray engine of the functional and loosely-timed levels: it drives the
-// functional core's per-ray state machine (RayTraversal) for every ray slot of
-// every TRV unit in a fixed round-robin order, one step (one node or one
-// triangle) per slot per round, and sends every fetch through a MemoryPort.
+// The ray engine of the functional and loosely-timed levels. It drives the
+// functional core's per-ray state machine (RayTraversal) in every ray slot of
+// every TRV unit and sends the accesses the core names through a MemoryPort.
 //
-// The step order depends on the configuration only, never on latencies, so the
-// functional level (no time) and the loosely-timed level (time from the port's
-// latencies and the units' pipeline formulas below) issue the very same access
-// sequence: their cache and DRAM counts are identical; only time differs.
-//
-// Loosely-timed unit timing (per TRV unit u, IST unit i = u mod ist.units):
-//   node step:     data = port latency; start = max(data, pipe_free[u] - window);
-//                  pipe_free[u] = max(pipe_free[u], start) + 1/nodes_per_cycle;
-//                  ray ready = start + box latency. The window (one lt quantum)
-//                  lets steps visited out of time order fill earlier pipeline slots
-//                  while the unit's throughput stays capped: within a quantum the
-//                  loosely-timed model does not resolve the order of events.
-//   triangle step: the same with the IST unit's pipeline and test latency
-//   finished ray:  shading start = max(ready, shading free); spawned rays are ready
-//                  shading latency later; ray generation issues at raygen rate.
+//  - functional: rounds. Every active slot takes one step per round, slots in a
+//    fixed order; an access costs nothing. The access sequence, and so every
+//    cache and DRAM count, depends on the configuration only, never on latencies:
+//    the traffic of an idealised machine in which every access takes equally long.
+//  - lt: time order. Each step is an event at the time its slot is ready; reads
+//    go out at that time through the port (blocking transport, latency annotated
+//    by the caches and DRAM) and the step's work is reserved in its unit's
+//    pipeline when the data is there. Events run strictly in time order, so every
+//    reservation (pipelines, cache ports, DRAM banks and buses) is made in time
+//    order and nothing depends on the lt quantum, which only sets how often the
+//    engine's thread yields to the SystemC kernel.
+// Both levels: a TRV step = one node through the unit's box-test pipeline
+// (trv.nodes_per_cycle, trv.box_test_latency); an IST step = its triangles through
+// the IST pipeline (ist.tests_per_cycle, ist.test_latency), IST unit = TRV unit
+// mod ist.units; stack spills are posted writes, refills reads the ray waits for;
+// a finished ray goes to shading (shading.rays_per_cycle, shading.latency), whose
+// spawned rays are ready after it; ray generation issues at raygen.rays_per_cycle
+// in the RayDispatcher's order.
+#include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/core/ray_generation.h>
 #include <rtsim/model/core/traversal.h>
 #include <rtsim/model/sim/cache_model.h>
 #include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/ray_dispatch.h>
 #include <rtsim/model/sim/stats.h>
-#include <rtsim/model/core/functional_tracer.h>
 
 #include <algorithm>
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <queue>
 #include <vector>
 
 namespace rtsim::sim {
 
+// Which unit's L1 an access goes through: nodes and stack entries the TRV
+// unit's node cache, prim refs and triangles the IST unit's triangle cache.
 enum class Requester : uint8_t { Trv = 0, Ist = 1 };
+inline Requester requester_of(AccessKind kind) {
+  return kind == AccessKind::Node || kind == AccessKind::Stack ? Requester::Trv : Requester::Ist;
+}
 
-// Where a unit's fetch goes. Returns the time the data is there (functional: now).
+// Where a unit's line accesses go. Returns when a read's data is there, or when
+// a write was taken (writes are posted). Functional: issue_ps.
 class MemoryPort {
  public:
   virtual ~MemoryPort() = default;
-  virtual uint64_t read(Requester who, uint32_t unit, const LineAccess& access,
-                        uint64_t issue_ps) = 0;
-  virtual uint32_t l1_line_bytes(Requester who) const = 0;
+  virtual uint64_t access(Requester who, uint32_t unit, const LineAccess& access,
+                          uint64_t issue_ps) = 0;
+  virtual uint32_t line_bytes(Requester who) const = 0;
 };
+
+// Appends the L1 line accesses of `access` to `out`, merging it into a line the
+// list already holds (one request per line and step, as a unit coalesces them).
+void append_line_accesses(const MemoryAccess& access, RayType type, uint32_t line_bytes,
+                          std::vector<LineAccess>& out);
+
+// Sees every access the core names, with the ray that issues it, in the order
+// the ray issues them (tests compare the address streams of the levels).
+using AccessObserver = std::function<void(const Ray& ray, const MemoryAccess& access)>;
 
 // The rays of one run: the initial set (primary rays or a ray file) and, when
 // the scene's effects call for them, the secondary rays shading spawns.
@@ -51,15 +70,18 @@ struct Workload {
   const Scene* scene = nullptr;
   const TraversalContext* context = nullptr;
   std::vector<Ray> initial_rays;
+  uint32_t width = 0, height = 0;  // image the rays' pixel ids refer to
   bool spawn_secondary = false;  // false: replay the initial rays only (no shading)
   EffectPlan plan;
   EffectSettings settings;
+  uint32_t frames = 1;           // the same rays this many times; stats of the last
+  AccessObserver observer;       // optional
 };
 
-// Per-unit timing record (lt) used for busy / idle / stalled figures.
+// Per-unit timing record (lt) used for busy / idle figures.
 struct UnitTime {
   uint64_t busy_ps = 0;                               // pipeline occupied
-  std::vector<std::pair<uint64_t, uint64_t>> spans;   // [start, end) rays were resident
+  std::vector<std::pair<uint64_t, uint64_t>> spans;   // [start, end) work was resident
   uint64_t occupied_ps() const;                       // union of spans
   // Records [a, b); neighbouring overlapping spans merge at once to stay small.
   void add_span(uint64_t a, uint64_t b) {
@@ -76,13 +98,16 @@ class RayEngine {
  public:
   RayEngine(const HardwareConfig& config, const Workload& workload, bool timed);
 
-  // Runs every ray to completion. `sync(t)` is called after each round with the
-  // earliest time any slot has reached (the lt level's quantum keeper hooks in).
+  // Runs every frame to completion. `sync(t)` is called before each lt event at
+  // time t (the quantum keeper hooks in); `frame_start()` before each frame after
+  // the first (the memory system clears its counters).
   void run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
+           const std::function<void()>& frame_start,
            const std::function<void(uint64_t rays_done)>& progress);
 
+  uint64_t start_ps() const { return frame_start_ps_; }  // the last frame's start
   uint64_t end_ps() const { return end_ps_; }
-  const std::vector<Ray>& rays() const { return rays_; }
+  const std::vector<Ray>& rays() const { return dispatcher_.rays(); }
   const std::array<CounterTotals, kRayTypeCount>& per_type() const { return per_type_; }
   CounterTotals total() const;
   const std::vector<UnitTime>& trv_time() const { return trv_time_; }
@@ -90,41 +115,64 @@ class RayEngine {
   const UnitTime& shading_time() const { return shading_time_; }
   const std::vector<uint64_t>& trv_nodes() const { return trv_nodes_; }  // per TRV unit
   const std::vector<uint64_t>& ist_tests() const { return ist_tests_; }  // per IST unit
-  uint64_t stack_spill_bytes() const { return stack_spill_bytes_; }
+  uint64_t shaded() const { return shaded_; }
 
  private:
   struct Slot {
     RayTraversal traversal;
-    uint32_t ray = 0;
+    uint32_t ray = 0, unit = 0;
     bool active = false;
-    uint64_t time_ps = 0, start_ps = 0;
-    uint32_t seen_overflows = 0, seen_refills = 0;
-    explicit Slot(const TraversalContext& c) : traversal(c) {}
+    uint64_t start_ps = 0;
+    Slot(const TraversalContext& c, uint32_t id, uint32_t u) : traversal(c, id), unit(u) {}
   };
-  uint64_t fetch(MemoryPort& port, Requester who, uint32_t unit, uint64_t address, uint32_t bytes,
-                 DataKind kind, RayType type, uint64_t issue_ps);
-  uint64_t stack_traffic(MemoryPort& port, Slot& slot, uint32_t slot_index, uint32_t unit);
-  void finish(Slot& slot, uint32_t unit);
+  enum class EventKind : uint8_t { Issue, Dependent, Arrive, Complete, Dispatch };
+  struct Event {
+    uint64_t time_ps, sequence;
+    uint32_t slot;
+    EventKind kind;
+    bool operator<(const Event& o) const {  // priority_queue is a max-heap
+      return time_ps != o.time_ps ? time_ps > o.time_ps : sequence > o.sequence;
+    }
+  };
+
+  void run_rounds(MemoryPort& port, const std::function<void(uint64_t)>& progress);
+  void run_timed(MemoryPort& port, const std::function<void(uint64_t)>& sync,
+                 const std::function<void(uint64_t)>& progress);
+  void reset_counters();
+  // Sends accesses [begin, end) of the list through the port at t; returns when
+  // the reads are back.
+  uint64_t issue(MemoryPort& port, Slot& slot, const std::vector<MemoryAccess>& list,
+                 size_t begin, size_t end, uint64_t t);
+  bool start_next_ray(Slot& slot, uint64_t now_ps, uint64_t* start_ps);
+  void finish(Slot& slot, uint64_t t);
+  void schedule(uint64_t t, uint32_t slot, EventKind kind);
 
   HardwareConfig config_;
   const Workload* workload_;
   bool timed_;
   uint64_t cycle_ps_;
-  std::vector<Ray> rays_;
-  std::vector<uint64_t> ready_ps_;  // when each ray may start (spawned rays: after shading)
-  std::vector<Slot> slots_;
+  RayDispatcher dispatcher_;
+  std::vector<Slot> slots_;              // by global slot id (unit * slots + slot)
+  std::vector<uint32_t> visit_order_;   // free_slot_order
   std::vector<uint64_t> trv_free_, ist_free_;
-  uint64_t shading_free_ = 0, raygen_next_ = 0;
+  uint64_t shading_free_ = 0, raygen_free_ = 0;
   uint64_t trv_interval_ps_, ist_interval_ps_, shading_interval_ps_, raygen_interval_ps_;
-  uint64_t trv_window_ps_, ist_window_ps_;
+  uint64_t box_latency_ps_, test_latency_ps_, shading_latency_ps_;
   std::vector<UnitTime> trv_time_, ist_time_;
   std::vector<uint64_t> trv_nodes_, ist_tests_;
   UnitTime shading_time_;
+  uint64_t shaded_ = 0;
   std::array<CounterTotals, kRayTypeCount> per_type_{};
-  uint64_t end_ps_ = 0;
-  uint64_t stack_base_ = 0, stack_spill_bytes_ = 0;
+  uint64_t frame_start_ps_ = 0, end_ps_ = 0;
+  uint64_t done_rays_ = 0;
   std::vector<Ray> spawned_;
-  std::array<uint64_t, 2> line_bytes_{64, 64};  // L1 line per requester, asked once per run
+  std::vector<LineAccess> lines_;
+  std::array<uint32_t, 2> line_bytes_{64, 64};  // L1 line per requester, asked once per run
+  // lt events
+  std::priority_queue<Event> events_;
+  uint64_t sequence_ = 0;
+  std::deque<uint32_t> idle_slots_;
+  std::vector<uint64_t> arrive_ps_;  // per slot: when the step's reads are all back
 };
 
 }  // namespace rtsim::sim

@@ -1,13 +1,19 @@
 #pragma once
 // One entry point for the three fidelity levels:
-//   functional  no SystemC kernel: the ray engine + functional caches; exact counts,
-//               an analytic cycle estimate
-//   lt          TLM-2.0 blocking transport with the quantum keeper
+//   functional  no SystemC kernel: the ray engine in rounds + functional caches;
+//               exact counts, traffic of an equal-latency interleaving, an analytic
+//               cycle estimate
+//   lt          the ray engine in time order, TLM-2.0 blocking transport through
+//               timed caches and DRAM, the quantum keeper for temporal decoupling
 //   cycle       approximately timed, event-driven units and memory
+// All three take every memory access from the one traversal core, so each ray's
+// address stream is the same at every level; what differs is the interleaving of
+// rays (see docs/fidelity.md for what agrees and what does not).
 // SystemC allows one elaboration per process: lt and cycle can run once per
 // process (tests and benchmarks run them in child processes).
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/ray_engine.h>
 #include <rtsim/model/sim/stats.h>
 
 #include <cstdint>
@@ -25,13 +31,20 @@ struct SimulationRequest {
   std::vector<Ray> rays;              // non-empty: replay these, spawn nothing
   HardwareConfig config;
   Fidelity fidelity = Fidelity::Functional;
+  uint32_t frames = 1;                // the same rays this many times, caches warm; stats of the last
   std::function<void(uint64_t rays_done)> progress;
+  AccessObserver observer;            // optional: every access the core names, per ray
 };
+
+// The memory layout and traversal settings a hardware configuration implies
+// (memory.*, trv.stack_*, ist.triangles_in_flight): trace and simulate share them.
+MemoryLayoutConfig memory_layout_for(const HardwareConfig& config);
+TraversalConfig traversal_config_for(const HardwareConfig& config);
 
 struct SimulationResult {
   StatsRegistry stats;        // deterministic: no host figures in here
   uint64_t rays = 0;          // rays simulated (all types)
-  uint64_t simulated_ps = 0;
+  uint64_t simulated_ps = 0;   // the last frame
   uint64_t cycles = 0;
   double host_seconds = 0;    // wall time of the simulation proper (not loading/building)
   double cpu_seconds = 0;     // CPU time of the same (the fair figure on a loaded machine)

@@ -1,10 +1,15 @@
 #pragma once
 // Cycle level cache (an L1 or the L2): TLM-2.0 approximately-timed target and
-// initiator (BEGIN_REQ forward, BEGIN_RESP backward; a hit completes on the
-// forward path with its latency annotated). Misses hold an MSHR; requests to a
-// line already missing merge into it; with every MSHR busy a request waits
-// (back-pressure) until a fill frees one. Fills are processed at their time by
-// an SC_METHOD woken only when a fill is due.
+// initiator. A request is served at its next free port slot (cache.ports per
+// cycle); a hit completes on the forward path with the hit latency annotated.
+// Read misses hold an MSHR; reads of a line already missing merge into it; with
+// every MSHR busy a request waits (back-pressure) until a fill frees one. A fill
+// installs the line fill_latency after the next level's data arrives. Writes
+// (stack spills, write-backs from above) are write-allocate without a fill; a
+// dirty line that leaves goes down as a write. Everything this cache sends down
+// leaves in order through one outbound queue: when the next level refuses a
+// request (a full DRAM queue: BEGIN_REQ without END_REQ) the queue waits for
+// its END_REQ, and that waiting is counted (downstream_stall).
 #include <rtsim/model/sim/cache_model.h>
 #include <rtsim/model/sim/memory_system.h>
 #include <rtsim/model/sim/sc_time_util.h>
@@ -23,6 +28,9 @@ class CycleCache : public sc_core::sc_module {
   tlm_utils::simple_initiator_socket<CycleCache> next;
   CycleCache(sc_core::sc_module_name name, const CacheConfig& config, uint64_t cycle_ps);
   CacheModel model;
+  uint64_t downstream_stall_ps = 0;  // the outbound queue's head waited for the next level
+  uint64_t downstream_refusals = 0;  // requests the next level did not take at once
+  void reset_counters();
 
  private:
   SC_HAS_PROCESS(CycleCache);
@@ -30,24 +38,37 @@ class CycleCache : public sc_core::sc_module {
                                      sc_core::sc_time& delay);
   tlm::tlm_sync_enum nb_transport_bw(tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                      sc_core::sc_time& delay);
-  // Returns false when the request must wait for an MSHR.
-  bool handle(int id, tlm::tlm_generic_payload* p, uint64_t delay_ps);
-  void on_fill();
+  // Serves a request at t_ps; false when it must wait for an MSHR.
+  bool serve(int id, tlm::tlm_generic_payload* p, uint64_t t_ps, bool* completed,
+             uint64_t* done_ps);
+  void send_down(uint64_t line, bool write, AccessKind kind, RayType type, uint64_t at_ps);
+  void try_send();
+  void on_event();
+  void on_fill(uint64_t line);
 
   struct Waiter {
     int id;
     tlm::tlm_generic_payload* p;
   };
-  uint64_t hit_ps_;
+  struct Item {
+    enum Kind : uint8_t { Fill, Send } kind;
+    uint64_t line;
+  };
   std::unordered_map<uint64_t, std::vector<Waiter>> waiting_;  // missing line -> requests
   std::deque<Waiter> blocked_;                                  // waiting for an MSHR
-  TimedQueue<uint64_t> fills_;                                  // line arrivals
+  std::deque<tlm::tlm_generic_payload*> outbound_;              // to the next level, in order
+  bool awaiting_end_req_ = false;
+  uint64_t refused_since_ps_ = 0;
+  TimedQueue<Item> queue_;
   PayloadPool payloads_;
 };
 
-// Cycle level DRAM: the FR-FCFS DramModel behind a TLM-2.0 AT target. Arrivals
-// enter the channel queue at their time; a full queue holds them back
-// (back-pressure) and counts it; each read's response goes back at its done time.
+// Cycle level DRAM: the DramModel (FR-FCFS, refresh, writes) behind a TLM-2.0
+// AT target. A request enters its channel's bounded queue when it arrives
+// (END_REQ at once); when the queue is full the request is held without END_REQ,
+// which stops the sender, and enters as soon as an issue frees an entry. Each
+// request's response (reads and writes) goes back at its done time; its latency
+// counts from the sender's first try.
 class CycleDram : public sc_core::sc_module {
  public:
   tlm_utils::multi_passthrough_target_socket<CycleDram> target;
@@ -59,8 +80,9 @@ class CycleDram : public sc_core::sc_module {
   tlm::tlm_sync_enum nb_transport_fw(int id, tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                      sc_core::sc_time& delay);
   void on_event();
+  void admit(uint32_t request, uint64_t now_ps);
   struct Item {
-    enum Kind : uint8_t { Arrive, Decide, Respond } kind;
+    enum Kind : uint8_t { Decide, Respond } kind;
     uint32_t request;
   };
   struct InFlight {
@@ -71,7 +93,7 @@ class CycleDram : public sc_core::sc_module {
   TimedQueue<Item> queue_;
   std::vector<InFlight> in_flight_;
   std::vector<uint32_t> free_slots_;
-  std::deque<uint32_t> held_;  // arrived, channel queue full
+  std::deque<uint32_t> held_;  // arrived, channel queue full: not yet END_REQ
   uint64_t decide_at_ = UINT64_MAX;
   std::vector<DramCompletion> issued_;
 };

@@ -1,10 +1,11 @@
 #pragma once
 // Cycle level IST unit: a bounded queue of leaf jobs, all in flight at once.
-// A job fetches the leaf's prim refs (first triangle) and one triangle at a time
-// through the unit's L1 triangle cache; each triangle enters the test pipeline
-// (throughput tests_per_cycle, latency test_latency) and process_triangle() runs
-// at its end. Closest-hit jobs test the whole leaf, any-hit jobs stop at a hit
-// (the core decides). The finished leaf goes back to its TRV slot.
+// A job takes the leaf a step at a time (ist.triangles_in_flight triangles):
+// the step's reads go out together through the unit's L1 triangle cache, the
+// triangles behind a prim-ref list once the list is back; then the step's tests
+// enter the test pipeline (throughput tests_per_cycle, latency test_latency).
+// Closest-hit jobs test the whole leaf, any-hit jobs stop at a hit (the core
+// decides). The finished leaf goes back to its TRV slot.
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/memory_system.h>
@@ -15,15 +16,17 @@
 namespace rtsim::sim {
 
 class CycleTrv;
+class CycleSystem;
 
 class CycleIst : public sc_core::sc_module {
  public:
   tlm_utils::simple_initiator_socket<CycleIst> memory;
-  CycleIst(sc_core::sc_module_name name, const HardwareConfig& config);
+  CycleIst(sc_core::sc_module_name name, const HardwareConfig& config, CycleSystem& system);
 
   void serve(CycleTrv* trv) { clients_.push_back(trv); }
   bool can_accept() const { return !free_jobs_.empty(); }
-  void accept(CycleTrv* from, uint32_t slot, RayTraversal* traversal, uint64_t t);
+  void accept(CycleTrv* from, uint32_t slot, RayTraversal* traversal, uint32_t ray, uint64_t t);
+  void reset_counters();
 
   Occupancy occupancy;
   uint64_t tests = 0;
@@ -32,9 +35,10 @@ class CycleIst : public sc_core::sc_module {
   SC_HAS_PROCESS(CycleIst);
   struct Job {
     CycleTrv* trv = nullptr;
-    uint32_t slot = 0;
+    uint32_t slot = 0, ray = 0;
     RayTraversal* traversal = nullptr;
     uint32_t pending = 0;
+    bool dependent_sent = false;  // the reads behind the prim-ref list went out
   };
   struct Item {
     enum Kind : uint8_t { Fetch, MemoryBack, TestDone } kind;
@@ -42,17 +46,20 @@ class CycleIst : public sc_core::sc_module {
   };
   void on_event();
   void handle(const Item& item);
-  void fetch(uint32_t job, uint64_t address, uint32_t bytes, DataKind kind);
+  void send(uint32_t job, const std::vector<MemoryAccess>& reads, size_t begin, size_t end);
+  void tests_start(uint32_t job);
   tlm::tlm_sync_enum nb_transport_bw(tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                      sc_core::sc_time& delay);
 
   const HardwareConfig& config_;
+  CycleSystem& system_;
   uint64_t interval_ps_, latency_ps_;
   std::vector<Job> jobs_;
   std::vector<uint32_t> free_jobs_;
   std::vector<CycleTrv*> clients_;
   TimedQueue<Item> queue_;
   uint64_t pipe_free_ps_ = 0;
+  std::vector<LineAccess> lines_;
   PayloadPool payloads_;
 };
 

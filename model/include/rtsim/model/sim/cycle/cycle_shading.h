@@ -9,14 +9,16 @@
 
 namespace rtsim::sim {
 
-class CycleRayGen;
+class CycleSystem;
 struct Workload;
 
 class CycleShading : public sc_core::sc_module {
  public:
   CycleShading(sc_core::sc_module_name name, const HardwareConfig& config, const Workload& workload,
-               CycleRayGen& raygen);
+               CycleSystem& system);
   void shade(uint32_t ray_index, const Ray& ray, const HitRecord& hit, uint64_t t);
+  bool idle() const { return occupancy.resident == 0; }
+  void reset_counters();
   uint64_t busy_ps = 0, shaded = 0, spawned = 0;
   Occupancy occupancy;
 
@@ -29,7 +31,7 @@ class CycleShading : public sc_core::sc_module {
   };
   void on_event();
   const Workload& workload_;
-  CycleRayGen& raygen_;
+  CycleSystem& system_;
   uint64_t interval_ps_, latency_ps_, free_ps_ = 0;
   TimedQueue<Item> queue_;
   std::vector<Ray> out_;

@@ -1,10 +1,11 @@
 #pragma once
 // Cycle level TRV unit: ray slots, each driving the functional core's
-// RayTraversal. A slot fetches its next node through the unit's L1 node cache
-// (TLM-2.0 socket); when the data is back it enters the box-test pipeline
-// (throughput nodes_per_cycle, latency box_test_latency) and process_node() runs
-// at the pipeline's end. Leaves go to the IST unit (a full IST queue stalls the
-// slot); short-stack spills and refills are memory traffic of kind 'other'.
+// RayTraversal. A slot sends the reads its step names through the unit's L1
+// node cache (TLM-2.0 socket); when they are back the node enters the box-test
+// pipeline (throughput nodes_per_cycle, latency box_test_latency) and process()
+// runs at the pipeline's end. Leaves go to the IST unit (a full IST queue stalls
+// the slot). The stack traffic of a step follows it: spills are posted writes,
+// refills reads the slot waits for.
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/memory_system.h>
@@ -22,12 +23,13 @@ class CycleTrv : public sc_core::sc_module {
  public:
   tlm_utils::simple_initiator_socket<CycleTrv> memory;
   CycleTrv(sc_core::sc_module_name name, const HardwareConfig& config,
-           const TraversalContext& context, uint32_t unit, uint64_t stack_base, CycleSystem& system);
+           const TraversalContext& context, uint32_t unit, CycleSystem& system);
 
   uint32_t slots() const { return uint32_t(slots_.size()); }
   void start_ray(uint32_t slot, uint32_t ray_index, const Ray& ray, uint64_t t);
   void leaf_done(uint32_t slot, uint64_t t);  // from IST
   void ist_has_space(uint64_t t);             // from IST: retry stalled leaves
+  void reset_counters();
 
   Occupancy occupancy;
   uint64_t nodes = 0;
@@ -40,30 +42,31 @@ class CycleTrv : public sc_core::sc_module {
     uint32_t ray = 0;
     uint32_t pending = 0;
     Phase phase = Phase::Idle;
-    uint32_t seen_overflows = 0, seen_refills = 0;
-    explicit Slot(const TraversalContext& c) : traversal(c) {}
+    Slot(const TraversalContext& c, uint32_t id) : traversal(c, id) {}
   };
   struct Item {
-    enum Kind : uint8_t { Continue, MemoryBack, NodeDone } kind;
+    enum Kind : uint8_t { Continue, MemoryBack, NodeDone, IstSpace } kind;
     uint32_t slot;
   };
   void on_event();
   void handle(const Item& item);
-  void proceed(uint32_t slot);  // after a step: stack traffic, then the next action
+  void after_step(uint32_t slot);  // stack traffic of the last step, then the next action
   void next_action(uint32_t slot);
-  void fetch(uint32_t slot, uint64_t address, uint32_t bytes, DataKind kind);
+  // Sends the accesses through the L1; returns how many reads the slot waits for.
+  uint32_t send(uint32_t slot, const std::vector<MemoryAccess>& accesses);
   tlm::tlm_sync_enum nb_transport_bw(tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                      sc_core::sc_time& delay);
 
   const HardwareConfig& config_;
   CycleSystem& system_;
   uint32_t unit_;
-  uint64_t cycle_ps_, interval_ps_, latency_ps_, stack_base_;
+  uint64_t cycle_ps_, interval_ps_, latency_ps_;
   std::vector<Slot> slots_;
   TimedQueue<Item> queue_;
   uint64_t pipe_free_ps_ = 0;
   std::deque<uint32_t> waiting_for_ist_;  // slots whose leaf found the IST queue full
   uint64_t stalled_since_ = 0;
+  std::vector<LineAccess> lines_;
   PayloadPool payloads_;
 };
 

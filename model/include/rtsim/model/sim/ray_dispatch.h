@@ -1,0 +1,67 @@
+#pragma once
+// Which ray the accelerator issues next: one policy for the functional, lt and
+// cycle levels (the ray-generation unit's issue order).
+//  - Primary rays in raygen.order: scanline, tiles of raygen.tile (rows within a
+//    tile, tiles row by row), or Morton order of the pixel; a pixel's samples
+//    stay together.
+//  - Secondary rays (spawned by shading, or replayed from a ray set with parent
+//    links) either right behind their parent, ahead of new primary rays
+//    ("behind"), or after every primary ray ("after").
+// Rays go to free TRV slots in the order the slots became free; at the start
+// every slot is free, slot 0 of every unit first, then slot 1, ... so that rays
+// spread over the units (free_slot_order).
+#include <rtsim/model/core/ray.h>
+#include <rtsim/model/sim/config.h>
+
+#include <cstdint>
+#include <deque>
+#include <vector>
+
+namespace rtsim::sim {
+
+struct IssuePolicy {
+  enum class Order { Scanline, Tiles, Morton } order = Order::Tiles;
+  uint32_t tile_width = 8, tile_height = 8;
+  bool secondary_behind = true;
+  static IssuePolicy from(const HardwareConfig& config);
+};
+
+// Pixel issue order of a width x height image (indices y * width + x).
+std::vector<uint32_t> pixel_issue_order(uint32_t width, uint32_t height, const IssuePolicy& policy);
+
+// Global slot ids (unit * slots_per_unit + slot) in the order rays fill them at the start.
+std::vector<uint32_t> free_slot_order(uint32_t units, uint32_t slots_per_unit);
+
+class RayDispatcher {
+ public:
+  // initial: the frame's rays. spawn = true: they are primary rays and shading
+  // adds secondary rays (add_spawned); false: a replayed ray set, ordered once
+  // with its parent links.
+  RayDispatcher(const IssuePolicy& policy, std::vector<Ray> initial, uint32_t width,
+                uint32_t height, bool spawn);
+
+  // The next ray that is ready at now_ps (index into rays()); false if none.
+  bool next(uint64_t now_ps, uint32_t* ray_index);
+  // Earliest time a queued ray is ready (UINT64_MAX: nothing queued).
+  uint64_t next_ready_ps() const;
+  bool empty() const { return cursor_ >= order_.size() && secondary_.empty(); }
+  // Rays shading spawned (ready at ready_ps), appended to rays().
+  void add_spawned(const std::vector<Ray>& rays, uint64_t ready_ps);
+  const std::vector<Ray>& rays() const { return rays_; }
+  // The next frame: the same initial rays again (shading spawns the same secondaries).
+  void restart();
+
+ private:
+  IssuePolicy policy_;
+  std::vector<Ray> rays_;
+  size_t initial_count_;
+  std::vector<uint32_t> order_;  // issue order of the initial rays
+  size_t cursor_ = 0;
+  struct Spawned {
+    uint32_t ray;
+    uint64_t ready_ps;
+  };
+  std::deque<Spawned> secondary_;
+};
+
+}  // namespace rtsim::sim
