@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Opt-in test of the Slurm path for real (not part of ctest: it starts daemons and
-# needs root). It brings up a one-node Slurm cluster on localhost (Debian's slurm-wlm
-# + munge: slurmctld and slurmd with a private slurm.conf in a temporary folder),
+# The Slurm path for real, run by CI (.ci/run installs slurm-wlm and munge) and by
+# hand; not part of ctest, since it starts daemons and needs root. It brings up a
+# one-node Slurm cluster on localhost (Debian's slurm-wlm + munge: slurmctld and slurmd with a private slurm.conf in a temporary folder),
 # submits a small campaign as a job array (`rtsim campaign emit --slurm`, sbatch
 # --wait), merges the per-job result files (`rtsim campaign collect`), runs the same
 # campaign locally and checks both databases hold the same runs, byte for byte in

@@ -71,7 +71,7 @@ TEST_P(FuzzRegressions, SavedInputsReplayCleanly) {
 }
 
 INSTANTIATE_TEST_SUITE_P(EveryTarget, FuzzRegressions,
-                         testing::Values("bvh_file", "campaign", "config_text", "hardware_config",
+                         testing::Values("bvh_file", "campaign", "config_text", "hardware_config", "mesh",
                                          "q3bsp", "ray_file", "scene_descriptor", "spm", "stk_track"));
 
 // Property: every folder of saved inputs belongs to a target (a misspelt folder

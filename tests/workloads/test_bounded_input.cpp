@@ -140,6 +140,26 @@ TEST(PlyCheck, BinaryBodiesAreWalkedWithTheirListLengths) {
             std::string::npos);
 }
 
+// Faces of fewer than three corners abort assimp's triangulation (ai_assert in
+// TriangulateProcess.cpp; found by fuzz_mesh); indices past the vertices make no
+// triangle. Both are refused, ASCII and binary.
+TEST(PlyCheck, FacesNeedThreeCornersAmongTheVertices) {
+  const std::string vertices = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n";
+  for (const char* faces : {"3 0 1 2\n2 0 1\n", "3 0 1 2\n0\n", "3 0 1 2\n3 0 1 4\n", "3 0 1 2\n3 0 -1 2\n"}) {
+    const std::string why = error_of([&] { check_ply_against_header(std::string(kQuadHeader) + vertices + faces, "f.ply"); });
+    EXPECT_NE(why.find("f.ply: PLY body: face 1 "), std::string::npos) << faces << ": " << why;
+  }
+  const std::string header =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  std::string two_corners = std::string(36, '\0') + '\2' + std::string(8, '\0');
+  EXPECT_NE(error_of([&] { check_ply_against_header(header + two_corners, "b.ply"); }).find("has 2 corners"),
+            std::string::npos);
+  std::string past = std::string(36, '\0') + '\3' + std::string(11, '\0') + '\7';  // corner 7 of 3 vertices
+  EXPECT_NE(error_of([&] { check_ply_against_header(header + past, "b.ply"); }).find("names vertex 7"),
+            std::string::npos);
+}
+
 TEST(PlyCheck, MalformedHeadersAreRefused) {
   for (const char* bad : {"plx\n", "ply\nformat ascii 1.0\n", "ply\nend_header\n",
                           "ply\nformat ascii 1.0\nproperty float x\nend_header\n",

@@ -150,6 +150,9 @@ Mesh load_mesh_assimp_in_process(const std::filesystem::path& path) {
   return mesh;
 }
 
+// Sanitizer runtimes provide it; without one the weak reference stays null.
+extern "C" void __sanitizer_set_death_callback(void (*callback)(void)) __attribute__((weak));
+
 namespace {
 
 // ---- assimp in a child process
@@ -286,6 +289,10 @@ Mesh load_mesh_assimp(const std::filesystem::path& path) {
     ::close(mesh_pipe[0]);
     ::close(error_pipe[0]);
     ::dup2(error_pipe[1], 2);
+    // A crash here is the answer, not an event for handlers the parent installed
+    // (a sanitizer's or a fuzzer's would report the child's death as their own).
+    for (int sig : {SIGABRT, SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGTRAP}) std::signal(sig, SIG_DFL);
+    if (__sanitizer_set_death_callback) __sanitizer_set_death_callback(nullptr);
     std::string answer;
     int code = 0;
     try {

@@ -25,6 +25,8 @@ struct PlyProperty {
   int count_bytes = 0;  // list: size of the length field
   bool count_signed = false;
   int value_bytes = 0;  // scalar, or each list item
+  bool value_signed = false;
+  bool value_integer = false;
 };
 
 struct PlyElement {
@@ -160,7 +162,8 @@ void check_ply_against_header(std::string_view bytes, const std::string& file) {
       if (w.size() == 5 && w[1] == "list") {
         p.list = true;
         p.count_bytes = scalar_bytes(w[2], &p.count_signed);
-        p.value_bytes = scalar_bytes(w[3]);
+        p.value_bytes = scalar_bytes(w[3], &p.value_signed);
+        p.value_integer = w[3].find("float") == std::string_view::npos && w[3] != "double";
         if (!p.count_bytes || !p.value_bytes || w[2].find("float") != std::string_view::npos ||
             w[2] == "double")
           fail(where + "list types must be an integer length type and a scalar item type");
@@ -178,6 +181,24 @@ void check_ply_against_header(std::string_view bytes, const std::string& file) {
   }
   if (!have_format) fail("header: no 'format' line");
   if (body == std::string_view::npos) fail("header: no 'end_header' line");
+
+  // Faces: assimp's triangulation asserts (aborts) on a face of fewer than three
+  // corners, and an index past the vertices is no triangle either; so each
+  // face's vertex list is checked too.
+  uint64_t vertex_count = 0;
+  for (const PlyElement& e : elements)
+    if (e.name == "vertex") vertex_count = e.count;
+  auto is_face_list = [](const PlyElement& e, const PlyProperty& p) {
+    return e.name == "face" && p.list && (p.name == "vertex_indices" || p.name == "vertex_index");
+  };
+  auto bad_face = [&](uint64_t index, const std::string& why) {
+    fail("body: face " + std::to_string(index) + " " + why);
+  };
+  auto check_corner = [&](uint64_t face, bool negative, uint64_t value) {
+    if (negative || value >= vertex_count)
+      bad_face(face, "names vertex " + std::string(negative ? "-" : "") + std::to_string(value) + ", but there are " +
+                         std::to_string(vertex_count) + " vertices");
+  };
 
   // ---- body: every element the header announces must be there
   auto short_body = [&](const PlyElement& e, uint64_t index) {
@@ -202,11 +223,20 @@ void check_ply_against_header(std::string_view bytes, const std::string& file) {
           if (!whole_number(word, length))
             fail("body: list length '" + std::string(word.substr(0, 32)) + "' of element '" + e.name +
                  "' " + std::to_string(i) + " is not a whole number");
+          const bool face = is_face_list(e, p);
+          if (face && length < 3) bad_face(i, "has " + std::to_string(length) + " corners (at least 3 make a face)");
           for (uint64_t k = 0; k < length; ++k) {
             if (!text.next(word)) short_body(e, i);
             if (!is_number(word))
               fail("body: '" + std::string(word.substr(0, 32)) + "' in element '" + e.name + "' " +
                    std::to_string(i) + " is not a number");
+            if (face) {
+              uint64_t corner = 0;
+              const bool negative = !word.empty() && word[0] == '-';
+              if (!whole_number(negative ? word.substr(1) : word, corner))
+                bad_face(i, "has the corner '" + std::string(word.substr(0, 32)) + "', not a vertex index");
+              check_corner(i, negative, corner);
+            }
           }
         }
     }
@@ -246,6 +276,17 @@ void check_ply_against_header(std::string_view bytes, const std::string& file) {
           fail("body: element '" + e.name + "' " + std::to_string(i) + " has a negative list length");
         offset += uint64_t(p.count_bytes);
         if (length > (size - offset) / uint64_t(p.value_bytes)) short_body(e, i);
+        if (is_face_list(e, p)) {
+          if (length < 3) bad_face(i, "has " + std::to_string(length) + " corners (at least 3 make a face)");
+          if (!p.value_integer) bad_face(i, "has vertex indices of a floating-point type");
+          for (uint64_t k = 0; k < length; ++k) {
+            const uint64_t raw = read_unsigned(data + offset + k * uint64_t(p.value_bytes), p.value_bytes, big_endian);
+            const int bits = 8 * p.value_bytes;
+            const bool negative = p.value_signed && (raw >> (bits - 1));
+            const uint64_t magnitude = negative ? (bits == 64 ? ~raw + 1 : ((uint64_t(1) << bits) - raw)) : raw;
+            check_corner(i, negative, magnitude);
+          }
+        }
         offset += length * uint64_t(p.value_bytes);
       }
   }
