@@ -11,7 +11,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -19,6 +21,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 
 namespace {
 
@@ -515,6 +518,46 @@ TEST(OneCommandLine, Table1HonoursOsahResolution) {
   ASSERT_EQ(tree.exit_code, 0) << tree.output;
   const auto j = nlohmann::json::parse(tree.output);
   EXPECT_EQ(j["trees"][0]["parameters"]["osah_width"], 7) << tree.output;
+}
+
+// Before: the BSP loader's dropped sky and textures/common faces were counted
+// nowhere; now `scenes info` reports both (the counting itself:
+// tests/workloads/test_loaders.cpp, Q3Bsp.LeftOutSkyAndToolFacesAreCounted*).
+TEST(OneCommandLine, ScenesInfoReportsTheFacesTheLoaderLeavesOut) {
+  const fs::path dir = fresh_folder("bsp");
+  const CliResult r = run_in(dir, "scenes info cornell --json", 60, true);
+  ASSERT_EQ(r.exit_code, 0);
+  const auto v = nlohmann::json::parse(r.output)["validation"];
+  EXPECT_EQ(v["dropped_sky_faces"], 0);
+  EXPECT_EQ(v["dropped_tool_faces"], 0);
+}
+
+// Before: trace --threads 1 built its tree on every core (2 threads on a 2-core
+// machine); the build honours it now. Measured as the most threads the process
+// ever had, sampled from /proc while it builds an SBVH of the interior scene.
+TEST(OneCommandLine, TraceThreadsLimitsTheBuildToo) {
+  if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "one core: nothing to limit";
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    ::setenv("RTSIM_NO_PROGRESS", "1", 1);
+    const int null_fd = ::open("/dev/null", O_WRONLY);
+    ::dup2(null_fd, 1);
+    ::dup2(null_fd, 2);
+    ::execl(RTSIM_BINARY, RTSIM_BINARY, "trace", "--scene", "interior", "--builder", "sbvh", "--threads", "1",
+            "--res", "8x8", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  int most = 0, status = 0;
+  const std::string proc = "/proc/" + std::to_string(pid) + "/status";
+  while (::waitpid(pid, &status, WNOHANG) == 0) {
+    std::ifstream in(proc);
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("Threads:", 0) == 0) most = std::max(most, std::stoi(line.substr(8)));
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  EXPECT_EQ(most, 1);
 }
 
 // aosbvh is a builder; --help and the builder list say so.
