@@ -297,15 +297,24 @@ void add_campaign_command(CLI::App& root) {
   // ---- collect
   {
     auto a = std::make_shared<CampaignArgs>();
+    auto json_out = std::make_shared<bool>(false);
     CLI::App* cmd = campaign->add_subcommand(
         "collect", "merge per-job result files (Slurm, GNU parallel) into the database");
     add_common(cmd, *a);
+    cmd->add_flag("--json", *json_out, "print the counts and problems as JSON");
     cmd->callback([=] {
       const Campaign c = load(*a);
       const CampaignPaths paths = paths_of(c, *a);
       ResultsStore store(paths.database);
       const CollectSummary s = collect_results(c, paths, store);
-      print_collect(s, true);
+      if (*json_out)
+        std::cout << nlohmann::json{{"files", s.files},         {"new", s.inserted},  {"replaced", s.replaced},
+                                    {"unchanged", s.unchanged}, {"kept_ok", s.kept_ok}, {"stale", s.stale},
+                                    {"unreadable", s.bad},      {"problems", s.problems}}
+                         .dump(2)
+                  << "\n";
+      else
+        print_collect(s, true);
       if (s.bad) throw ExitStatus(1, std::to_string(s.bad) + " result files could not be read");
     });
   }
@@ -316,8 +325,10 @@ void add_campaign_command(CLI::App& root) {
     auto key = std::make_shared<std::string>();
     auto force = std::make_shared<bool>(false);
     auto timeout = std::make_shared<double>(0);
+    auto json_out = std::make_shared<bool>(false);
     CLI::App* cmd = campaign->add_subcommand(
         "job", "run one job by key and write its result file (no database access)");
+    cmd->add_flag("--json", *json_out, "print the job's result record as JSON");
     add_common(cmd, *a);
     cmd->add_option("--key", *key, "the job key (`rtsim campaign list`)")->required();
     add_tree_cache(cmd, *a);
@@ -332,8 +343,11 @@ void add_campaign_command(CLI::App& root) {
                                               " at revision " + c.revision);
       const RunRecord r = run_one_job(c, *job, paths_of(c, *a), job_binary(*a), *timeout, *force,
                                       tree_cache_of(*a));
-      std::printf("%s %s %s (%.2f s)\n", r.job_key.c_str(), r.status.c_str(), r.label.c_str(),
-                  r.host_seconds);
+      if (*json_out)
+        std::cout << r.to_json().dump(2) << "\n";
+      else
+        std::printf("%s %s %s (%.2f s)\n", r.job_key.c_str(), r.status.c_str(), r.label.c_str(),
+                    r.host_seconds);
       if (r.status != "ok") throw ExitStatus(1, "job failed: " + r.error);
     });
   }

@@ -1,5 +1,5 @@
 // The exact referee of validation: exact edge signs, candidates, and its rulings
-// on the cases that made `trace --validate` cry wolf (issue 15).
+// on the cases that made `trace --validate` cry wolf .
 #include <rtsim/builder/build.h>
 #include <rtsim/builder/memory_image.h>
 #include <rtsim/model/core/exact_referee.h>
@@ -84,7 +84,7 @@ TEST(ExactReferee, CandidatesAreInsideOutsideOrOnTheBoundary) {
   EXPECT_TRUE(referee.admissible(inside_ray, inside, {true, 1.0f, 0}));
 }
 
-// The case of issue 15: on the built-in cornell scene at 64x64 one primary ray is
+// The case: on the built-in cornell scene at 64x64 one primary ray is
 // hit by Embree on a box corner (t = 3.035) that it misses by about 3e-8, and hit
 // by the core on the wall behind (t = 4.557). The referee rules Embree wrong, and
 // the core right, so validation passes.
@@ -132,7 +132,7 @@ TEST(ExactReferee, ValidationOfBuiltInFramesFindsTheCoreNeverWrong) {
       EXPECT_EQ(v.core_wrong, 0u) << name << " " << camera.name << ": "
                                   << (v.examples.empty() ? "" : v.examples.front());
       EXPECT_EQ(v.failures(), v.core_wrong);
-      // The disagreement of issue 15 is there, and ruled against Embree.
+      // The disagreement is there, and ruled against Embree.
       if (std::string(name) == "cornell" && camera.name == "view1") EXPECT_GE(v.embree_wrong, 1u);
     }
   }

@@ -1,4 +1,4 @@
-// Bad input round two (issue 15), the readers: bounded reads of regular files
+// Bad input round two , the readers: bounded reads of regular files
 // only, PLY bodies checked against their headers, assimp in a child process,
 // strict numbers and duplicate keys.
 #include <rtsim/workloads/config_reader.h>

@@ -162,8 +162,8 @@ TEST(Q3Bsp, CountsFacesAndPatchTrianglesAndSkipsCommonSkyAndBillboards) {
   EXPECT_EQ(parse_q3bsp(bytes, "fixture.bsp", options).triangles.size(), 4u + 2u * 2u * 2u);
 }
 
-// What the loader leaves out is counted, so that `scenes info` can say so (issue 15:
-// sky and textures/common faces vanished without a trace).
+// What the loader leaves out is counted, so that `scenes info` can say so
+// (sky and textures/common faces vanished without a trace before).
 TEST(Q3Bsp, LeftOutSkyAndToolFacesAreCounted) {
   BspFixture fixture;
   const std::vector<uint8_t> bytes = fixture.build();
