@@ -137,3 +137,38 @@ TEST(ExactReferee, ValidationOfBuiltInFramesFindsTheCoreNeverWrong) {
     }
   }
 }
+
+// The referee can say "core wrong": a core that loses hits, or reports the wrong
+// distance, fails validation however the ray lies.
+TEST(ExactReferee, ACoreThatLosesHitsIsRuledWrong) {
+  const Scene scene = load_scene("cornell");
+  BuildParams params;
+  const Bvh bvh = build_bvh(scene, params);
+  const MemoryImage image(scene, bvh);
+  const TraversalContext context(scene, bvh, image);
+  const EmbreeScene embree(scene);
+  EffectSettings settings;
+  settings.width = 32;
+  settings.height = 32;
+  settings.ao_samples = 0;
+  const FrameRun run = run_frame(context, scene.default_camera(), settings);
+  std::vector<TraceResult> broken = run.results;
+  size_t lost = 0, moved = 0;
+  for (size_t i = 0; i < broken.size(); i += 7) {
+    if (!broken[i].hit.hit()) continue;
+    if ((i / 7) % 2 == 0) {
+      broken[i].hit = HitRecord{};  // a miss where the surface is
+      ++lost;
+    } else if (traversal_mode_for(run.rays[i].type) == TraversalMode::ClosestHit) {  // any-hit: t is free
+      broken[i].hit.t *= 1.5f;  // the right triangle at the wrong distance
+      ++moved;
+    }
+  }
+  ASSERT_GT(lost, 10u);
+  ASSERT_GT(moved, 10u);
+  ValidationRule rule;
+  rule.absolute_bound = 1e-6f * scene.diagonal();
+  const ValidationResult v = validate_against_embree(embree, run.rays, broken, rule, 0, &scene);
+  EXPECT_GE(v.core_wrong, lost + moved);
+  EXPECT_EQ(v.failures(), v.core_wrong);
+}
