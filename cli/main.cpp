@@ -7,8 +7,8 @@
 #include <exception>
 
 int main(int argc, char** argv) {
-  CLI::App app{"rtsim: build BVHs (SAH, SBVH, OSAH, AO-BVH) and simulate a ray-tracing "
-               "accelerator (TRV, IST, shading, caches, DRAM) at three fidelity levels"};
+  CLI::App app{"rtsim: build BVHs (SAH, SBVH, OSAH, AO-BVH) and simulate a ray-tracing accelerator\n"
+               "(TRV, IST, shading, caches, DRAM) at three fidelity levels"};
   app.require_subcommand(1);
   app.set_version_flag("--version", RTSIM_VERSION " (" RTSIM_GIT_REVISION ")");
   rtsim::cli::add_scenes_command(app);

@@ -20,8 +20,7 @@ void add_report_command(CLI::App& root) {
   auto no_figures = std::make_shared<bool>(false);
   auto json = std::make_shared<bool>(false);
   CLI::App* cmd = root.add_subcommand(
-      "report", "Markdown + HTML report (memory traffic, hit rates, cycles, ops) of a campaign "
-                "results database (opened read-only)");
+      "report", "Markdown + HTML report of a campaign's results database (read-only)");
   cmd->add_option("database", *database, "results database (<campaign folder>/rtsim-campaigns/<name>/results.sqlite)")
       ->required();
   cmd->add_option("--out-dir", *out, "output folder")->capture_default_str();

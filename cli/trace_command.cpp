@@ -273,8 +273,7 @@ void add_trace_command(CLI::App& root) {
                   "hardware preset (mobile | desktop) or TOML file: memory layout and caches")
       ->capture_default_str();
   cmd->add_option("--node-layout", options->node_layout,
-                  "bvh2-64 (64 B, both child boxes) | single-32 (32 B); default: the hardware's "
-                  "memory.node_layout");
+                  "bvh2-64 (64 B) | single-32 (32 B); default: the hardware's memory.node_layout");
   cmd->add_option("--shuffle-faces", options->shuffle_faces,
                   "permute the scene's triangles with this seed first (0: no): results must not change");
   cmd->add_option("--stack-limit", options->stack_limit, "traversal stack entries before overflow")
@@ -287,8 +286,8 @@ void add_trace_command(CLI::App& root) {
   cmd->add_option("--bvh", options->bvh_in, "trace this saved tree (rtsim build --out) instead of building one");
   cmd->add_flag("--json", options->json, "print JSON");
   cmd->add_flag("--validate", options->validate,
-                "trace every ray with Embree too; an exact referee decides disagreements (Embree wrong / "
-                "core wrong); exit 1 if the core is wrong on any ray");
+                "check every ray against Embree, an exact referee deciding\n"
+                "disagreements; exit 1 if the core is wrong on any ray");
   cmd->callback([options] { run_trace(*options); });
 }
 

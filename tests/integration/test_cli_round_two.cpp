@@ -494,7 +494,8 @@ TEST(OneCommandLine, TextTablesFitOneHundredTwentyColumns) {
       }
     return widest_line;
   };
-  for (const char* args : {"build --scene cornell --all --no-epo", "trace --scene cornell --res 8x8", "scenes list",
+  for (const char* args : {"build --scene cornell --all --no-epo", "trace --scene cornell --res 8x8", "scenes list", "",
+                           "--help", "trace --help", "build --help", "simulate --help", "campaign --help", "scenes --help",
                            "table1 --scene cornell --res 16x16 --no-cycle --out-dir t"}) {
     const CliResult r = run_in(dir, args, 300, true);
     ASSERT_EQ(r.exit_code, 0) << args << ": " << r.output;
