@@ -200,3 +200,20 @@ TEST(AssimpIsolation, MeshesComeBackFromTheChildIntact) {
   const fs::path empty = write("empty.obj", "# nothing\n");
   EXPECT_NE(error_of([&] { load_mesh(empty); }).find(empty.string()), std::string::npos);
 }
+
+// What assimp does to a malformed file ends only its child process. A PLY body
+// with faces of no corners makes assimp's triangulation abort (ai_assert in
+// TriangulateProcess.cpp); under a name without .ply it skips rtsim's PLY check,
+// and assimp still recognises it by content: rtsim died of SIGABRT here before.
+TEST(AssimpIsolation, AnAbortInsideAssimpIsAnInputError) {
+  const std::string header =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::string body = std::string(48, '\0') + '\0' + '\0' + std::string(4, '\1');
+  const fs::path file = write("disguised.dat", header + body);
+  const std::string why = error_of([&] { load_mesh(file); });
+  EXPECT_NE(why.find(file.string() + ": assimp crashed reading it (signal 6"), std::string::npos) << why;
+  // With its own name, the header check says what is wrong before assimp runs.
+  const fs::path named = write("honest.ply", header + body);
+  EXPECT_NE(error_of([&] { load_mesh(named); }).find("face 0 has 0 corners"), std::string::npos);
+}
