@@ -19,6 +19,32 @@ std::string pct(double value, double baseline) {
   return buf;
 }
 
+// Prose for the terminal, wrapped at word boundaries to fit 120 columns; lines
+// after the first start with `indent`.
+std::string wrap(const std::string& text, const std::string& indent, size_t width = 118) {
+  std::string out;
+  size_t at = text.find_first_not_of(' ');
+  if (at == std::string::npos) return text;
+  std::string line = text.substr(0, at);  // the first line keeps its own indentation
+  const std::string first_indent = line;
+  while (at < text.size()) {
+    size_t end = text.find(' ', at);
+    if (end == std::string::npos) end = text.size();
+    const std::string word = text.substr(at, end - at);
+    if (!line.empty() && line.size() + 1 + word.size() > width) {
+      out += line + "\n";
+      line = indent;
+    }
+    if (word.empty()) {  // a run of spaces inside the text
+      at = end + 1;
+      continue;
+    }
+    line += (line == indent || line == first_indent ? "" : " ") + word;
+    at = end + 1;
+  }
+  return out + line;
+}
+
 std::string num(double value, int digits = 4) { return value < 0 ? "-" : format_number(value, digits); }
 
 const char* display_name(const std::string& builder) {
@@ -107,12 +133,12 @@ std::string table1_text(const Table1& table, bool wide) {
            (wide ? camera_table(table, camera) : narrow_camera_table(table, camera)).plain() + "\n";
   if (!wide) out += "(primary and AO ops/ray and fetch reductions: table1.md, or --wide)\n\n";
   out += "Where the patent's ordering holds:\n";
-  for (const std::string& v : table.verdicts) out += "  - " + v + "\n";
+  for (const std::string& v : table.verdicts) out += wrap("  - " + v, "    ") + "\n";
   for (const Table1Row& r : table.rows)
     if (!r.counts_match_cycle_level)
       out += "  ! " + r.camera + "/" + r.builder +
              ": the cycle-level counts differ from the functional counts (a model bug)\n";
-  out += "\nCounting rule and parameters: " + table.counting_rule + "\n";
+  out += "\n" + wrap("Counting rule and parameters: " + table.counting_rule, "") + "\n";
   return out;
 }
 
