@@ -438,6 +438,20 @@ TEST(OneCommandLine, DeprecatedSpellingsWorkWithAWarning) {
   const CliResult layout = run_in(dir, "trace --scene cornell --res 8x8 --node-layout single --json");
   EXPECT_EQ(layout.exit_code, 0) << layout.output;
   EXPECT_TRUE(has(layout, "\"node_layout\": \"single-32\"")) << layout.output;
+  // Ray files: --rays-in on both, simulate's --rays kept as an alias.
+  ASSERT_EQ(run_in(dir, "trace --scene cornell --res 8x8 --ao 0 --rays-out r.rays").exit_code, 0);
+  const CliResult rays = run_in(dir, "simulate --scene cornell --rays r.rays --out-dir replay");
+  EXPECT_EQ(rays.exit_code, 0) << rays.output;
+  EXPECT_TRUE(has(rays, "--rays is deprecated; use --rays-in")) << rays.output;
+  // The campaign folder: --out-dir, with --dir kept.
+  write_text(dir / "c.toml", "[campaign]\nname = \"a\"\n[sweep]\nscene = \"cornell\"\nbuilder = \"sah\"\n");
+  const CliResult campaign = run_in(dir, "campaign status c.toml --dir somewhere");
+  EXPECT_EQ(campaign.exit_code, 0) << campaign.output;
+  EXPECT_TRUE(has(campaign, "--dir is deprecated; use --out-dir")) << campaign.output;
+  // One default image size: 256x256 in simulate as in trace (simulate had 128x128).
+  ASSERT_EQ(run_in(dir, "simulate --scene cornell --ao 0 --out-dir default").exit_code, 0);
+  const auto defaults = nlohmann::json::parse(rtsim::read_input_file(dir / "default" / "config.json", 1 << 20));
+  EXPECT_EQ(defaults["inputs"]["resolution"], nlohmann::json({256, 256}));
   // The new spellings take no warning.
   const CliResult fresh = run_in(dir, "simulate --scene cornell --res 8x8 --out-dir new --bounces 1");
   EXPECT_EQ(fresh.exit_code, 0);
