@@ -1,6 +1,7 @@
 // rtsim build: build one BVH (or every builder with --all) for a scene, check it,
 // print its quality report and optionally save it; --load reads a saved tree back.
 #include "build_options.h"
+#include "cli_util.h"
 #include "commands.h"
 
 #include <rtsim/builder/build.h>
@@ -27,9 +28,11 @@ struct BuildOptions {
   std::string scene;
   std::string camera;
   std::string out;
+  std::string out_dir;  // with --all
   std::string load;
   bool json = false;
   bool all = false;
+  bool list_builders = false;
   bool no_epo = false;
   BuildParams params;
 };
@@ -50,7 +53,7 @@ void print_table(const std::string& scene, const std::vector<BvhMetrics>& all,
               (unsigned long long)(all.empty() ? 0 : all.front().triangles));
   auto row = [&](const char* label, auto cell) {
     std::printf("%-22s", label);
-    for (size_t i = 0; i < all.size(); ++i) std::printf(" %14s", cell(i).c_str());
+    for (size_t i = 0; i < all.size(); ++i) std::printf(" %11s", cell(i).c_str());  // 8 builders in 120 columns
     std::printf("\n");
   };
   auto num = [](const char* fmt, double v) {
@@ -72,7 +75,7 @@ void print_table(const std::string& scene, const std::vector<BvhMetrics>& all,
     std::string s;
     for (size_t k = 1; k < all[i].leaf_size_histogram.size(); ++k)
       s += (s.empty() ? "" : "/") + std::to_string(all[i].leaf_size_histogram[k]);
-    return s.size() > 14 ? s.substr(0, 13) + "+" : s;
+    return s.size() > 11 ? s.substr(0, 10) + "+" : s;
   });
   row("estimate s", [&](size_t i) { return num("%.3f", all[i].estimate_seconds); });
   row("build s", [&](size_t i) { return num("%.3f", all[i].build_seconds); });
@@ -83,6 +86,16 @@ void print_table(const std::string& scene, const std::vector<BvhMetrics>& all,
 }
 
 void run_build(const BuildOptions& o) {
+  check_build_flags(o.params);
+  // Output paths before any work.
+  OutputFolder trees_folder;
+  const std::string out_dir = o.all && o.out_dir.empty() ? o.out : o.out_dir;
+  if (!o.all && !o.out_dir.empty())
+    throw InputError("--out-dir", "is the folder of --all; one tree goes to --out FILE");
+  if (o.all && !o.out.empty() && o.out_dir.empty())
+    warn_deprecated("--out (with --all)", "--out-dir");
+  if (o.all && !out_dir.empty()) trees_folder.prepare(out_dir, o.out_dir.empty() ? "--out" : "--out-dir");
+  if (!o.all && !o.out.empty()) check_output_file(o.out, "--out");
   const Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene);
   BuildParams base = o.params;
   // OSAH needs a camera; the named one (InputError naming the cameras if absent) or
@@ -109,7 +122,6 @@ void run_build(const BuildOptions& o) {
   } else {
     const std::vector<std::string> builders =
         o.all ? builder_names() : std::vector<std::string>{base.builder};
-    if (o.all && !o.out.empty()) std::filesystem::create_directories(o.out);
     for (const std::string& name : builders) {
       BuildParams params = base;
       params.builder = name;
@@ -124,11 +136,12 @@ void run_build(const BuildOptions& o) {
       j["parameters"] = nlohmann::json::parse(build_params_json(params));
       if (name == "aobvh" || name == "aosbvh") j["mean_occlusion"] = r.mean_occlusion, j["ao_rays"] = r.ao_rays;
       if (name == "osah") j["visible_triangles"] = r.visible_triangles;
-      if (!o.out.empty()) {
+      if (o.all ? !out_dir.empty() : !o.out.empty()) {
         const std::filesystem::path file =
-            o.all ? std::filesystem::path(o.out) / (scene.name + "-" + name + ".bvh")
+            o.all ? std::filesystem::path(out_dir) / (scene.name + "-" + name + ".bvh")
                   : std::filesystem::path(o.out);
         save_bvh(file, bvh, scene, params);
+        trees_folder.keep();
         j["file"] = file.string();
       }
       metrics.push_back(m);
@@ -158,20 +171,27 @@ void add_build_command(CLI::App& root) {
       "Build a BVH for a scene, check it and print its quality report.\n"
       "Builders: sah (binned SAH; --bins 0 = full sweep), median (object median), sbvh\n"
       "(spatial splits, Stich et al. 2009), osah (visibility from --camera, Vinkler et al.\n"
-      "2012), aobvh (the patent's occlusion-weighted SAH), embree, embree-sbvh (Embree's\n"
-      "rtcBuildBVH, medium / high quality). The report: SAH cost (normalised by the root\n"
-      "area, with T1/T2), weighted cost, end-point overlap, counts, depths, times, memory.");
+      "2012), aobvh (the patent's occlusion-weighted SAH), aosbvh (AO-BVH weights with SBVH\n"
+      "spatial splits), embree, embree-sbvh (Embree's rtcBuildBVH, medium / high quality).\n"
+      "The report: SAH cost (normalised by the root area, with T1/T2), weighted cost,\n"
+      "end-point overlap, counts, depths, times, memory.");
   cmd->add_option("--scene", o->scene, "scene name or path (default: " + default_scene_name() + ")");
-  cmd->add_option("--builder", o->params.builder, "builder name")->capture_default_str();
+  cmd->add_option("--builder", o->params.builder, "builder: " + builder_list())->capture_default_str();
   cmd->add_option("--camera", o->camera, "camera for osah visibility (default: view1 or the first)");
   cmd->add_flag("--json", o->json, "print the report as JSON");
-  cmd->add_option("--out", o->out, "save the tree to this file (with --all: a directory)");
+  cmd->add_option("--out", o->out, "save the tree to this file");
+  cmd->add_option("--out-dir", o->out_dir, "with --all: save every tree in this folder as <scene>-<builder>.bvh");
   cmd->add_flag("--all", o->all, "build every builder and print them side by side");
+  cmd->add_flag("--list-builders", o->list_builders, "print the builder names, one a line, and stop");
   cmd->add_option("--load", o->load, "load a saved tree (checked against the scene) and report it");
   cmd->add_flag("--no-epo", o->no_epo, "skip the end-point overlap (the slowest metric)");
   add_build_options(cmd, o->params);
   cmd->add_option("--seed", o->params.seed, "same as --build-seed");
   cmd->callback([o] {
+    if (o->list_builders) {
+      for (const std::string& name : builder_names()) std::printf("%s\n", name.c_str());
+      return;
+    }
     finish_build_options(o->params);
     run_build(*o);
   });

@@ -28,7 +28,7 @@ void add_build_options(CLI::App* cmd, BuildParams& p) {
                   "patent's literal sum of occlusion values in place of the count, same T2")
       ->transform(CLI::CheckedTransformer(std::map<std::string, bool>{{"on", true}, {"off", false}}))
       ->default_str("on");
-  cmd->add_option("--build-seed", p.seed, "seed of the builders' random choices (AO rays)")
+  cmd->add_option("--build-seed", p.seed, "seed of the builders' random choices (AO rays; default: --seed)")
       ->capture_default_str();
 }
 

@@ -1,4 +1,5 @@
 // rtsim campaign run|status|list|export|emit|collect|job
+#include "cli_util.h"
 #include "commands.h"
 
 #include <rtsim/reports/campaign.h>
@@ -8,6 +9,8 @@
 #include <rtsim/workloads/files.h>
 #include <rtsim/workloads/progress.h>
 #include <rtsim/workloads/scene_registry.h>
+
+#include <nlohmann/json.hpp>
 
 #include <cstdio>
 #include <fstream>
@@ -49,9 +52,10 @@ fs::path tree_cache_of(const CampaignArgs& a) {
 
 void add_common(CLI::App* cmd, CampaignArgs& a) {
   cmd->add_option("file", a.file, "campaign file (.toml or .json)")->required();
-  cmd->add_option("--dir", a.dir,
-                  "work folder for job outputs and result files "
-                  "(default: ./rtsim-campaigns/<campaign name>)");
+  cmd->add_option("--out-dir", a.dir,
+                  "the campaign's folder: job outputs, result files, the database "
+                  "(default: rtsim-campaigns/<campaign name> beside the campaign file)");
+  add_deprecated_option(cmd, "--dir", "--out-dir", a.dir);
   cmd->add_option("--db", a.database, "results database (default: <dir>/results.sqlite)");
   cmd->add_option("--rtsim", a.binary,
                   "the rtsim binary that runs each job's `simulate` (default: this one)");
@@ -94,8 +98,10 @@ void add_campaign_command(CLI::App& root) {
     auto retry_failed = std::make_shared<bool>(false);
     auto force = std::make_shared<bool>(false);
     auto timeout = std::make_shared<double>(0);
+    auto json_out = std::make_shared<bool>(false);
     CLI::App* cmd = campaign->add_subcommand(
         "run", "run the campaign's missing jobs, one process each; resumable at any moment");
+    cmd->add_flag("--json", *json_out, "print the summary as JSON");
     add_common(cmd, *a);
     cmd->add_option("-j,--jobs", *parallel, "jobs at once")->check(CLI::Range(1, 1024));
     add_tree_cache(cmd, *a);
@@ -115,29 +121,61 @@ void add_campaign_command(CLI::App& root) {
       o.progress = Progress::enabled();
       o.tree_cache = tree_cache_of(*a);
       const RunSummary s = run_campaign(c, paths, o);
-      ResultsStore store(paths.database);
+      ResultsStore store(paths.database, ResultsStore::Access::ReadOnly);
       const CampaignStatus st = campaign_status(c, paths, store);
-      std::printf("campaign %s: %zu jobs; ran %zu (%zu ok, %zu failed) in %.1f s; "
-                  "%zu ok, %zu failed, %zu missing; results in %s\n",
-                  c.name.c_str(), s.total, s.ran, s.ok, s.failed, s.wall_seconds, st.ok,
-                  st.failed, st.missing, paths.database.string().c_str());
-      if (s.skipped_failed)
-        std::printf("%zu failed jobs were not rerun (use --retry-failed)\n", s.skipped_failed);
+      if (*json_out) {
+        nlohmann::json j = {{"campaign", c.name},        {"jobs", s.total},       {"ran", s.ran},
+                            {"ran_ok", s.ok},            {"ran_failed", s.failed}, {"seconds", s.wall_seconds},
+                            {"ok", st.ok},               {"failed", st.failed},   {"missing", st.missing},
+                            {"skipped_failed", s.skipped_failed}, {"interrupted", s.interrupted},
+                            {"database", paths.database.string()}, {"failures", nlohmann::json::array()}};
+        for (const auto& [label, error] : st.failures)
+          j["failures"].push_back({{"label", label}, {"reason", error.substr(0, error.find('\n'))}});
+        std::cout << j.dump(2) << "\n";
+      } else {
+        std::printf("campaign %s: %zu jobs; ran %zu (%zu ok, %zu failed) in %.1f s; "
+                    "%zu ok, %zu failed, %zu missing; results in %s\n",
+                    c.name.c_str(), s.total, s.ran, s.ok, s.failed, s.wall_seconds, st.ok,
+                    st.failed, st.missing, paths.database.string().c_str());
+        for (const auto& [label, error] : st.failures)
+          std::printf("  failed %s: %s\n", label.c_str(), error.substr(0, error.find('\n')).c_str());
+        if (s.skipped_failed)
+          std::printf("%zu failed jobs were not rerun (use --retry-failed)\n", s.skipped_failed);
+      }
       if (s.interrupted) throw ExitStatus(130, "interrupted; run again to resume");
-      if (st.failed) throw ExitStatus(1, "");
+      // A job that failed in this run fails the run, even where an older ok result
+      // of it is kept (--force): the run did not do what it was asked.
+      if (st.failed || s.failed)
+        throw ExitStatus(1, std::to_string(s.failed) + " of the " + std::to_string(s.ran) +
+                                " jobs run failed; " + std::to_string(st.failed) + " jobs are recorded as failed");
     });
   }
 
   // ---- status
   {
     auto a = std::make_shared<CampaignArgs>();
-    CLI::App* cmd = campaign->add_subcommand("status", "jobs done, failed, running and missing");
+    auto json_out = std::make_shared<bool>(false);
+    CLI::App* cmd = campaign->add_subcommand(
+        "status", "jobs done, failed, running and missing (reads the database, never writes it)");
     add_common(cmd, *a);
+    cmd->add_flag("--json", *json_out, "print the counts, failures and outdated jobs as JSON");
     cmd->callback([=] {
       const Campaign c = load(*a);
       const CampaignPaths paths = paths_of(c, *a);
-      ResultsStore store(paths.database);
+      ResultsStore store(paths.database, ResultsStore::Access::ReadOnly);
       const CampaignStatus s = campaign_status(c, paths, store);
+      if (*json_out) {
+        nlohmann::json j = {{"campaign", c.name}, {"revision", c.revision}, {"jobs", s.total},
+                            {"ok", s.ok},         {"failed", s.failed},     {"missing", s.missing},
+                            {"started", s.started}, {"runner_active", s.runner_active},
+                            {"database", paths.database.string()},
+                            {"failures", nlohmann::json::array()}, {"outdated", nlohmann::json::array()}};
+        for (const auto& [label, error] : s.failures)
+          j["failures"].push_back({{"label", label}, {"reason", error.substr(0, error.find('\n'))}});
+        for (const auto& [label, why] : s.outdated) j["outdated"].push_back({{"label", label}, {"why", why}});
+        std::cout << j.dump(2) << "\n";
+        return;
+      }
       std::printf("campaign %s (revision %s): %zu jobs: %zu ok, %zu failed, %zu missing\n",
                   c.name.c_str(), c.revision.c_str(), s.total, s.ok, s.failed, s.missing);
       if (s.runner_active)
@@ -148,6 +186,9 @@ void add_campaign_command(CLI::App& root) {
                     "on Slurm / GNU parallel)\n", s.started);
       for (const auto& [label, error] : s.failures)
         std::printf("  failed %s: %s\n", label.c_str(), error.substr(0, error.find('\n')).c_str());
+      if (!s.outdated.empty())
+        std::printf("%zu of the missing jobs have an older result that no longer counts:\n", s.outdated.size());
+      for (const auto& [label, why] : s.outdated) std::printf("  outdated %s: %s\n", label.c_str(), why.c_str());
     });
   }
 
@@ -187,10 +228,12 @@ void add_campaign_command(CLI::App& root) {
     add_common(cmd, *a);
     // Unbound: CSV is the one format so far, so nothing needs to keep its value.
     cmd->add_flag("--csv", "comma-separated values (the one format so far)")->required();
-    cmd->add_option("-o,--output", *out, "file to write (default: standard output)");
+    cmd->add_option("--out", *out, "file to write (default: standard output)");
+    add_deprecated_option(cmd, "-o,--output", "--out", *out);
     cmd->callback([=] {
+      if (!out->empty()) check_output_file(*out, "--out");
       const Campaign c = load(*a);
-      ResultsStore store(paths_of(c, *a).database);
+      ResultsStore store(paths_of(c, *a).database, ResultsStore::Access::ReadOnly);
       std::ostringstream text;
       write_campaign_csv(c, store, text);
       if (out->empty()) std::cout << text.str();
@@ -227,12 +270,12 @@ void add_campaign_command(CLI::App& root) {
       if (!*slurm && !*parallel) throw InputError("campaign emit", "choose --slurm or --parallel");
       const Campaign c = load(*a);
       const CampaignPaths paths = paths_of(c, *a);
-      ResultsStore store(paths.database);
+      ResultsStore store(paths.database, ResultsStore::Access::ReadOnly);
       if (!a->binary.empty()) o->binary = job_binary(*a);
       const fs::path runner = o->runner.empty() ? self_executable() : o->runner;
       size_t count = 0;
       const std::string collect = shell_quote(runner.string()) + " campaign collect " +
-                                  shell_quote(c.file.string()) + " --dir " +
+                                  shell_quote(c.file.string()) + " --out-dir " +
                                   shell_quote(paths.dir.string()) +
                                   (a->database.empty() ? "" : " --db " + shell_quote(paths.database.string())) +
                                   (a->binary.empty() ? "" : " --rtsim " + shell_quote(o->binary.string()));
@@ -254,15 +297,24 @@ void add_campaign_command(CLI::App& root) {
   // ---- collect
   {
     auto a = std::make_shared<CampaignArgs>();
+    auto json_out = std::make_shared<bool>(false);
     CLI::App* cmd = campaign->add_subcommand(
         "collect", "merge per-job result files (Slurm, GNU parallel) into the database");
     add_common(cmd, *a);
+    cmd->add_flag("--json", *json_out, "print the counts and problems as JSON");
     cmd->callback([=] {
       const Campaign c = load(*a);
       const CampaignPaths paths = paths_of(c, *a);
       ResultsStore store(paths.database);
       const CollectSummary s = collect_results(c, paths, store);
-      print_collect(s, true);
+      if (*json_out)
+        std::cout << nlohmann::json{{"files", s.files},         {"new", s.inserted},  {"replaced", s.replaced},
+                                    {"unchanged", s.unchanged}, {"kept_ok", s.kept_ok}, {"stale", s.stale},
+                                    {"unreadable", s.bad},      {"problems", s.problems}}
+                         .dump(2)
+                  << "\n";
+      else
+        print_collect(s, true);
       if (s.bad) throw ExitStatus(1, std::to_string(s.bad) + " result files could not be read");
     });
   }
@@ -273,8 +325,10 @@ void add_campaign_command(CLI::App& root) {
     auto key = std::make_shared<std::string>();
     auto force = std::make_shared<bool>(false);
     auto timeout = std::make_shared<double>(0);
+    auto json_out = std::make_shared<bool>(false);
     CLI::App* cmd = campaign->add_subcommand(
         "job", "run one job by key and write its result file (no database access)");
+    cmd->add_flag("--json", *json_out, "print the job's result record as JSON");
     add_common(cmd, *a);
     cmd->add_option("--key", *key, "the job key (`rtsim campaign list`)")->required();
     add_tree_cache(cmd, *a);
@@ -289,8 +343,11 @@ void add_campaign_command(CLI::App& root) {
                                               " at revision " + c.revision);
       const RunRecord r = run_one_job(c, *job, paths_of(c, *a), job_binary(*a), *timeout, *force,
                                       tree_cache_of(*a));
-      std::printf("%s %s %s (%.2f s)\n", r.job_key.c_str(), r.status.c_str(), r.label.c_str(),
-                  r.host_seconds);
+      if (*json_out)
+        std::cout << r.to_json().dump(2) << "\n";
+      else
+        std::printf("%s %s %s (%.2f s)\n", r.job_key.c_str(), r.status.c_str(), r.label.c_str(),
+                    r.host_seconds);
       if (r.status != "ok") throw ExitStatus(1, "job failed: " + r.error);
     });
   }

@@ -1,22 +1,30 @@
 #include "cli_util.h"
 
 #include <rtsim/builder/bvh_file.h>
+#include <rtsim/workloads/config_reader.h>
 #include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
 #include <rtsim/workloads/scene_registry.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <set>
+
+#include <fcntl.h>
+#include <unistd.h>
 
 namespace rtsim::cli {
 
+namespace fs = std::filesystem;
+
 void parse_resolution(const std::string& text, uint32_t& width, uint32_t& height,
                       const std::string& option) {
-  unsigned w = 0, h = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%u%c%u%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') ||
-      w == 0 || h == 0 || w > 16384 || h > 16384)
-    throw InputError(option, "expected WxH with 1..16384 each, got '" + text + "'");
-  width = w;
-  height = h;
+  if (!parse_resolution_text(text, width, height))
+    throw InputError(typed_flag(option), "expected WxH with 1.." + std::to_string(kMaxResolutionSide) +
+                                             " each (digits only), got '" + text + "'");
 }
 
 std::string hex64(uint64_t value) {
@@ -25,15 +33,142 @@ std::string hex64(uint64_t value) {
   return buf;
 }
 
+namespace {
+std::mutex g_flag_mutex;
+std::map<std::string, std::string>& typed_spellings() {
+  static std::map<std::string, std::string> spellings;  // canonical -> typed
+  return spellings;
+}
+}  // namespace
+
+std::string typed_flag(const std::string& canonical) {
+  std::lock_guard<std::mutex> lock(g_flag_mutex);
+  auto it = typed_spellings().find(canonical);
+  return it == typed_spellings().end() ? canonical : it->second;
+}
+
+void warn_deprecated(const std::string& old_name, const std::string& new_name) {
+  static std::set<std::string> warned;
+  std::lock_guard<std::mutex> lock(g_flag_mutex);
+  const std::string bare = old_name.substr(0, old_name.find(' '));
+  typed_spellings()[new_name] = bare;
+  if (!warned.insert(old_name).second) return;
+  std::fprintf(stderr, "rtsim: warning: %s is deprecated; use %s (the old spelling goes in the next release)\n",
+               old_name.c_str(), new_name.c_str());
+}
+
+// ---- output paths
+
+namespace {
+
+// Can files be created in `folder`? Answered by creating one (permission bits
+// say nothing for root, read-only mounts or full disks).
+std::string probe_writable(const fs::path& folder) {
+  const fs::path probe = folder / (".rtsim-write-probe-" + std::to_string(::getpid()));
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd < 0) return std::strerror(errno);
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return "";
+}
+
+}  // namespace
+
+void OutputFolder::prepare(const fs::path& path, const std::string& flag) {
+  const std::string name = typed_flag(flag) + " " + path.string();
+  if (path.empty()) throw InputError(typed_flag(flag), "must name a folder");
+  path_ = path;
+  if (path_exists(path) && !is_folder(path))
+    throw InputError(name, "exists and is not a folder");
+  if (!is_folder(path)) {
+    // The outermost missing folder is what this run creates (and removes on failure).
+    fs::path first_missing = path;
+    for (fs::path p = path; !p.empty() && !path_exists(p); p = p.parent_path()) {
+      first_missing = p;
+      if (p == p.parent_path()) break;
+    }
+    for (fs::path p = path.parent_path(); !p.empty(); p = p.parent_path()) {
+      if (path_exists(p)) {
+        if (!is_folder(p)) throw InputError(name, "'" + p.string() + "' is a file, not a folder");
+        break;
+      }
+      if (p == p.parent_path()) break;
+    }
+    std::error_code ec;
+    fs::create_directories(path, ec);
+    if (ec) throw InputError(name, "cannot create the folder: " + ec.message());
+    created_ = first_missing;
+  }
+  const std::string why = probe_writable(path);
+  if (!why.empty()) throw InputError(name, "cannot write in this folder: " + why);
+}
+
+OutputFolder::~OutputFolder() {
+  if (keep_ || created_.empty()) return;
+  // Only empty folders go: whatever a failed command managed to write stays visible.
+  std::error_code ec;
+  for (fs::path p = path_;; p = p.parent_path()) {
+    if (!fs::remove(p, ec) || ec) break;
+    if (p == created_ || p == p.parent_path()) break;
+  }
+}
+
+void check_output_file(const fs::path& path, const std::string& flag) {
+  const std::string name = typed_flag(flag) + " " + path.string();
+  if (path.empty()) throw InputError(typed_flag(flag), "must name a file");
+  if (is_folder(path)) throw InputError(name, "is a folder; give a file name");
+  fs::path folder = path.parent_path();
+  if (folder.empty()) folder = ".";
+  while (!path_exists(folder) && folder != folder.parent_path() && !folder.parent_path().empty())
+    folder = folder.parent_path();
+  if (!path_exists(folder)) folder = ".";
+  if (!is_folder(folder)) throw InputError(name, "'" + folder.string() + "' is a file, not a folder");
+  const std::string why = probe_writable(folder);
+  if (!why.empty()) throw InputError(name, "cannot write in '" + folder.string() + "': " + why);
+}
+
+// ---- build parameters
+
+std::string builder_list() {
+  std::string names;
+  for (const std::string& b : builder_names()) names += (names.empty() ? "" : ", ") + b;
+  return names;
+}
+
+void check_build_flags(const BuildParams& params) {
+  static const std::map<std::string, std::string> kFlagOfField = {
+      {"t1", "--t1"},
+      {"t2", "--t2"},
+      {"max_leaf_size", "--max-leaf-size"},
+      {"max_depth", "--max-depth"},
+      {"bins", "--bins"},
+      {"sbvh_alpha", "--sbvh-alpha"},
+      {"sbvh_reference_budget", "--sbvh-budget"},
+      {"osah_w", "--osah-w"},
+      {"osah_width/osah_height", "--osah-resolution"},
+      {"ao_weight_floor", "--ao-floor"},
+      {"ao_cutoff_relative", "--ao-cutoff"}};
+  try {
+    check_build_params(params);
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    const size_t colon = what.find(": ");
+    auto it = colon == std::string::npos ? kFlagOfField.end() : kFlagOfField.find(what.substr(0, colon));
+    if (it == kFlagOfField.end()) throw;
+    throw InputError(typed_flag(it->second) + what.substr(colon));
+  }
+}
+
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
-                   uint64_t shuffle_seed) {
+                   uint64_t shuffle_seed, uint32_t threads) {
   out.scene = load_scene(scene.empty() ? default_scene_name() : scene);
   if (shuffle_seed != 0) shuffle_triangles(out.scene, shuffle_seed);
   out.camera = camera.empty() ? &out.scene.default_camera() : &out.scene.camera(camera);
   out.params = BuildParams{};
   out.params.builder = builder;
   out.params.seed = seed;
+  out.params.threads = threads;
   out.params.camera = out.camera->name;
   out.report = BuildReport{};
   if (bvh_file.empty()) {

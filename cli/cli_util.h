@@ -1,18 +1,98 @@
 #pragma once
-// Small pieces every subcommand parses or prints the same way.
+// Small pieces every subcommand parses or prints the same way: one spelling per
+// concept (docs in README "The command line"), deprecated spellings that still
+// work with a warning, output paths checked before any work, errors that name
+// the flag the user typed.
 #include <rtsim/builder/build.h>
 #include <rtsim/workloads/scene.h>
 
+#include <CLI/CLI.hpp>
+
 #include <cstdint>
+#include <filesystem>
 #include <string>
 
 namespace rtsim::cli {
 
-// "WxH" with 1..16384 each; InputError naming `option` otherwise.
+// The default image size of every subcommand that traces (trace, simulate, table1,
+// scenes render).
+inline const char* const kDefaultResolution = "256x256";
+
+// "WxH" with 1..16384 each, digits only; InputError naming `option` otherwise.
 void parse_resolution(const std::string& text, uint32_t& width, uint32_t& height,
                       const std::string& option = "--res");
 
 std::string hex64(uint64_t value);  // 16 lower-case hex digits
+
+// ---- flags and their deprecated spellings
+
+// The spelling the user typed for a flag: `canonical` unless a deprecated alias
+// of it was used. Error messages name this, so they name what is on the screen.
+std::string typed_flag(const std::string& canonical);
+// Prints, once per process and alias, "rtsim: warning: OLD is deprecated; use NEW"
+// on stderr, and remembers that OLD stands for NEW (typed_flag).
+void warn_deprecated(const std::string& old_name, const std::string& new_name);
+
+// `old_name` as a second spelling of the option `new_name`, writing into the same
+// variable; listed under "Deprecated" in --help. `explanation` is appended to the
+// warning when the old spelling meant something else elsewhere.
+template <class T>
+CLI::Option* add_deprecated_option(CLI::App* cmd, const std::string& old_name,
+                                   const std::string& new_name, T& variable,
+                                   const std::string& explanation = "") {
+  CLI::Option* o = cmd->add_option(old_name, variable, "deprecated: use " + new_name);
+  const std::string first = old_name.substr(0, old_name.find(','));
+  std::string shown = first;
+  for (size_t at = 0; at != std::string::npos;) {  // the long name for the message
+    const size_t next = old_name.find(',', at);
+    const std::string part = old_name.substr(at, next == std::string::npos ? next : next - at);
+    if (part.rfind("--", 0) == 0) shown = part;
+    at = next == std::string::npos ? next : next + 1;
+  }
+  o->check(CLI::Validator(
+      [shown, new_name, explanation](std::string&) {
+        warn_deprecated(shown + explanation, new_name);
+        return std::string();
+      },
+      "", "deprecated"));
+  o->group("Deprecated (kept for one release)");
+  return o;
+}
+
+// ---- output paths, checked before any work
+
+// An output folder: created if missing, then checked by writing a probe file;
+// InputError naming `flag` if it is a file or cannot be written. If this run
+// created it and the command fails (keep() never called), it is removed again
+// when empty, so a failed command leaves no trace.
+class OutputFolder {
+ public:
+  OutputFolder() = default;
+  OutputFolder(const OutputFolder&) = delete;
+  OutputFolder& operator=(const OutputFolder&) = delete;
+  ~OutputFolder();
+  void prepare(const std::filesystem::path& path, const std::string& flag);
+  void keep() { keep_ = true; }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+  std::filesystem::path created_;  // the outermost folder this run created
+  bool keep_ = false;
+};
+
+// An output file: not a folder, and its folder (the first one that exists on the
+// way up; the rest is created when the file is written) can be written.
+void check_output_file(const std::filesystem::path& path, const std::string& flag);
+
+// ---- build parameters
+
+// "sah, median, sbvh, ..." for --help texts: every builder build_bvh knows.
+std::string builder_list();
+
+// check_build_params with the flags' names: "--sbvh-budget: must be >= 1", not
+// the field "sbvh_reference_budget".
+void check_build_flags(const BuildParams& params);
 
 // What trace and simulate run on: a scene, one of its cameras and a tree, either
 // built (builder name, seed, the camera for OSAH) or loaded from a saved file that
@@ -26,9 +106,10 @@ struct Workload {
 };
 // scene/camera empty: the defaults. bvh_file non-empty: load instead of build.
 // shuffle_seed != 0: the scene's faces are permuted first (shuffle_triangles), a
-// check that no result depends on the file's face order.
+// check that no result depends on the file's face order. `threads` limits the
+// build too (0: all cores).
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
-                   uint64_t shuffle_seed = 0);
+                   uint64_t shuffle_seed = 0, uint32_t threads = 0);
 
 }  // namespace rtsim::cli

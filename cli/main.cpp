@@ -7,8 +7,8 @@
 #include <exception>
 
 int main(int argc, char** argv) {
-  CLI::App app{"rtsim: build BVHs (SAH, SBVH, OSAH, AO-BVH) and simulate a ray-tracing "
-               "accelerator (TRV, IST, shading, caches, DRAM) at three fidelity levels"};
+  CLI::App app{"rtsim: build BVHs (SAH, SBVH, OSAH, AO-BVH) and simulate a ray-tracing accelerator\n"
+               "(TRV, IST, shading, caches, DRAM) at three fidelity levels"};
   app.require_subcommand(1);
   app.set_version_flag("--version", RTSIM_VERSION " (" RTSIM_GIT_REVISION ")");
   rtsim::cli::add_scenes_command(app);
@@ -19,6 +19,11 @@ int main(int argc, char** argv) {
   rtsim::cli::add_simulate_command(app);
   rtsim::cli::add_table1_command(app);
   rtsim::cli::add_accuracy_command(app);
+  // No arguments at all: the list of subcommands, as --help gives it, not an error.
+  if (argc <= 1) {
+    std::fputs(app.help().c_str(), stdout);
+    return 0;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

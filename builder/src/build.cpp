@@ -21,26 +21,6 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-void check_params(const BuildParams& p) {
-  auto positive = [](float v) { return std::isfinite(v) && v > 0; };
-  if (!positive(p.t1)) throw InputError("t1", "must be a positive finite number");
-  if (!positive(p.t2)) throw InputError("t2", "must be a positive finite number");
-  if (p.max_leaf_size == 0) throw InputError("max_leaf_size", "must be at least 1");
-  if (p.max_depth == 0) throw InputError("max_depth", "must be at least 1");
-  if (p.bins == 1 || p.bins > 256) throw InputError("bins", "must be 0 (full sweep) or 2..256");
-  if (!std::isfinite(p.sbvh_alpha) || p.sbvh_alpha < 0)
-    throw InputError("sbvh_alpha", "must be >= 0");
-  if (!std::isfinite(p.sbvh_reference_budget) || p.sbvh_reference_budget < 1)
-    throw InputError("sbvh_reference_budget", "must be >= 1");
-  if (p.sbvh_split_limit > 7) throw InputError("sbvh_split_limit", "must be 0..7");
-  if (!std::isfinite(p.osah_w) || p.osah_w < 0 || p.osah_w > 1)
-    throw InputError("osah_w", "must be in [0, 1]");
-  if (p.osah_width == 0 || p.osah_height == 0)
-    throw InputError("osah_width/osah_height", "must be at least 1");
-  if (!std::isfinite(p.ao_weight_floor) || p.ao_weight_floor < 0 || p.ao_weight_floor > 1)
-    throw InputError("ao_weight_floor", "must be in [0, 1]");
-  if (!std::isfinite(p.ao_cutoff_relative)) throw InputError("ao_cutoff_relative", "must be finite");
-}
 
 detail::CoreConfig core_config(const BuildParams& p) {
   detail::CoreConfig c;
@@ -92,8 +72,29 @@ BvhLimits limits_for(const BuildParams& params) {
   return limits;
 }
 
+void check_build_params(const BuildParams& p) {
+  auto positive = [](float v) { return std::isfinite(v) && v > 0; };
+  if (!positive(p.t1)) throw InputError("t1", "must be a positive finite number");
+  if (!positive(p.t2)) throw InputError("t2", "must be a positive finite number");
+  if (p.max_leaf_size == 0) throw InputError("max_leaf_size", "must be at least 1");
+  if (p.max_depth == 0) throw InputError("max_depth", "must be at least 1");
+  if (p.bins == 1 || p.bins > 256) throw InputError("bins", "must be 0 (full sweep) or 2..256");
+  if (!std::isfinite(p.sbvh_alpha) || p.sbvh_alpha < 0)
+    throw InputError("sbvh_alpha", "must be >= 0");
+  if (!std::isfinite(p.sbvh_reference_budget) || p.sbvh_reference_budget < 1)
+    throw InputError("sbvh_reference_budget", "must be >= 1");
+  if (p.sbvh_split_limit > 7) throw InputError("sbvh_split_limit", "must be 0..7");
+  if (!std::isfinite(p.osah_w) || p.osah_w < 0 || p.osah_w > 1)
+    throw InputError("osah_w", "must be in [0, 1]");
+  if (p.osah_width == 0 || p.osah_height == 0)
+    throw InputError("osah_width/osah_height", "must be at least 1");
+  if (!std::isfinite(p.ao_weight_floor) || p.ao_weight_floor < 0 || p.ao_weight_floor > 1)
+    throw InputError("ao_weight_floor", "must be in [0, 1]");
+  if (!std::isfinite(p.ao_cutoff_relative)) throw InputError("ao_cutoff_relative", "must be finite");
+}
+
 Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report) {
-  check_params(params);
+  check_build_params(params);
   BuildReport local;
   BuildReport& r = report ? *report : local;
   r = BuildReport{};

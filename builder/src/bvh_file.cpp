@@ -136,11 +136,7 @@ void save_bvh(const std::filesystem::path& path, const Bvh& bvh, const BvhFileHe
 
 Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeader* header_out) {
   const std::string file = path.string();
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(file, "cannot open the BVH file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string data = buffer.str();
+  const std::string data = read_input_file(path, kMaxDataFileBytes);
   Reader r(file, data);
 
   r.need(sizeof kMagic, "header.magic");

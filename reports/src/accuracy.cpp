@@ -394,7 +394,7 @@ class AccuracyRun {
             " --bvh " + shell_quote(tree_file.string()) + " --camera " + shell_quote(camera_.name) +
             " --fidelity " + level + " --config " + shell_quote(o_.hardware) + " --res " +
             std::to_string(res) + "x" + std::to_string(res) + " --ao " +
-            std::to_string(report_.scene_ao_samples) + " --seed " + std::to_string(o_.seed) + " --out " +
+            std::to_string(report_.scene_ao_samples) + " --seed " + std::to_string(o_.seed) + " --out-dir " +
             shell_quote(dir.string()) + " > " + shell_quote((o_.out_dir / "runs" / (name + ".log")).string()) +
             " 2>&1";
         const auto start = Clock::now();
@@ -562,7 +562,7 @@ class AccuracyRun {
                         " --fidelity " + level + " --config " + shell_quote(o_.hardware) + " --res " +
                         std::to_string(res) + "x" + std::to_string(res) + " --seed " +
                         std::to_string(o_.seed) + " --frames " + std::to_string(o_.traffic_frames) +
-                        " --out " + shell_quote(dir.string()),
+                        " --out-dir " + shell_quote(dir.string()),
                     runs_dir / (name + ".log"));
           const nlohmann::json st = read_json(dir / "stats.json"), host = read_json(dir / "host.json");
           TrafficPoint p;

@@ -1,8 +1,11 @@
 // Campaign files: parsing, sweep expansion and job identity.
 #include <rtsim/reports/campaign.h>
 
+#include <rtsim/builder/build.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/workloads/config_reader.h>
+#include <rtsim/workloads/procedural.h>
+#include <rtsim/workloads/scene_registry.h>
 #include <rtsim/workloads/files.h>
 #include <rtsim/workloads/error.h>
 
@@ -123,10 +126,15 @@ void flatten_overrides(const json& table, const std::string& prefix, const std::
   for (auto it = table.begin(); it != table.end(); ++it) {
     const std::string key = prefix.empty() ? it.key() : prefix + "." + it.key();
     const std::string where = where_prefix + key + "'";
-    if (it.value().is_object() && !it.value().contains("from"))
+    if (it.value().is_object() && !it.value().contains("from")) {
       flatten_overrides(it.value(), key, where_prefix, out);
-    else
-      out[key] = axis_values(it.value(), where);
+      continue;
+    }
+    // "l2.size_bytes" = 1 and l2.size_bytes = 2 are two TOML keys but one override.
+    if (out.count(key))
+      throw InputError(where, "is set twice (once as a quoted dotted key, once as a table); "
+                              "keep one");
+    out[key] = axis_values(it.value(), where);
   }
 }
 
@@ -146,6 +154,47 @@ void read_sweep(ConfigTable& table, const std::string& section, Sweep& sweep) {
     std::map<std::string, std::vector<json>> flat;
     flatten_overrides(set, "", table.file() + ": key '" + section + ".set.", flat);
     for (auto& [k, v] : flat) sweep.overrides[k] = std::move(v);
+  }
+}
+
+// Builders, scenes and cameras are checked by name when the campaign is read, so
+// that a typo stops the campaign before its first job, not in every job.
+void check_names(const Campaign& campaign, const std::map<std::string, std::string>& unknown_scenes,
+                 const std::string& fname) {
+  if (!unknown_scenes.empty())
+    throw InputError(fname + ": key 'scene'", unknown_scenes.begin()->second);
+  const std::vector<std::string> builders = builder_names();
+  std::set<std::pair<std::string, std::string>> cameras_checked;
+  std::set<std::string> builders_checked;
+  for (const CampaignJob& job : campaign.jobs) {
+    if (builders_checked.insert(job.builder).second &&
+        std::find(builders.begin(), builders.end(), job.builder) == builders.end()) {
+      std::string known;
+      for (const std::string& b : builders) known += (known.empty() ? "" : ", ") + b;
+      throw InputError(fname + ": key 'builder'", "unknown builder '" + job.builder + "' (known: " + known + ")");
+    }
+    if (job.camera.empty() || !cameras_checked.insert({job.scene, job.camera}).second) continue;
+    // Camera names: a built-in scene's, or a descriptor's [[camera]] names. Cameras a
+    // mesh suggests (spawnN) are only known once the mesh is loaded, so they pass.
+    std::vector<std::string> names;
+    if (is_procedural_scene(job.scene)) {
+      for (const Camera& c : make_procedural_scene(job.scene).cameras) names.push_back(c.name);
+    } else {
+      const std::vector<fs::path> files =
+          scene_source_files(job.scene_path.empty() ? job.scene : job.scene_path.string());
+      if (files.empty()) continue;
+      const json doc = parse_config_file(files.front());
+      if (doc.is_object() && doc.contains("camera") && doc["camera"].is_array())
+        for (const json& c : doc["camera"])
+          if (c.is_object() && c.contains("name") && c["name"].is_string()) names.push_back(c["name"].get<std::string>());
+      if (job.camera.rfind("spawn", 0) == 0) continue;
+    }
+    if (std::find(names.begin(), names.end(), job.camera) == names.end()) {
+      std::string known;
+      for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
+      throw InputError(fname + ": key 'camera'", "scene '" + job.scene + "' has no camera '" + job.camera +
+                                                     "' (cameras: " + known + ")");
+    }
   }
 }
 
@@ -171,11 +220,7 @@ std::string content_hash_hex(const std::string& bytes) {
 }
 
 std::string file_hash_hex(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw InputError(file.string(), "cannot read");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return content_hash_hex(ss.str());
+  return content_hash_hex(read_input_file(file, kMaxDataFileBytes));
 }
 
 std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir,
@@ -189,7 +234,7 @@ std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir
                                 "--fidelity", fidelity,
                                 "--config", config,
                                 "--seed", std::to_string(seed),
-                                "--out", out_dir.string()};
+                                "--out-dir", out_dir.string()};
   if (!camera.empty()) a.insert(a.end(), {"--camera", camera});
   if (!resolution.empty()) a.insert(a.end(), {"--res", resolution});
   if (ao_rays >= 0) a.insert(a.end(), {"--ao", std::to_string(ao_rays)});
@@ -336,6 +381,23 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
     return it->second;
   };
 
+  // The content hash of each distinct scene (scene_registry.h); a scene that
+  // cannot be found is noted and refused after the expansion, once.
+  std::map<std::string, std::string> scene_hashes;
+  std::map<std::string, std::string> unknown_scenes;  // scene -> why
+  auto scene_hash = [&](const CampaignJob& job) -> std::string {
+    const std::string lookup = job.scene_path.empty() ? job.scene : job.scene_path.string();
+    auto it = scene_hashes.find(lookup);
+    if (it != scene_hashes.end()) return it->second;
+    std::string h;
+    try {
+      h = scene_files_hash(lookup);
+    } catch (const InputError& e) {
+      unknown_scenes.emplace(job.scene, e.what());
+    }
+    return scene_hashes.emplace(lookup, h).first->second;
+  };
+
   std::set<std::string> seen;
   for (const auto& [group_name, sweep] : groups) {
     const std::string where = fname + ": group '" + group_name + "'";
@@ -379,8 +441,14 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
         resolved[name] = value;
         if (name == "scene") {
           job.scene = value;
-          const std::string h = resolve_input(value, w, job.scene_path, false);
-          if (!h.empty()) resolved["scene_file_hash"] = h;
+          resolve_input(value, w, job.scene_path, false);
+          if (job.scene_path.empty() && looks_like_path(value)) {  // a scene folder (scene.toml inside)
+            const fs::path p = fs::path(value).is_absolute() ? fs::path(value) : base_dir / value;
+            if (is_folder(p)) job.scene_path = fs::absolute(p).lexically_normal();
+          }
+          // Every file the scene is read from, by content: an edited mesh makes new keys.
+          const std::string h = scene_hash(job);
+          if (!h.empty()) resolved["scene_files_hash"] = h;
         } else if (name == "builder") {
           job.builder = value;
         } else if (name == "camera") {
@@ -399,10 +467,8 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
             throw InputError(w, "seeds must be integers >= 0");
           job.seed = v.get<uint64_t>();
         } else if (name == "resolution") {
-          unsigned wdt = 0, hgt = 0;
-          char tail = 0;
-          if (std::sscanf(value.c_str(), "%ux%u%c", &wdt, &hgt, &tail) != 2 || wdt == 0 ||
-              hgt == 0 || wdt > 16384 || hgt > 16384)
+          uint32_t wdt = 0, hgt = 0;
+          if (!parse_resolution_text(value, wdt, hgt))
             throw InputError(w, "'" + value + "' is not a resolution WxH (1..16384)");
           job.resolution = value;
         } else if (name == "ao") {
@@ -447,6 +513,7 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
     }
     campaign.groups.push_back(group_name);
   }
+  check_names(campaign, unknown_scenes, fname);
   return campaign;
 }
 

@@ -82,7 +82,7 @@ CampaignReportFiles write_campaign_report(const CampaignReportOptions& options) 
   std::vector<json> rows;
   std::vector<std::string> campaigns;
   {
-    ResultsStore store(options.database);
+    ResultsStore store(options.database, ResultsStore::Access::ReadOnly);
     rows = store.rows(options.campaign);
     campaigns = options.campaign.empty() ? store.campaigns()
                                          : std::vector<std::string>{options.campaign};

@@ -1,6 +1,8 @@
 // Campaign execution: one child process per job, result files, resume, collect, emit.
 #include <rtsim/reports/campaign_runner.h>
 
+#include <rtsim/builder/bvh_file.h>
+
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
 
@@ -152,7 +154,10 @@ RunRecord make_record(const Campaign& campaign, const CampaignJob& job, const Ca
     if (exited_ok) reason = !why_stats.empty() ? why_stats : !why_config.empty() ? why_config
                                                                                  : "bad outputs";
     const std::string tail = log_tail(dir / "log.txt");
-    r.error = reason + (tail.empty() ? "" : "\n" + tail);
+    // The first line is what `run` and `status` show: how it ended and the last
+    // thing the job said (usually its error message); the log's tail follows.
+    const std::string last = tail.substr(tail.rfind('\n') == std::string::npos ? 0 : tail.rfind('\n') + 1);
+    r.error = reason + (last.empty() ? "" : ": " + last) + (tail.empty() ? "" : "\n" + tail);
   }
   return r;
 }
@@ -169,6 +174,26 @@ fs::path fresh_job_dir(const CampaignPaths& paths, const std::string& key) {
   fs::remove_all(dir, ec);
   fs::create_directories(dir);
   return dir;
+}
+
+// A cached tree that fails its own checks (truncated, checksum mismatch: a disk
+// error, an interrupted copy) would fail every job that replays it, for ever; it
+// is moved aside so that the next job builds it again. Checked once per process
+// and file: a tree being built is only renamed into place when complete.
+void discard_damaged_tree(const fs::path& tree) {
+  static std::set<std::string> checked;
+  if (!checked.insert(tree.string()).second || !is_file(tree)) return;
+  try {
+    load_bvh(tree);
+  } catch (const InputError& e) {
+    fs::path aside = tree;
+    aside += ".damaged";
+    std::error_code ec;
+    fs::rename(tree, aside, ec);
+    std::fprintf(stderr, "rtsim campaign: tree cache: %s is damaged (%s); it is built again%s\n",
+                 tree.string().c_str(), e.what(),
+                 ec ? "" : (" (the damaged file is kept as " + aside.filename().string() + ")").c_str());
+  }
 }
 
 // What a job process executes: the binary and its arguments.
@@ -194,6 +219,7 @@ JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, con
   if (tree_cache.empty()) return {binary, args};
   const fs::path tree = cached_tree(tree_cache, campaign, job);
   fs::create_directories(tree_cache);
+  discard_damaged_tree(tree);
   std::string build = shell_quote(binary.string()) + " build --scene " +
                       shell_quote(job.scene_path.empty() ? job.scene : job.scene_path.string()) +
                       " --builder " + shell_quote(job.builder) + " --seed " +
@@ -269,7 +295,9 @@ std::string binary_revision(const fs::path& binary) {
 CampaignPaths campaign_paths(const Campaign& campaign, const fs::path& dir_option,
                              const fs::path& database_option) {
   CampaignPaths p;
-  p.dir = fs::absolute(dir_option.empty() ? fs::path("rtsim-campaigns") / campaign.name
+  // By default beside the campaign file, so every command finds the same folder
+  // wherever it is run from.
+  p.dir = fs::absolute(dir_option.empty() ? campaign.file.parent_path() / "rtsim-campaigns" / campaign.name
                                           : dir_option).lexically_normal();
   p.database = fs::absolute(database_option.empty() ? p.dir / "results.sqlite"
                                                     : database_option).lexically_normal();
@@ -278,7 +306,7 @@ CampaignPaths campaign_paths(const Campaign& campaign, const fs::path& dir_optio
 
 fs::path cached_tree(const fs::path& cache, const Campaign& campaign, const CampaignJob& job) {
   json identity = {{"scene", job.scene},
-                   {"scene_file_hash", job.resolved.value("scene_file_hash", "")},
+                   {"scene_files_hash", job.resolved.value("scene_files_hash", "")},
                    {"builder", job.builder},
                    {"camera", job.camera},
                    {"seed", job.seed},
@@ -494,10 +522,35 @@ CampaignStatus campaign_status(const Campaign& campaign, const CampaignPaths& pa
   const auto recorded = store.summaries(campaign.name);
   s.total = campaign.jobs.size();
   s.runner_active = runner_active(paths.dir);
+  // Results under keys no job has any more, by label: what a changed input left behind.
+  std::set<std::string> current;
+  for (const CampaignJob& job : campaign.jobs) current.insert(job.key);
+  std::map<std::string, const ResultsStore::Summary*> old_by_label;
+  for (const auto& [key, summary] : recorded)
+    if (!current.count(key)) {
+      const ResultsStore::Summary*& slot = old_by_label[summary.label];
+      if (!slot || summary.finished_at > slot->finished_at) slot = &summary;
+    }
+  auto what_changed = [&](const CampaignJob& job, const ResultsStore::Summary& old) {
+    std::vector<std::string> changes;
+    if (old.revision != campaign.revision) changes.push_back("the binary (revision " + old.revision + " then)");
+    const json& then = old.job;
+    auto differs = [&](const char* field) {
+      return !then.is_object() || then.value(field, std::string()) != job.resolved.value(field, std::string());
+    };
+    if (differs("scene_files_hash")) changes.push_back("the scene's files");
+    if (differs("preset_file_hash")) changes.push_back("the hardware file");
+    if (changes.empty()) changes.push_back("the job's configuration");
+    std::string text;
+    for (const std::string& c : changes) text += (text.empty() ? "" : " and ") + c;
+    return text + " changed since its result of " + old.finished_at;
+  };
   for (const CampaignJob& job : campaign.jobs) {
     auto it = recorded.find(job.key);
     if (it == recorded.end()) {
       ++s.missing;
+      auto old = old_by_label.find(job.label);
+      if (old != old_by_label.end()) s.outdated.emplace_back(job.label, what_changed(job, *old->second));
       // Started (its folder exists) but no result yet: running, or cut short.
       if (fs::exists(paths.job_dir(job.key) / "log.txt") &&
           !fs::exists(paths.result_file(job.key)))
@@ -559,7 +612,7 @@ std::string job_command(const Campaign& campaign, const CampaignPaths& paths,
                         const EmitOptions& options, const std::string& key_word) {
   const fs::path runner = options.runner.empty() ? self_executable() : options.runner;
   std::string cmd = shell_quote(runner.string()) + " campaign job " +
-                    shell_quote(campaign.file.string()) + " --key " + key_word + " --dir " +
+                    shell_quote(campaign.file.string()) + " --key " + key_word + " --out-dir " +
                     shell_quote(paths.dir.string());
   if (!options.binary.empty() && options.binary != runner)
     cmd += " --rtsim " + shell_quote(options.binary.string());
@@ -586,7 +639,7 @@ fs::path emit_slurm(const Campaign& campaign, const CampaignPaths& paths, const 
     << "# rtsim campaign '" << campaign.name << "': " << count << " jobs as one Slurm array.\n"
     << "# Submit: sbatch " << (folder / "campaign.sbatch").string() << "\n"
     << "# Then:   " << shell_quote(runner.string()) << " campaign collect "
-    << shell_quote(campaign.file.string()) << " --dir " << shell_quote(paths.dir.string())
+    << shell_quote(campaign.file.string()) << " --out-dir " << shell_quote(paths.dir.string())
     << "\n"
     << "#SBATCH --job-name=rtsim-" << campaign.name << "\n"
     << "#SBATCH --array=0-" << (count == 0 ? 0 : count - 1) << "%" << std::max(1, options.throttle)

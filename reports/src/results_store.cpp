@@ -3,6 +3,7 @@
 
 #include <rtsim/reports/campaign.h>
 #include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
 
 #include <sqlite3.h>
 
@@ -257,7 +258,84 @@ const std::vector<std::pair<std::string, std::string>>& ResultsStore::headline_c
   return columns;
 }
 
-ResultsStore::ResultsStore(const fs::path& file) : file_(file) {
+namespace {
+
+// What a database holds, asked before rtsim reads or writes it: its tables, and
+// whether it is rtsim's (a meta table with a schema_version). InputError for a
+// file that is not an SQLite database at all.
+struct DatabaseKind {
+  bool empty = true;  // no tables
+  bool rtsim = false;
+  std::string schema_version;
+};
+
+DatabaseKind inspect(sqlite3* db, const fs::path& file) {
+  DatabaseKind kind;
+  sqlite3_stmt* q = nullptr;
+  if (sqlite3_prepare_v2(db, "SELECT name FROM sqlite_master WHERE type='table'", -1, &q, nullptr) != SQLITE_OK) {
+    const int code = sqlite3_errcode(db);
+    const std::string m = sqlite3_errmsg(db);
+    if (code == SQLITE_NOTADB || code == SQLITE_CORRUPT)
+      throw InputError(file.string(), "is not an SQLite database (" + m + ")");
+    throw std::runtime_error(file.string() + ": " + m);
+  }
+  bool has_meta = false;
+  int rc;
+  while ((rc = sqlite3_step(q)) == SQLITE_ROW) {
+    kind.empty = false;
+    const unsigned char* name = sqlite3_column_text(q, 0);
+    if (name && std::string(reinterpret_cast<const char*>(name)) == "meta") has_meta = true;
+  }
+  sqlite3_finalize(q);
+  if (rc != SQLITE_DONE) {
+    const int code = sqlite3_errcode(db);
+    const std::string m = sqlite3_errmsg(db);
+    if (code == SQLITE_NOTADB || code == SQLITE_CORRUPT)
+      throw InputError(file.string(), "is not an SQLite database (" + m + ")");
+    throw std::runtime_error(file.string() + ": " + m);
+  }
+  if (has_meta &&
+      sqlite3_prepare_v2(db, "SELECT value FROM meta WHERE key='schema_version'", -1, &q, nullptr) == SQLITE_OK) {
+    if (sqlite3_step(q) == SQLITE_ROW) {
+      kind.rtsim = true;
+      const unsigned char* v = sqlite3_column_text(q, 0);
+      kind.schema_version = v ? reinterpret_cast<const char*>(v) : "";
+    }
+    sqlite3_finalize(q);
+  }
+  return kind;
+}
+
+}  // namespace
+
+ResultsStore::ResultsStore(const fs::path& file, Access access) : file_(file) {
+  if (access == Access::ReadOnly) {
+    if (!path_exists(file)) return;  // nothing recorded yet; and nothing is created
+    if (!is_file(file)) throw InputError(file.string(), "is not a file");
+    if (sqlite3_open_v2(file.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+      const std::string m = db_ ? sqlite3_errmsg(db_) : "out of memory";
+      sqlite3_close(db_);
+      db_ = nullptr;
+      throw InputError(file.string(), "cannot open the results database: " + m);
+    }
+    sqlite3_busy_timeout(db_, 60000);
+    try {
+      const DatabaseKind kind = inspect(db_, file);
+      if (!kind.rtsim)
+        throw InputError(file.string(), kind.empty ? "is an empty database, not an rtsim results database"
+                                                   : "is another program's database, not an rtsim "
+                                                     "results database (no meta.schema_version)");
+      if (kind.schema_version != std::to_string(kSchemaVersion))
+        throw InputError(file.string(), "schema version " + kind.schema_version + ", this rtsim reads " +
+                                            std::to_string(kSchemaVersion));
+    } catch (...) {
+      sqlite3_close(db_);
+      db_ = nullptr;
+      throw;
+    }
+    return;
+  }
+  if (path_exists(file) && !is_file(file)) throw InputError(file.string(), "is not a file");
   if (file.has_parent_path()) fs::create_directories(file.parent_path());
   if (sqlite3_open_v2(file.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) !=
       SQLITE_OK) {
@@ -269,6 +347,11 @@ ResultsStore::ResultsStore(const fs::path& file) : file_(file) {
     // Writers queue for up to a minute instead of failing with "database is locked".
     constexpr int kBusyTimeoutMs = 60000;
     sqlite3_busy_timeout(db_, kBusyTimeoutMs);
+    // Someone else's database is never written into.
+    const DatabaseKind kind = inspect(db_, file);
+    if (!kind.empty && !kind.rtsim)
+      throw InputError(file.string(), "holds another program's tables; rtsim writes only into a new "
+                                      "database or one of its own");
     enable_wal(db_, kBusyTimeoutMs);
     // WAL + NORMAL: a killed process never loses a committed run (only power loss could).
     exec(db_, "PRAGMA synchronous=NORMAL");
@@ -284,6 +367,10 @@ ResultsStore::ResultsStore(const fs::path& file) : file_(file) {
       put.bind(1, std::to_string(kSchemaVersion)).step();
     }
     exec(db_, "COMMIT");
+  } catch (const InputError&) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw;
   } catch (const std::exception& e) {
     sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
     sqlite3_close(db_);
@@ -295,6 +382,7 @@ ResultsStore::ResultsStore(const fs::path& file) : file_(file) {
 ResultsStore::~ResultsStore() { sqlite3_close(db_); }
 
 ResultsStore::Outcome ResultsStore::record(const RunRecord& run) {
+  if (!db_) throw std::logic_error(file_.string() + ": a read-only store records nothing");
   const std::string record_text = run.to_json().dump();
   const std::string record_hash = content_hash_hex(record_text);
   const HeadlineStats h = run.stats.is_object() ? headline_stats(run.stats, run.host) : HeadlineStats{};
@@ -362,9 +450,10 @@ VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?1
 std::map<std::string, ResultsStore::Summary> ResultsStore::summaries(
     const std::string& campaign) const {
   std::map<std::string, Summary> out;
+  if (!db_) return out;
   Statement q(db_,
-              "SELECT job_key, status, error, label, git_revision, host_seconds FROM runs "
-              "WHERE campaign=?1");
+              "SELECT job_key, status, error, label, git_revision, host_seconds, finished_at, job_json "
+              "FROM runs WHERE campaign=?1");
   q.bind(1, campaign);
   while (q.step()) {
     Summary& s = out[q.text(0)];
@@ -373,11 +462,14 @@ std::map<std::string, ResultsStore::Summary> ResultsStore::summaries(
     s.label = q.text(3);
     s.revision = q.text(4);
     s.host_seconds = q.real(5);
+    s.finished_at = q.text(6);
+    s.job = json::parse(q.text(7), nullptr, false);
   }
   return out;
 }
 
 std::vector<json> ResultsStore::rows(const std::string& campaign) const {
+  if (!db_) return {};
   Statement q(db_, campaign.empty()
                        ? "SELECT * FROM runs ORDER BY campaign, job_key"
                        : "SELECT * FROM runs WHERE campaign=?1 ORDER BY job_key");
@@ -401,6 +493,7 @@ std::vector<json> ResultsStore::rows(const std::string& campaign) const {
 }
 
 std::vector<std::string> ResultsStore::campaigns() const {
+  if (!db_) return {};
   Statement q(db_, "SELECT DISTINCT campaign FROM runs ORDER BY campaign");
   std::vector<std::string> out;
   while (q.step()) out.push_back(q.text(0));
@@ -408,6 +501,7 @@ std::vector<std::string> ResultsStore::campaigns() const {
 }
 
 std::string ResultsStore::integrity_check() const {
+  if (!db_) return "ok";
   Statement q(db_, "PRAGMA integrity_check");
   std::string out;
   while (q.step()) out += (out.empty() ? "" : "\n") + q.text(0);

@@ -2,6 +2,7 @@
 #include <rtsim/builder/memory_image.h>
 #include <rtsim/builder/metrics.h>
 #include <rtsim/model/core/functional_tracer.h>
+#include <rtsim/model/sim/config.h>
 #include <rtsim/reports/child_process.h>
 #include <rtsim/reports/table1.h>
 #include <rtsim/reports/text_table.h>
@@ -78,7 +79,7 @@ void run_cycle_level(Table1& table, const std::map<std::string, std::filesystem:
   const Table1Options& o = table.options;
   struct Job {
     Table1Row* row;
-    std::filesystem::path dir;
+    std::filesystem::path dir, log;
     std::string command;
   };
   std::vector<Job> jobs;
@@ -86,6 +87,7 @@ void run_cycle_level(Table1& table, const std::map<std::string, std::filesystem:
     Job job;
     job.row = &row;
     job.dir = o.out_dir / "runs" / (row.camera + "-" + row.builder);
+    job.log = o.out_dir / "runs" / (row.camera + "-" + row.builder + ".log");
     char res[32];
     std::snprintf(res, sizeof res, "%ux%u", o.width, o.height);
     job.command = shell_quote(o.rtsim_binary.string()) + " simulate --scene " + shell_quote(o.scene) +
@@ -94,9 +96,8 @@ void run_cycle_level(Table1& table, const std::map<std::string, std::filesystem:
                   " --camera " + shell_quote(row.camera) + " --fidelity cycle --config " +
                   shell_quote(o.hardware) + " --res " + res + " --ao " + std::to_string(o.ao_samples) +
                   " --seed " + std::to_string(o.seed) + " --frames " + std::to_string(o.frames) +
-                  " --out " + shell_quote(job.dir.string()) +
-                  " > " + shell_quote((o.out_dir / "runs" / (row.camera + "-" + row.builder + ".log")).string()) +
-                  " 2>&1";
+                  " --out-dir " + shell_quote(job.dir.string()) +
+                  " > " + shell_quote(job.log.string()) + " 2>&1";
     jobs.push_back(job);
   }
   std::filesystem::create_directories(o.out_dir / "runs");
@@ -108,8 +109,17 @@ void run_cycle_level(Table1& table, const std::map<std::string, std::filesystem:
     for (size_t i = next++; i < jobs.size(); i = next++) {
       const int status = std::system(jobs[i].command.c_str());
       if (status != 0) {
+        // The reason is the last line the run printed, not just "see the log".
+        std::string said;
+        try {
+          said = read_input_file(jobs[i].log, kMaxConfigFileBytes);
+        } catch (const std::exception&) {
+        }
+        while (!said.empty() && (said.back() == '\n' || said.back() == '\r')) said.pop_back();
+        if (said.rfind('\n') != std::string::npos) said = said.substr(said.rfind('\n') + 1);
         std::lock_guard<std::mutex> lock(failure_mutex);
-        failure = "cycle-level run failed (" + jobs[i].command + ")";
+        failure = "the cycle-level run of " + jobs[i].row->camera + "/" + jobs[i].row->builder +
+                  " failed: " + (said.empty() ? "no output" : said) + " (log " + jobs[i].log.string() + ")";
       }
       progress.advance();
     }
@@ -200,7 +210,35 @@ void add_verdicts(Table1& table) {
 
 }  // namespace
 
+namespace {
+Table1 run_table1_checked(const Table1Options& options);
+}  // namespace
+
 Table1 run_table1(const Table1Options& options) {
+  // Everything that can be checked is checked before the first tree is built.
+  if (options.cycle_level) {
+    try {
+      sim::load_hardware_config(options.hardware);
+    } catch (const InputError& e) {
+      throw InputError(std::string("--config: ") + e.what());
+    }
+  }
+  // The folders this run creates go again if it fails, so a failed run leaves no
+  // half-filled output behind (the result files are only written at the end).
+  std::vector<std::filesystem::path> created;
+  for (const char* sub : {"trees", "data", "runs"})
+    if (!path_exists(options.out_dir / sub)) created.push_back(options.out_dir / sub);
+  try {
+    return run_table1_checked(options);
+  } catch (...) {
+    std::error_code ec;
+    for (const auto& folder : created) std::filesystem::remove_all(folder, ec);
+    throw;
+  }
+}
+
+namespace {
+Table1 run_table1_checked(const Table1Options& options) {
   Table1 table;
   table.options = options;
   const auto total_start = std::chrono::steady_clock::now();
@@ -248,8 +286,10 @@ Table1 run_table1(const Table1Options& options) {
       BuildParams params = options.build;
       params.builder = builder;
       params.camera = camera;
-      params.osah_width = options.width;
-      params.osah_height = options.height;
+      if (options.osah_resolution_from_frame) {
+        params.osah_width = options.width;
+        params.osah_height = options.height;
+      }
       Tree tree;
       tree.bvh = build_bvh(scene, params, &tree.report);
       tree.sah_cost = sah_cost(tree.bvh, params.t1, params.t2);
@@ -309,5 +349,7 @@ Table1 run_table1(const Table1Options& options) {
   table.counting_rule = rule;
   return table;
 }
+
+}  // namespace
 
 }  // namespace rtsim

@@ -19,6 +19,32 @@ std::string pct(double value, double baseline) {
   return buf;
 }
 
+// Prose for the terminal, wrapped at word boundaries to fit 120 columns; lines
+// after the first start with `indent`.
+std::string wrap(const std::string& text, const std::string& indent, size_t width = 118) {
+  std::string out;
+  size_t at = text.find_first_not_of(' ');
+  if (at == std::string::npos) return text;
+  std::string line = text.substr(0, at);  // the first line keeps its own indentation
+  const std::string first_indent = line;
+  while (at < text.size()) {
+    size_t end = text.find(' ', at);
+    if (end == std::string::npos) end = text.size();
+    const std::string word = text.substr(at, end - at);
+    if (!line.empty() && line.size() + 1 + word.size() > width) {
+      out += line + "\n";
+      line = indent;
+    }
+    if (word.empty()) {  // a run of spaces inside the text
+      at = end + 1;
+      continue;
+    }
+    line += (line == indent || line == first_indent ? "" : " ") + word;
+    at = end + 1;
+  }
+  return out + line;
+}
+
 std::string num(double value, int digits = 4) { return value < 0 ? "-" : format_number(value, digits); }
 
 const char* display_name(const std::string& builder) {
@@ -29,6 +55,25 @@ const char* display_name(const std::string& builder) {
   if (builder == "aobvh") return "AO-BVH";
   if (builder == "aosbvh") return "AO-SBVH (ours)";
   return builder.c_str();
+}
+
+// The terminal's table per camera, within 120 columns: the Table 1 columns and
+// the headline counts (camera_table has everything, for --wide and the files).
+TextTable narrow_camera_table(const Table1& table, const std::string& camera) {
+  TextTable t({"builder", "ops/ray", "vs median", "vs SAH", "TRV/ray", "IST/ray", "fetch/ray",
+               "DRAM B/ray", "cycles", "build s"});
+  const Table1Row* median = table.find(camera, "median");
+  const Table1Row* sah = table.find(camera, "sah");
+  for (const Table1Row& r : table.rows) {
+    if (r.camera != camera) continue;
+    t.add_row({display_name(r.builder), num(r.combined.ops_per_ray),
+               median ? pct(r.combined.ops_per_ray, median->combined.ops_per_ray) : "-",
+               sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
+               num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
+               num(r.combined.node_fetches_per_ray), num(r.combined.dram_bytes_per_ray), num(r.cycles, 6),
+               num(r.build_seconds + r.estimate_seconds, 3)});
+  }
+  return t;
 }
 
 // One table per camera: the Table 1 columns first, then what the patent does not show.
@@ -82,20 +127,21 @@ nlohmann::json counts_json(const Table1Counts& c) {
 
 }  // namespace
 
-std::string table1_text(const Table1& table) {
+std::string table1_text(const Table1& table, bool wide) {
   std::string out = "Table 1 on scene '" + table.scene_name + "' (" + std::to_string(table.triangles) +
                     " triangles)\n\nThe patent's Table 1 (TRV+IST ops/ray, reduction against BVH):\n" +
                     patent_table().plain() + "\n";
   for (const std::string& camera : table.options.cameras)
     out += "Ours, camera " + camera + " (reductions: positive = fewer than the baseline):\n" +
-           camera_table(table, camera).plain() + "\n";
+           (wide ? camera_table(table, camera) : narrow_camera_table(table, camera)).plain() + "\n";
+  if (!wide) out += "(primary and AO ops/ray and fetch reductions: table1.md, or --wide)\n\n";
   out += "Where the patent's ordering holds:\n";
-  for (const std::string& v : table.verdicts) out += "  - " + v + "\n";
+  for (const std::string& v : table.verdicts) out += wrap("  - " + v, "    ") + "\n";
   for (const Table1Row& r : table.rows)
     if (!r.counts_match_cycle_level)
       out += "  ! " + r.camera + "/" + r.builder +
              ": the cycle-level counts differ from the functional counts (a model bug)\n";
-  out += "\nCounting rule and parameters: " + table.counting_rule + "\n";
+  out += "\n" + wrap("Counting rule and parameters: " + table.counting_rule, "") + "\n";
   return out;
 }
 

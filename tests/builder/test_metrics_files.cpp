@@ -154,7 +154,7 @@ TEST_F(BvhFileTest, BadFilesAreRefusedNamingFileAndField) {
   const Scene other = test::triangle_soup(500, 99);
   expect_refused(good, &other, "header.scene_hash");
 
-  expect_refused(dir_ / "missing.bvh", &scene, "cannot open");
+  expect_refused(dir_ / "missing.bvh", &scene, "no such file");
   write(dir_ / "empty.bvh", "");
   expect_refused(dir_ / "empty.bvh", &scene, "header.magic");
 }

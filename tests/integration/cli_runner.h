@@ -10,8 +10,8 @@ struct CliResult {
   std::string output;  // stdout and stderr together
 };
 
-inline CliResult run_rtsim(const std::string& args) {
-  const std::string command = std::string(RTSIM_BINARY) + " " + args + " 2>&1";
+// Runs a shell command line as it is (redirections included) and captures its stdout.
+inline CliResult run_rtsim_command(const std::string& command) {
   CliResult result;
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return result;
@@ -21,4 +21,8 @@ inline CliResult run_rtsim(const std::string& args) {
   const int status = pclose(pipe);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
+}
+
+inline CliResult run_rtsim(const std::string& args) {
+  return run_rtsim_command(std::string(RTSIM_BINARY) + " " + args + " 2>&1");
 }

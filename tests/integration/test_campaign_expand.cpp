@@ -161,7 +161,7 @@ set."l1_node.size_bytes" = 8192
   ASSERT_EQ(c.jobs.size(), 1u);
   const std::vector<std::string> expected = {
       "simulate", "--scene", "interior", "--builder", "aobvh", "--fidelity", "lt",
-      "--config", "mobile", "--seed", "7", "--out", "/o", "--camera", "view2",
+      "--config", "mobile", "--seed", "7", "--out-dir", "/o", "--camera", "view2",
       "--res", "64x48", "--ao", "2", "--frames", "3", "--set", "l1_node.size_bytes=8192"};
   EXPECT_EQ(c.jobs[0].simulate_arguments("/o"), expected);
   // The runner writes the merged hardware file instead: preset + typed overrides.

@@ -28,7 +28,7 @@ shift
 out=""; builder=""; preset=""; scene=""; seed=1; sets=""; sleep_s="${FAKE_SLEEP:-0}"
 while [ $# -gt 0 ]; do
   case "$1" in
-    --out) out="$2";; --builder) builder="$2";; --config) preset="$2";;
+    --out|--out-dir) out="$2";; --builder) builder="$2";; --config) preset="$2";;
     --scene) scene="$2";; --seed) seed="$2";;
     --set) sets="$sets $2";;
   esac

@@ -28,7 +28,7 @@ struct Fixture {
            " " + args + " --rtsim " + shell_quote(fake.string()) + " >" +
            shell_quote((dir / "out.txt").string()) + " 2>" + shell_quote((dir / "err.txt").string());
   }
-  std::string work(const std::string& name) const { return " --dir " + shell_quote((dir / name).string()); }
+  std::string work(const std::string& name) const { return " --out-dir " + shell_quote((dir / name).string()); }
 };
 
 Fixture make_fixture(const std::string& tag, int seeds) {
@@ -219,9 +219,9 @@ TEST(CampaignRun, SharedTreesAreBuiltOnceAndChangeNoResult) {
       "preset = [\"mobile\", \"desktop\"]\nresolution = \"12x12\"\n"
       "set.l2.size_bytes = [131072, 262144]\n");
   const std::string rtsim = shell_quote(RTSIM_BINARY) + " campaign run " + shell_quote(campaign.string());
-  ASSERT_EQ(shell(rtsim + " -j 2 --dir " + shell_quote((dir / "shared").string()) +
+  ASSERT_EQ(shell(rtsim + " -j 2 --out-dir " + shell_quote((dir / "shared").string()) +
                   " --tree-cache " + shell_quote((dir / "cache").string()) + " >/dev/null"), 0);
-  ASSERT_EQ(shell(rtsim + " -j 2 --no-tree-cache --dir " + shell_quote((dir / "own").string()) +
+  ASSERT_EQ(shell(rtsim + " -j 2 --no-tree-cache --out-dir " + shell_quote((dir / "own").string()) +
                   " >/dev/null"), 0);
   size_t trees = 0;
   for (const auto& e : fs::directory_iterator(dir / "cache")) trees += e.path().extension() == ".bvh";

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Opt-in test of the Slurm path for real (not part of ctest: it starts daemons and
-# needs root). It brings up a one-node Slurm cluster on localhost (Debian's slurm-wlm
-# + munge: slurmctld and slurmd with a private slurm.conf in a temporary folder),
+# The Slurm path for real, run by CI (.ci/run installs slurm-wlm and munge) and by
+# hand; not part of ctest, since it starts daemons and needs root. It brings up a
+# one-node Slurm cluster on localhost (Debian's slurm-wlm + munge: slurmctld and slurmd with a private slurm.conf in a temporary folder),
 # submits a small campaign as a job array (`rtsim campaign emit --slurm`, sbatch
 # --wait), merges the per-job result files (`rtsim campaign collect`), runs the same
 # campaign locally and checks both databases hold the same runs, byte for byte in
@@ -96,12 +96,12 @@ preset = "mobile"
 set.l2.size_bytes = [131072, 262144]
 TOML
 
-"$rtsim" campaign emit --slurm --throttle 2 "$work/campaign.toml" --dir "$work/slurm-run"
+"$rtsim" campaign emit --slurm --throttle 2 "$work/campaign.toml" --out-dir "$work/slurm-run"
 sbatch --wait "$work/slurm-run/slurm/campaign.sbatch"
-"$rtsim" campaign collect "$work/campaign.toml" --dir "$work/slurm-run"
+"$rtsim" campaign collect "$work/campaign.toml" --out-dir "$work/slurm-run"
 # Idempotent: a second collect changes nothing.
-"$rtsim" campaign collect "$work/campaign.toml" --dir "$work/slurm-run" | grep -q " 0 new, 0 replaced"
-"$rtsim" campaign run "$work/campaign.toml" -j 2 --dir "$work/local-run"
+"$rtsim" campaign collect "$work/campaign.toml" --out-dir "$work/slurm-run" | grep -q " 0 new, 0 replaced"
+"$rtsim" campaign run "$work/campaign.toml" -j 2 --out-dir "$work/local-run"
 
 columns="campaign, job_key, label, group_name, config_hash, git_revision, status, error, scene,
   builder, camera, preset, fidelity, seed, overrides, rays, cycles, ops_per_ray, trv_ops_per_ray,

@@ -105,7 +105,7 @@ TEST(CoreRayFile, CorruptOrTruncatedFilesAreRefusedNamingTheFieldAndOffset) {
   b = bytes;
   for (int k = 0; k < 12; ++k) b[32 + 48 * 4 + 16 + k] = 0;  // ray 4 direction = 0
   variant(b, "ray 4 direction");
-  expect_refused(temp_path("does_not_exist.rays"), "cannot open");
+  expect_refused(temp_path("does_not_exist.rays"), "no such file");
   fs::remove(good);
   fs::remove(bad);
 }

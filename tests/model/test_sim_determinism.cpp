@@ -34,7 +34,7 @@ std::filesystem::path temp_dir(const std::string& name) {
 void same_twice(const std::string& fidelity) {
   const auto a = temp_dir(fidelity + "_a"), b = temp_dir(fidelity + "_b");
   const std::string common =
-      "--scene cornell --fidelity " + fidelity + " --res 24x24 --ao 2 --config mobile --out ";
+      "--scene cornell --fidelity " + fidelity + " --res 24x24 --ao 2 --config mobile --out-dir ";
   ASSERT_EQ(run(common + a.string()), 0);
   ASSERT_EQ(run(common + b.string()), 0);
   const std::string sa = read(a / "stats.json"), sb = read(b / "stats.json");
@@ -60,11 +60,11 @@ TEST(SimDeterminism, FunctionalStatsAreByteIdentical) { same_twice("functional")
 
 TEST(SimDeterminism, BadInputExitsWithTwo) {
   const auto dir = temp_dir("bad");
-  EXPECT_EQ(run("--scene cornell --fidelity fast --out " + dir.string()), 2);
-  EXPECT_EQ(run("--scene cornell --config /nonexistent.toml --out " + dir.string()), 2);
+  EXPECT_EQ(run("--scene cornell --fidelity fast --out-dir " + dir.string()), 2);
+  EXPECT_EQ(run("--scene cornell --config /nonexistent.toml --out-dir " + dir.string()), 2);
   const auto toml = dir.string() + ".toml";
   std::ofstream(toml) << "[trv]\nunits = 0\n";
-  EXPECT_EQ(run("--scene cornell --config " + toml + " --out " + dir.string()), 2);
+  EXPECT_EQ(run("--scene cornell --config " + toml + " --out-dir " + dir.string()), 2);
   std::filesystem::remove(toml);
   std::filesystem::remove_all(dir);
 }
@@ -76,7 +76,7 @@ TEST(SimDeterminism, RayFileReplayRunsWithoutShading) {
   const std::string trace = std::string(RTSIM_BINARY) + " trace --scene cornell --res 16x16 --ao 0 --rays-out " +
                             rays + " > /dev/null 2>&1";
   ASSERT_EQ(std::system(trace.c_str()), 0);
-  ASSERT_EQ(run("--scene cornell --fidelity cycle --rays " + rays + " --out " + (dir / "out").string()), 0);
+  ASSERT_EQ(run("--scene cornell --fidelity cycle --rays-in " + rays + " --out-dir " + (dir / "out").string()), 0);
   const auto stats = nlohmann::json::parse(read(dir / "out" / "stats.json"));
   EXPECT_FALSE(stats.contains("shading"));
   EXPECT_GT(stats["rays"]["total"]["value"].get<double>(), 0.0);

@@ -32,7 +32,7 @@ pid_t start_runner(const fs::path& campaign, const fs::path& work, const fs::pat
     const int null_fd = open("/dev/null", O_WRONLY);
     dup2(null_fd, 1);
     dup2(null_fd, 2);
-    execl(RTSIM_BINARY, RTSIM_BINARY, "campaign", "run", campaign.c_str(), "-j", "3", "--dir",
+    execl(RTSIM_BINARY, RTSIM_BINARY, "campaign", "run", campaign.c_str(), "-j", "3", "--out-dir",
           work.c_str(), "--rtsim", fake.c_str(), static_cast<char*>(nullptr));
     _exit(127);
   }

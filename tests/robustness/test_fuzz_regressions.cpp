@@ -8,6 +8,7 @@
 #include "../../fuzz/fuzz_campaign.cpp"
 #include "../../fuzz/fuzz_config_text.cpp"
 #include "../../fuzz/fuzz_hardware_config.cpp"
+#include "../../fuzz/fuzz_mesh.cpp"
 #include "../../fuzz/fuzz_q3bsp.cpp"
 #include "../../fuzz/fuzz_ray_file.cpp"
 #include "../../fuzz/fuzz_scene_descriptor.cpp"
@@ -32,6 +33,7 @@ const std::map<std::string, Harness>& harnesses() {
       {"campaign", rtsim_fuzz_campaign},
       {"config_text", rtsim_fuzz_config_text},
       {"hardware_config", rtsim_fuzz_hardware_config},
+      {"mesh", rtsim_fuzz_mesh},
       {"q3bsp", rtsim_fuzz_q3bsp},
       {"ray_file", rtsim_fuzz_ray_file},
       {"scene_descriptor", rtsim_fuzz_scene_descriptor},
@@ -69,7 +71,7 @@ TEST_P(FuzzRegressions, SavedInputsReplayCleanly) {
 }
 
 INSTANTIATE_TEST_SUITE_P(EveryTarget, FuzzRegressions,
-                         testing::Values("bvh_file", "campaign", "config_text", "hardware_config",
+                         testing::Values("bvh_file", "campaign", "config_text", "hardware_config", "mesh",
                                          "q3bsp", "ray_file", "scene_descriptor", "spm", "stk_track"));
 
 // Property: every folder of saved inputs belongs to a target (a misspelt folder

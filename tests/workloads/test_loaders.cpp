@@ -2,13 +2,17 @@
 // Bezier patch, skipped surfaces, spawn cameras, .pk3), SuperTuxKart .spm and a
 // scene.xml track folder, and OBJ/PLY through assimp. Malformed inputs must
 // give an InputError that names the file, never a crash.
+#include <rtsim/workloads/descriptor.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/mesh_loader.h>
 #include <rtsim/workloads/random.h>
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <array>
+#include <filesystem>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -156,6 +160,37 @@ TEST(Q3Bsp, CountsFacesAndPatchTrianglesAndSkipsCommonSkyAndBillboards) {
   EXPECT_EQ(parse_q3bsp(bytes, "fixture.bsp", options).triangles.size(), 2u + 2u * 2u * 2u);
   options.bsp_drop_sky = false;  // the sky quad comes back, the caulk and billboard do not
   EXPECT_EQ(parse_q3bsp(bytes, "fixture.bsp", options).triangles.size(), 4u + 2u * 2u * 2u);
+}
+
+// What the loader leaves out is counted, so that `scenes info` can say so
+// (sky and textures/common faces vanished without a trace before).
+TEST(Q3Bsp, LeftOutSkyAndToolFacesAreCounted) {
+  BspFixture fixture;
+  const std::vector<uint8_t> bytes = fixture.build();
+  MeshOptions options;
+  const Mesh dropped = parse_q3bsp(bytes, "fixture.bsp", options);
+  EXPECT_EQ(dropped.dropped_sky_faces, 1u);
+  EXPECT_EQ(dropped.dropped_tool_faces, 1u);
+  options.bsp_drop_sky = false;
+  const Mesh kept = parse_q3bsp(bytes, "fixture.bsp", options);
+  EXPECT_EQ(kept.dropped_sky_faces, 0u);
+  EXPECT_EQ(kept.dropped_tool_faces, 1u);
+}
+
+TEST(Q3Bsp, LeftOutSkyAndToolFacesAreCountedInTheScene) {
+  BspFixture fixture;
+  const std::vector<uint8_t> bytes = fixture.build();
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("rtsim_bsp_counts_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "map.bsp", std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
+                                                         std::streamsize(bytes.size()));
+  std::ofstream(dir / "scene.toml") << "[[mesh]]\nfile = \"map.bsp\"\n[[mesh]]\nfile = \"map.bsp\"\n"
+                                       "[[camera]]\nname = \"view1\"\nposition = [0, 0, 300]\ntarget = [0, 0, 0]\n";
+  const Scene scene = load_scene_descriptor(dir / "scene.toml");
+  EXPECT_EQ(scene.validation.dropped_sky_faces, 2u);  // one per mesh
+  EXPECT_EQ(scene.validation.dropped_tool_faces, 2u);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(Q3Bsp, ConvertsToYUpAndMakesEveryTriangleCounterClockwiseFromTheFront) {

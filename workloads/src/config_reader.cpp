@@ -1,22 +1,43 @@
 #include <rtsim/workloads/config_reader.h>
 #include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
 
 #include <toml++/toml.h>
 
+#include <charconv>
 #include <cmath>
-#include <fstream>
 #include <sstream>
 
 namespace rtsim {
 
 namespace {
-std::string read_text(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path.string(), "cannot open the file");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+
+// JSON allows a key twice in one object and nlohmann keeps the last silently;
+// TOML refuses it. So that both spellings of a configuration mean the same, the
+// JSON reader refuses it too: this parser callback notes the first repeated key,
+// with the keys of the objects around it.
+struct DuplicateKeyFinder {
+  std::vector<std::set<std::string>> keys_per_level;
+  std::vector<std::string> path;  // the key being read at each object level
+  std::string duplicate;          // dotted path of the first repeated key
+
+  bool operator()(int, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
+    using Event = nlohmann::json::parse_event_t;
+    if (event == Event::object_start) {
+      keys_per_level.emplace_back();
+      path.emplace_back();
+    } else if (event == Event::object_end) {
+      if (!keys_per_level.empty()) keys_per_level.pop_back(), path.pop_back();
+    } else if (event == Event::key && !keys_per_level.empty()) {
+      const std::string key = parsed.get<std::string>();
+      path.back() = key;
+      if (!keys_per_level.back().insert(key).second && duplicate.empty()) {
+        for (const std::string& part : path) duplicate += (duplicate.empty() ? "" : ".") + part;
+      }
+    }
+    return true;
+  }
+};
 
 // toml++ nodes to JSON, keeping integers and floats apart.
 nlohmann::json to_json(const toml::node& node) {
@@ -49,20 +70,57 @@ nlohmann::json parse_config_text(const std::string& text, const std::string& fil
                        std::string(e.description()));
     }
   }
+  DuplicateKeyFinder finder;
+  nlohmann::json document;
   try {
-    return nlohmann::json::parse(text);
+    document = nlohmann::json::parse(text, std::ref(finder));
   } catch (const nlohmann::json::exception& e) {
     // parse_error, and out_of_range for a number too large for a double (found by
     // fuzzing: it escaped as a non-InputError).
     throw InputError(file_name, std::string("JSON syntax error: ") + e.what());
   }
+  if (!finder.duplicate.empty())
+    throw InputError(file_name + ": key '" + finder.duplicate + "'",
+                     "is defined twice in one object (JSON would keep the last silently)");
+  return document;
+}
+
+namespace {
+// Digits only (no sign, no space, no trailing text), and no wrap-around.
+bool parse_decimal(std::string_view text, uint64_t max, uint64_t& out) {
+  if (text.empty() || text.front() < '0' || text.front() > '9') return false;
+  uint64_t value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc() || end != text.data() + text.size() || value > max) return false;
+  out = value;
+  return true;
+}
+}  // namespace
+
+bool parse_unsigned(std::string_view text, uint64_t min, uint64_t max, uint64_t& out) {
+  uint64_t value = 0;
+  if (!parse_decimal(text, max, value) || value < min) return false;
+  out = value;
+  return true;
+}
+
+bool parse_resolution_text(std::string_view text, uint32_t& width, uint32_t& height) {
+  const size_t x = text.find_first_of("xX");
+  if (x == std::string_view::npos) return false;
+  uint64_t w = 0, h = 0;
+  if (!parse_unsigned(text.substr(0, x), 1, kMaxResolutionSide, w) ||
+      !parse_unsigned(text.substr(x + 1), 1, kMaxResolutionSide, h))
+    return false;
+  width = uint32_t(w);
+  height = uint32_t(h);
+  return true;
 }
 
 nlohmann::json parse_config_file(const std::filesystem::path& path) {
   const std::string ext = path.extension().string();
   if (ext != ".toml" && ext != ".json")
     throw InputError(path.string(), "expected a .toml or .json file");
-  return parse_config_text(read_text(path), path.string(), ext == ".toml");
+  return parse_config_text(read_input_file(path, kMaxConfigFileBytes), path.string(), ext == ".toml");
 }
 
 ConfigTable::ConfigTable(const nlohmann::json& table, std::string file, std::string path)

@@ -52,6 +52,17 @@ Camera read_camera(ConfigTable& t) {
   c.up = t.vector3("up", vec3(0, 1, 0));
   c.vertical_fov_deg = float(t.number("fov", 60.0, 1.0, 179.0));
   t.finish();
+  // An up vector along the view direction leaves the camera's roll undefined; a
+  // silent substitute would give a picture the author did not ask for.
+  const vec3 forward = c.target - c.position;
+  if (glm::dot(forward, forward) > 0.0f) {
+    const float up_length = glm::length(c.up);
+    if (!(up_length > 0.0f)) throw InputError(t.where("up"), "must not be zero");
+    const float sine = glm::length(glm::cross(glm::normalize(forward), c.up / up_length));
+    if (!(sine > 1e-4f))
+      throw InputError(t.where("up"), "is parallel to the view direction (target - position), so "
+                                      "the camera's roll is undefined; give an up vector across it");
+  }
   return c;
 }
 
@@ -96,6 +107,7 @@ Scene load_scene_descriptor(const std::filesystem::path& path) {
   }
 
   std::vector<Camera> suggested;
+  uint64_t dropped_sky_faces = 0, dropped_tool_faces = 0;
   std::vector<ConfigTable> meshes = root.array_of_tables("mesh");
   if (meshes.empty()) throw InputError(root.where("mesh"), "at least one [[mesh]] is required");
   for (ConfigTable& t : meshes) {
@@ -111,6 +123,8 @@ Scene load_scene_descriptor(const std::filesystem::path& path) {
       throw InputError(t.where("material"), "no [[material]] named '" + override_material + "'");
 
     Mesh mesh = load_mesh(file, options);
+    dropped_sky_faces += mesh.dropped_sky_faces;
+    dropped_tool_faces += mesh.dropped_tool_faces;
     const uint32_t vertex_base = uint32_t(scene.vertices.size());
     const uint32_t material_base = uint32_t(scene.materials.size());
     for (const vec3& v : mesh.vertices) scene.vertices.push_back(vec3(transform * glm::vec4(v, 1.0f)));
@@ -164,7 +178,13 @@ Scene load_scene_descriptor(const std::filesystem::path& path) {
     if (!scene.find_camera(suggested[i].name)) scene.cameras.push_back(suggested[i]);
   }
   root.finish();
+  // Every command that traces needs a camera; say so here, not half-way through one.
+  if (scene.cameras.empty())
+    throw InputError(root.where("camera"), "at least one [[camera]] is required (rtsim table1 "
+                                           "uses view1 and view2; see docs/scene-descriptor.md)");
   validate_scene(scene);
+  scene.validation.dropped_sky_faces = dropped_sky_faces;
+  scene.validation.dropped_tool_faces = dropped_tool_faces;
   return scene;
 }
 

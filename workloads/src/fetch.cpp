@@ -527,7 +527,7 @@ std::vector<RealSceneInfo> real_scene_catalogue() {
   return infos;
 }
 
-fs::path fetch_real_scene(const std::string& name, const fs::path& cache_dir) {
+fs::path fetch_real_scene(const std::string& name, const fs::path& cache_dir, bool force) {
   const auto& specs = catalogue();
   const auto it = std::find_if(specs.begin(), specs.end(), [&](const RealSceneSpec& s) { return s.info.name == name; });
   if (it == specs.end()) {
@@ -538,9 +538,18 @@ fs::path fetch_real_scene(const std::string& name, const fs::path& cache_dir) {
   const RealSceneSpec& spec = *it;
   const fs::path folder = cache_dir / name;
   const fs::path descriptor = folder / "scene.toml";
-  if (fs::exists(descriptor)) {
-    say(name + ": already fetched (" + descriptor.string() + ")");
-    return descriptor;
+  if (path_exists(descriptor) && !force) {
+    // A finished scene is only as good as its files: one that no longer loads
+    // (an edited, truncated or missing mesh) is converted again from the download.
+    try {
+      load_scene_descriptor(descriptor);
+      say(name + ": already fetched (" + descriptor.string() + ")");
+      return descriptor;
+    } catch (const InputError& e) {
+      say(name + ": the cached scene is damaged (" + std::string(e.what()) + "); fetching it again");
+    }
+  } else if (force) {
+    say(name + ": --force: fetching again");
   }
   const auto start = std::chrono::steady_clock::now();
   say(name + ": " + spec.info.description);

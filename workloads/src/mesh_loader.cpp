@@ -10,10 +10,20 @@
 #include <assimp/scene.h>
 #include <zip.h>
 
+#include <rtsim/workloads/files.h>
+
 #include <algorithm>
 #include <cctype>
-#include <fstream>
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
 #include <memory>
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 namespace rtsim {
 
@@ -48,19 +58,8 @@ struct ZipArchive {
 }  // namespace
 
 std::vector<uint8_t> read_file_bytes(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw InputError(path.string(), "no such file");
-  if (std::filesystem::is_directory(path, ec)) throw InputError(path.string(), "is a folder, not a file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path.string(), "cannot open for reading");
-  in.seekg(0, std::ios::end);
-  const std::streamoff size = in.tellg();
-  if (size < 0) throw InputError(path.string(), "cannot determine the file size");
-  in.seekg(0, std::ios::beg);
-  std::vector<uint8_t> bytes(static_cast<size_t>(size));
-  if (size > 0 && !in.read(reinterpret_cast<char*>(bytes.data()), size))
-    throw InputError(path.string(), "read failed");
-  return bytes;
+  const std::string bytes = read_input_file(path, kMaxDataFileBytes);
+  return std::vector<uint8_t>(bytes.begin(), bytes.end());
 }
 
 std::vector<std::string> list_zip_members(const std::filesystem::path& archive) {
@@ -99,9 +98,8 @@ std::vector<uint8_t> read_zip_member(const std::filesystem::path& archive, const
   return bytes;
 }
 
-Mesh load_mesh_assimp(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw InputError(path.string(), "no such file");
+Mesh load_mesh_assimp_in_process(const std::filesystem::path& path) {
+  check_input_file(path, kMaxDataFileBytes);
   Assimp::Importer importer;
   // Points and lines carry no surface: SortByPType splits them out and this drops them.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
@@ -152,13 +150,214 @@ Mesh load_mesh_assimp(const std::filesystem::path& path) {
   return mesh;
 }
 
+// Sanitizer runtimes provide it; without one the weak reference stays null.
+extern "C" void __sanitizer_set_death_callback(void (*callback)(void)) __attribute__((weak));
+
+namespace {
+
+// ---- assimp in a child process
+// assimp stops the process on some malformed files (ai_assert aborts, and worse),
+// so it reads in a forked child that sends the mesh back through a pipe; a child
+// that dies takes only itself down, and its last words on stderr become the
+// InputError. The mesh travels as plain arrays (MeshWire below).
+
+void put_bytes(std::string& out, const void* p, size_t n) { out.append(static_cast<const char*>(p), n); }
+template <class T>
+void put_value(std::string& out, const T& v) { put_bytes(out, &v, sizeof v); }
+void put_text(std::string& out, const std::string& s) {
+  put_value(out, uint64_t(s.size()));
+  out += s;
+}
+
+std::string encode_mesh(const Mesh& mesh) {
+  std::string out;
+  put_value(out, uint64_t(mesh.vertices.size()));
+  put_bytes(out, mesh.vertices.data(), mesh.vertices.size() * sizeof(vec3));
+  put_value(out, uint64_t(mesh.triangles.size()));
+  put_bytes(out, mesh.triangles.data(), mesh.triangles.size() * sizeof(uvec3));
+  put_bytes(out, mesh.material_ids.data(), mesh.material_ids.size() * sizeof(uint32_t));
+  put_value(out, uint64_t(mesh.materials.size()));
+  for (const Material& m : mesh.materials) {
+    put_text(out, m.name);
+    put_value(out, m.albedo);
+    put_value(out, m.reflectance);
+    put_value(out, m.transmittance);
+    put_value(out, m.ior);
+    put_value(out, m.emission);
+  }
+  return out;
+}
+
+// Reads what encode_mesh wrote; the bytes come from our own child, so a short
+// message only means the child died while writing.
+class MeshWire {
+ public:
+  MeshWire(const std::string& bytes, const std::string& file) : bytes_(bytes), file_(file) {}
+  template <class T>
+  T value() {
+    T v;
+    take(&v, sizeof v);
+    return v;
+  }
+  void take(void* p, uint64_t n) {
+    if (n > bytes_.size() - at_) throw InputError(file_, "the assimp reader stopped in the middle of its answer");
+    std::memcpy(p, bytes_.data() + at_, n);
+    at_ += n;
+  }
+  uint64_t count(uint64_t item_bytes) {
+    const uint64_t n = value<uint64_t>();
+    if (item_bytes && n > (bytes_.size() - at_) / item_bytes)
+      throw InputError(file_, "the assimp reader stopped in the middle of its answer");
+    return n;
+  }
+  std::string text() {
+    std::string s(count(1), '\0');
+    take(s.data(), s.size());
+    return s;
+  }
+
+ private:
+  const std::string& bytes_;
+  std::string file_;
+  uint64_t at_ = 0;
+};
+
+Mesh decode_mesh(const std::string& bytes, const std::string& file) {
+  MeshWire in(bytes, file);
+  Mesh mesh;
+  mesh.vertices.resize(in.count(sizeof(vec3)));
+  in.take(mesh.vertices.data(), mesh.vertices.size() * sizeof(vec3));
+  mesh.triangles.resize(in.count(sizeof(uvec3) + sizeof(uint32_t)));
+  in.take(mesh.triangles.data(), mesh.triangles.size() * sizeof(uvec3));
+  mesh.material_ids.resize(mesh.triangles.size());
+  in.take(mesh.material_ids.data(), mesh.material_ids.size() * sizeof(uint32_t));
+  mesh.materials.resize(in.count(8));
+  for (Material& m : mesh.materials) {
+    m.name = in.text();
+    m.albedo = in.value<vec3>();
+    m.reflectance = in.value<float>();
+    m.transmittance = in.value<float>();
+    m.ior = in.value<float>();
+    m.emission = in.value<vec3>();
+  }
+  return mesh;
+}
+
+void write_all(int fd, const std::string& bytes) {
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return;
+    done += size_t(n);
+  }
+}
+
+// The last non-empty line of what the child printed (assimp's assert message).
+std::string last_line(std::string text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
+  const size_t nl = text.rfind('\n');
+  text = nl == std::string::npos ? text : text.substr(nl + 1);
+  return text.size() > 300 ? text.substr(0, 300) + "..." : text;
+}
+
+}  // namespace
+
+Mesh load_mesh_assimp(const std::filesystem::path& path) {
+  check_input_file(path, kMaxDataFileBytes);
+  // assimp trusts a PLY header's counts (see ply_check.cpp): check them first,
+  // for a message that says what is wrong with the file.
+  {
+    std::string ext = lower(path.extension().string());
+    if (ext == ".ply") check_ply_against_header(read_input_file(path, kMaxDataFileBytes), path.string());
+  }
+  int mesh_pipe[2], error_pipe[2];
+  if (::pipe2(mesh_pipe, O_CLOEXEC) != 0) throw std::runtime_error(std::string("pipe: ") + std::strerror(errno));
+  if (::pipe2(error_pipe, O_CLOEXEC) != 0) {
+    ::close(mesh_pipe[0]), ::close(mesh_pipe[1]);
+    throw std::runtime_error(std::string("pipe: ") + std::strerror(errno));
+  }
+  std::fflush(nullptr);  // nothing buffered is written twice
+  const pid_t child = ::fork();
+  if (child < 0) {
+    for (int fd : {mesh_pipe[0], mesh_pipe[1], error_pipe[0], error_pipe[1]}) ::close(fd);
+    throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
+  }
+  if (child == 0) {
+    // The child: read, answer, _exit (no atexit handlers, no destructors of the
+    // parent's objects). Status byte 0 = a mesh follows, 1 = an InputError text.
+    ::close(mesh_pipe[0]);
+    ::close(error_pipe[0]);
+    ::dup2(error_pipe[1], 2);
+    // A crash here is the answer, not an event for handlers the parent installed
+    // (a sanitizer's or a fuzzer's would report the child's death as their own).
+    for (int sig : {SIGABRT, SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGTRAP}) std::signal(sig, SIG_DFL);
+    if (__sanitizer_set_death_callback) __sanitizer_set_death_callback(nullptr);
+    std::string answer;
+    int code = 0;
+    try {
+      answer = std::string(1, '\0') + encode_mesh(load_mesh_assimp_in_process(path));
+    } catch (const InputError& e) {
+      answer = std::string(1, '\1') + e.what();
+    } catch (const std::exception& e) {
+      answer = std::string(1, '\1') + path.string() + ": assimp failed: " + e.what();
+      code = 3;
+    }
+    write_all(mesh_pipe[1], answer);
+    ::_exit(code);
+  }
+  ::close(mesh_pipe[1]);
+  ::close(error_pipe[1]);
+  // Read both pipes to the end (a full pipe would stall the child), then reap it.
+  std::string answer, errors;
+  pollfd fds[2] = {{mesh_pipe[0], POLLIN, 0}, {error_pipe[0], POLLIN, 0}};
+  int open_pipes = 2;
+  char buffer[65536];
+  while (open_pipes > 0) {
+    if (::poll(fds, 2, -1) < 0) {
+      if (errno == EINTR) continue;
+      break;
+    }
+    for (int k = 0; k < 2; ++k) {
+      if (fds[k].fd < 0 || !(fds[k].revents & (POLLIN | POLLHUP | POLLERR))) continue;
+      const ssize_t n = ::read(fds[k].fd, buffer, sizeof buffer);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) {
+        ::close(fds[k].fd);
+        fds[k].fd = -1;
+        --open_pipes;
+        continue;
+      }
+      std::string& sink = k == 0 ? answer : errors;
+      if (k == 1 && sink.size() > 65536) sink.erase(0, sink.size() - 32768);  // the tail is what counts
+      sink.append(buffer, size_t(n));
+    }
+  }
+  for (const pollfd& f : fds)
+    if (f.fd >= 0) ::close(f.fd);
+  int status = 0;
+  while (::waitpid(child, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (WIFSIGNALED(status)) {
+    const int sig = WTERMSIG(status);
+    const std::string said = last_line(errors);
+    throw InputError(path.string(), "assimp crashed reading it (signal " + std::to_string(sig) + ", " +
+                                        strsignal(sig) + ")" + (said.empty() ? "" : ": " + said) +
+                                        "; the file is malformed");
+  }
+  if (answer.empty()) throw InputError(path.string(), "assimp stopped without an answer" +
+                                                          (errors.empty() ? "" : ": " + last_line(errors)));
+  if (answer[0] == '\1') throw InputError(answer.substr(1));
+  return decode_mesh(answer.substr(1), path.string());
+}
+
 Mesh load_mesh(const std::filesystem::path& path, const MeshOptions& options) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw InputError(path.string(), "no such file or folder");
+  if (!path_exists(path)) throw InputError(path.string(), "no such file or folder");
   const std::string ext = lower(path.extension().string());
   const std::string file_name = lower(path.filename().string());
   if (ext == ".bsp") return parse_q3bsp(read_file_bytes(path), path.string(), options);
   if (ext == ".pk3") {
+    check_input_file(path, kMaxDataFileBytes);  // libzip opens it itself
     std::string map = options.pk3_map;
     if (map.empty()) {
       // One map in the archive needs no name; several do.
@@ -180,8 +379,8 @@ Mesh load_mesh(const std::filesystem::path& path, const MeshOptions& options) {
   }
   if (ext == ".spm") return parse_spm(read_file_bytes(path), path.string());
   if (file_name == "scene.xml") return load_stk_track(path.parent_path());
-  if (std::filesystem::is_directory(path, ec)) {
-    if (std::filesystem::exists(path / "scene.xml", ec)) return load_stk_track(path);
+  if (is_folder(path)) {
+    if (path_exists(path / "scene.xml")) return load_stk_track(path);
     throw InputError(path.string(), "a folder, but not a SuperTuxKart track (no scene.xml)");
   }
   return load_mesh_assimp(path);

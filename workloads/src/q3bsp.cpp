@@ -276,8 +276,14 @@ Mesh parse_q3bsp(const std::vector<uint8_t>& bytes, const std::string& file_name
       in.fail(at, face + ": texture index " + std::to_string(texture) + " out of range (" +
                       std::to_string(textures.size()) + " textures)");
     const Texture& tex = textures[size_t(texture)];
-    if (tex.name.rfind("textures/common/", 0) == 0) continue;  // clip, caulk, triggers...
-    if (options.bsp_drop_sky && (tex.flags & kSurfaceSky)) continue;
+    if (tex.name.rfind("textures/common/", 0) == 0) {  // clip, caulk, triggers...
+      ++mesh.dropped_tool_faces;
+      continue;
+    }
+    if (options.bsp_drop_sky && (tex.flags & kSurfaceSky)) {
+      ++mesh.dropped_sky_faces;
+      continue;
+    }
     if (vertex < 0 || n_vertices < 0 || uint64_t(vertex) + uint64_t(n_vertices) > vertex_count)
       in.fail(at + 12, face + ": vertices [" + std::to_string(vertex) + ", +" +
                            std::to_string(n_vertices) + ") out of range (" +

@@ -4,7 +4,14 @@
 #include <rtsim/workloads/procedural.h>
 #include <rtsim/workloads/scene_registry.h>
 
+#include <rtsim/workloads/config_reader.h>
+#include <rtsim/workloads/random.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
 #include <cstdlib>
+#include <sstream>
 
 namespace rtsim {
 
@@ -52,6 +59,82 @@ std::vector<std::string> known_scene_names() {
     if (path_exists(entry.path() / "scene.toml"))
       names.push_back(entry.path().filename().string());
   return names;
+}
+
+}  // namespace rtsim
+
+namespace rtsim {
+
+namespace {
+
+// The descriptor load_scene would read for this name ("" for a built-in scene).
+std::filesystem::path descriptor_of(const std::string& name_or_path) {
+  if (is_procedural_scene(name_or_path)) return {};
+  const std::filesystem::path cached = scene_cache_dir() / name_or_path / "scene.toml";
+  if (name_or_path.find('/') == std::string::npos && path_exists(cached)) return cached;
+  const std::filesystem::path path(name_or_path);
+  if (is_folder(path) && path_exists(path / "scene.toml")) return path / "scene.toml";
+  if (is_file(path)) return path;
+  throw InputError("scene '" + name_or_path + "'", "unknown: not a built-in scene, not fetched, not a file");
+}
+
+void add_folder_files(const std::filesystem::path& folder, std::vector<std::filesystem::path>& out) {
+  std::error_code ec;
+  std::vector<std::filesystem::path> files;
+  for (auto it = std::filesystem::recursive_directory_iterator(folder, ec);
+       !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec))
+    if (is_file(it->path())) files.push_back(it->path());
+  std::sort(files.begin(), files.end());
+  out.insert(out.end(), files.begin(), files.end());
+}
+
+}  // namespace
+
+std::vector<std::filesystem::path> scene_source_files(const std::string& name_or_path) {
+  const std::filesystem::path descriptor = descriptor_of(name_or_path);
+  if (descriptor.empty()) return {};
+  std::vector<std::filesystem::path> files = {descriptor};
+  const nlohmann::json doc = parse_config_file(descriptor);
+  if (!doc.is_object() || !doc.contains("mesh") || !doc["mesh"].is_array()) return files;
+  for (const nlohmann::json& mesh : doc["mesh"]) {
+    if (!mesh.is_object() || !mesh.contains("file") || !mesh["file"].is_string()) continue;
+    const std::filesystem::path file = descriptor.parent_path() / mesh["file"].get<std::string>();
+    if (is_folder(file)) {
+      add_folder_files(file, files);
+    } else if (file.filename() == "scene.xml") {
+      add_folder_files(file.parent_path(), files);
+    } else if (is_file(file)) {
+      files.push_back(file);
+      std::string ext = file.extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+      if (ext == ".obj") {  // materials live beside it
+        std::istringstream lines(read_input_file(file, kMaxDataFileBytes));
+        for (std::string line; std::getline(lines, line);)
+          if (line.rfind("mtllib ", 0) == 0) {
+            std::string name = line.substr(7);
+            while (!name.empty() && (name.back() == '\r' || name.back() == ' ')) name.pop_back();
+            if (is_file(file.parent_path() / name)) files.push_back(file.parent_path() / name);
+          }
+      }
+    }
+  }
+  return files;
+}
+
+std::string scene_files_hash(const std::string& name_or_path) {
+  const std::vector<std::filesystem::path> files = scene_source_files(name_or_path);
+  if (files.empty()) return "";
+  const std::filesystem::path base = files.front().parent_path();
+  uint64_t h = 0x5343454E4546494Cull;
+  for (const std::filesystem::path& f : files) {
+    const std::string name = f.lexically_relative(base).generic_string();
+    h = hash_bytes(h, name.data(), name.size());
+    const uint64_t content = file_content_hash(f);
+    h = hash_bytes(h, &content, sizeof content);
+  }
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(h));
+  return text;
 }
 
 }  // namespace rtsim

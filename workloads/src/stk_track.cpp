@@ -157,7 +157,8 @@ class TrackFlattener {
   void flatten_scene(const std::filesystem::path& xml_path, const std::filesystem::path& model_dir,
                      const glm::mat4& parent, int depth) {
     pugi::xml_document doc;
-    const pugi::xml_parse_result parsed = doc.load_file(xml_path.string().c_str());
+    const std::string xml = read_input_file(xml_path, kMaxConfigFileBytes);  // bounded, regular files only
+    const pugi::xml_parse_result parsed = doc.load_buffer(xml.data(), xml.size());
     if (!parsed)
       throw InputError(xml_path.string(), "XML error at byte " + std::to_string(parsed.offset) + ": " +
                                               parsed.description());

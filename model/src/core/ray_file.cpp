@@ -81,6 +81,7 @@ void write_ray_file(const std::filesystem::path& path, const RaySet& set) {
 
 RaySet read_ray_file(const std::filesystem::path& path) {
   const std::string name = path.string();
+  check_input_file(path, kMaxDataFileBytes);  // a regular file of bounded size: no FIFO, no device
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(name, "cannot open the ray file");
   in.seekg(0, std::ios::end);

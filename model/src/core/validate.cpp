@@ -1,3 +1,4 @@
+#include <rtsim/model/core/exact_referee.h>
 #include <rtsim/model/core/validate.h>
 
 #include <tbb/parallel_for.h>
@@ -11,6 +12,16 @@ namespace rtsim {
 
 namespace {
 enum class Verdict : uint8_t { Agree, PrimTied, EndpointTie, HitMiss, Distance };
+// What the referee said of a disagreement.
+enum class Ruling : uint8_t { None, EmbreeWrong, CoreWrong, BothAdmissible };
+const char* ruling_text(Ruling r) {
+  switch (r) {
+    case Ruling::EmbreeWrong: return "referee: Embree wrong";
+    case Ruling::CoreWrong: return "referee: core wrong";
+    case Ruling::BothAdmissible: return "referee: both admissible (exactly on an edge or endpoint)";
+    default: return "no referee";
+  }
+}
 
 // A hit that only one side sees, at a distance within the bound of the ray's
 // tmin or tmax: the ray touches a surface exactly where its interval starts or
@@ -25,8 +36,10 @@ bool at_endpoint(const Ray& r, float t, const ValidationRule& rule) {
 
 ValidationResult validate_against_embree(const EmbreeScene& embree, const std::vector<Ray>& rays,
                                          const std::vector<TraceResult>& results,
-                                         const ValidationRule& rule, uint32_t threads) {
+                                         const ValidationRule& rule, uint32_t threads,
+                                         const Scene* referee_scene) {
   std::vector<Verdict> verdict(rays.size(), Verdict::Agree);
+  std::vector<Ruling> ruling(rays.size(), Ruling::None);
   std::vector<EmbreeHit> reference(rays.size());
   auto body = [&] {
     tbb::parallel_for(size_t(0), rays.size(), [&](size_t i) {
@@ -56,6 +69,22 @@ ValidationResult validate_against_embree(const EmbreeScene& embree, const std::v
           verdict[i] = Verdict::PrimTied;
       }
     });
+    if (!referee_scene) return;
+    // The disputed rays, each against every triangle of the scene, exactly.
+    std::vector<size_t> disputed;
+    for (size_t i = 0; i < rays.size(); ++i)
+      if (verdict[i] == Verdict::HitMiss || verdict[i] == Verdict::Distance) disputed.push_back(i);
+    const ExactReferee referee(*referee_scene, rule.relative_bound, rule.absolute_bound);
+    tbb::parallel_for(size_t(0), disputed.size(), [&](size_t k) {
+      const size_t i = disputed[k];
+      const Ray& r = rays[i];
+      const std::vector<RefereeCandidate> found = referee.candidates(r);
+      const HitRecord& mine = results[i].hit;
+      const bool core_ok = referee.admissible(r, found, {mine.hit(), mine.t, mine.prim});
+      const bool embree_ok =
+          referee.admissible(r, found, {reference[i].hit, reference[i].t, reference[i].prim});
+      ruling[i] = !core_ok ? Ruling::CoreWrong : embree_ok ? Ruling::BothAdmissible : Ruling::EmbreeWrong;
+    });
   };
   if (threads) {
     tbb::task_arena arena{int(threads)};
@@ -65,6 +94,7 @@ ValidationResult validate_against_embree(const EmbreeScene& embree, const std::v
   }
   ValidationResult out;
   out.rays = rays.size();
+  out.refereed = referee_scene != nullptr;
   for (size_t i = 0; i < rays.size(); ++i) {
     const Verdict v = verdict[i];
     if (v == Verdict::Agree) continue;
@@ -79,16 +109,22 @@ ValidationResult validate_against_embree(const EmbreeScene& embree, const std::v
     ++out.disagreements;
     ++out.disagreements_by_type[ray_type_index(rays[i].type)];
     (v == Verdict::HitMiss ? out.hit_miss : out.distance) += 1;
-    if (out.examples.size() < 10) {
+    if (ruling[i] == Ruling::EmbreeWrong) ++out.embree_wrong;
+    if (ruling[i] == Ruling::CoreWrong) ++out.core_wrong;
+    if (ruling[i] == Ruling::BothAdmissible) ++out.both_admissible;
+    // The examples show what fails first: core-wrong rays, then the others.
+    const bool show = out.examples.size() < 10 && (!out.refereed || ruling[i] == Ruling::CoreWrong ||
+                                                   out.examples.size() < 5);
+    if (show) {
       const Ray& r = rays[i];
-      char line[400];
+      char line[512];
       std::snprintf(line, sizeof line,
                     "ray %zu (%s, pixel %u): core %s t=%.9g prim=%d, embree %s t=%.9g prim=%d; "
-                    "o=(%.9g %.9g %.9g) d=(%.9g %.9g %.9g) tmin=%g tmax=%g",
+                    "o=(%.9g %.9g %.9g) d=(%.9g %.9g %.9g) tmin=%g tmax=%g; %s",
                     i, ray_type_name(r.type), r.pixel, results[i].hit.hit() ? "hit" : "miss",
                     results[i].hit.t, int(results[i].hit.prim), reference[i].hit ? "hit" : "miss",
                     reference[i].t, int(reference[i].prim), r.origin.x, r.origin.y, r.origin.z,
-                    r.direction.x, r.direction.y, r.direction.z, r.tmin, r.tmax);
+                    r.direction.x, r.direction.y, r.direction.z, r.tmin, r.tmax, ruling_text(ruling[i]));
       out.examples.push_back(line);
     }
   }

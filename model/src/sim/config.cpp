@@ -1,5 +1,6 @@
 #include <rtsim/model/sim/config.h>
 #include <rtsim/workloads/error.h>
+#include <rtsim/workloads/files.h>
 
 #include <nlohmann/json.hpp>
 #include <toml++/toml.h>
@@ -417,7 +418,9 @@ void flatten(const toml::table& table, const std::string& prefix,
              std::vector<std::pair<std::string, const toml::node*>>& out) {
   for (auto&& [k, v] : table) {
     const std::string key = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
-    if (auto* sub = v.as_table()) flatten(*sub, key, out);
+    // An empty table is a leaf too: `[clock_mhz]` in place of `clock_mhz = 800`
+    // must be refused by the key's type check, not vanish as a table with no keys.
+    if (auto* sub = v.as_table(); sub && !sub->empty()) flatten(*sub, key, out);
     else out.emplace_back(key, &v);
   }
 }
@@ -461,6 +464,12 @@ HardwareConfig parse_hardware_config(const std::string& toml_text, const std::st
   for_each_parameter(config, [&](ParameterInfo& p) { params.emplace(p.key, p); });
   for (auto& [key, node] : leaves) {
     auto it = params.find(key);
+    if (it == params.end() && node->is_table()) {
+      // An empty section ([l2] with no keys) is harmless; an empty table that is
+      // no section at all is as unknown as any other key.
+      auto section = params.lower_bound(key + ".");
+      if (section != params.end() && section->first.rfind(key + ".", 0) == 0) continue;
+    }
     if (it == params.end()) throw InputError(where + key, "unknown key");
     set_from_toml(it->second, *node, where);
   }
@@ -479,12 +488,10 @@ HardwareConfig load_hardware_config(const std::string& preset_or_path) {
       validate(c);
       return c;
     }
-  std::ifstream in(preset_or_path, std::ios::binary);
-  if (!in)
-    throw InputError(preset_or_path, "neither a preset (mobile | desktop) nor a readable file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return parse_hardware_config(buffer.str(), preset_or_path);
+  if (!path_exists(preset_or_path))
+    throw InputError(preset_or_path, "neither a preset (mobile | desktop) nor a file");
+  // Bounded, and a folder or a FIFO is refused (a folder used to read as empty: defaults).
+  return parse_hardware_config(read_input_file(preset_or_path, kMaxConfigFileBytes), preset_or_path);
 }
 
 std::string to_json(const HardwareConfig& config_in) {

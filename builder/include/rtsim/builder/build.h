@@ -76,6 +76,10 @@ BvhLimits limits_for(const BuildParams& params);
 
 // Throws InputError for unknown builders, bad parameters or an empty scene.
 Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report = nullptr);
+// What build_bvh checks first: InputError naming the BuildParams field (e.g.
+// "sbvh_reference_budget") for a value out of range. The command line calls it
+// right after parsing and names the flag instead.
+void check_build_params(const BuildParams& params);
 std::vector<std::string> builder_names();
 
 }  // namespace rtsim

@@ -88,6 +88,9 @@ struct CampaignStatus {
   size_t started = 0;
   bool runner_active = false;
   std::vector<std::pair<std::string, std::string>> failures;  // label, error
+  // Missing jobs that have a result under an older key: their inputs changed since
+  // (label, what changed and when the old result was made). Counted in `missing`.
+  std::vector<std::pair<std::string, std::string>> outdated;
 };
 CampaignStatus campaign_status(const Campaign& campaign, const CampaignPaths& paths,
                                const ResultsStore& store);

@@ -53,9 +53,14 @@ std::map<std::pair<std::string, std::string>, double> dram_bytes_per_ray_split(
 
 class ResultsStore {
  public:
-  // Opens (creating if needed) the database and its schema. Throws std::runtime_error
-  // naming the file if it cannot.
-  explicit ResultsStore(const std::filesystem::path& file);
+  // ReadWrite: opens (creating if needed) the database and its schema; a database
+  // that holds another program's tables is refused (InputError), never written to.
+  // ReadOnly (status, export, report): opens an existing rtsim database without
+  // writing anything; a missing file reads as an empty store and is not created;
+  // a file that is not an SQLite database, or not rtsim's, is an InputError.
+  // std::runtime_error naming the file for anything else.
+  enum class Access { ReadWrite, ReadOnly };
+  explicit ResultsStore(const std::filesystem::path& file, Access access = Access::ReadWrite);
   ~ResultsStore();
   ResultsStore(const ResultsStore&) = delete;
   ResultsStore& operator=(const ResultsStore&) = delete;
@@ -66,7 +71,8 @@ class ResultsStore {
   Outcome record(const RunRecord& run);
 
   struct Summary {
-    std::string status, error, label, revision;
+    std::string status, error, label, revision, finished_at;
+    nlohmann::json job;  // the resolved job description it ran with
     double host_seconds = 0;
   };
   std::map<std::string, Summary> summaries(const std::string& campaign) const;  // by job key
@@ -74,6 +80,7 @@ class ResultsStore {
   std::vector<nlohmann::json> rows(const std::string& campaign) const;
   std::vector<std::string> campaigns() const;
   std::string integrity_check() const;  // "ok" when healthy
+  bool exists() const { return db_ != nullptr; }  // false: a read-only store of a missing file
   const std::filesystem::path& file() const { return file_; }
 
   // Headline columns in export order (name, unit).

@@ -29,6 +29,9 @@ struct Table1Options {
   std::filesystem::path out_dir = "table1";
   std::filesystem::path rtsim_binary;  // for the cycle-level child processes
   BuildParams build;              // one parameter set for every builder and scene
+  // OSAH's visibility rays: build.osah_width x osah_height as given, or (true, the
+  // default) the frame's resolution.
+  bool osah_resolution_from_frame = true;
 };
 
 // Per ray type (primary, AO) and combined.
@@ -70,7 +73,8 @@ Table1 run_table1(const Table1Options& options);
 // heatmaps side by side on one colour scale) via reports/scripts/table1_plots.py.
 void write_table1(const Table1& table);
 
-std::string table1_text(const Table1& table);  // what the terminal shows
+// What the terminal shows: within 120 columns, or every column with `wide`.
+std::string table1_text(const Table1& table, bool wide = false);
 
 // The patent's Table 1 (ops/ray), for printing beside ours.
 struct PatentTable1Entry {

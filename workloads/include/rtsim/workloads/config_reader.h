@@ -6,16 +6,26 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <set>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace rtsim {
 
+// Strict numbers from text (command lines, campaign values): decimal digits only,
+// nothing before or after, and a value past `max` is refused, never wrapped.
+bool parse_unsigned(std::string_view text, uint64_t min, uint64_t max, uint64_t& out);
+// "WxH" (or "WXH") with each side in 1..kMaxResolutionSide.
+constexpr uint32_t kMaxResolutionSide = 16384;
+bool parse_resolution_text(std::string_view text, uint32_t& width, uint32_t& height);
+
 // Parses .toml (toml++) or .json (nlohmann) into JSON; InputError with the file,
-// line and column on a syntax error.
+// line and column on a syntax error, and for a key repeated in one JSON object.
+// The file is read bounded (read_input_file, kMaxConfigFileBytes).
 nlohmann::json parse_config_file(const std::filesystem::path& path);
 nlohmann::json parse_config_text(const std::string& text, const std::string& file_name, bool toml);
 

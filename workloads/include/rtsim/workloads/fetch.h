@@ -20,10 +20,12 @@ std::vector<RealSceneInfo> real_scene_catalogue();
 
 // Downloads (into <cache_dir>/.downloads, kept for reuse and resumption), converts
 // and writes <cache_dir>/<name>/scene.toml; returns that path. Idempotent: a
-// finished scene is not fetched again. Resumable: downloads and extractions are
+// finished scene that loads is not fetched again; one that no longer loads (a
+// damaged cache) is converted again, as is any with `force`. Resumable: downloads and extractions are
 // renamed into place only when complete, and the scene folder only when its
 // descriptor is written. Says what it is doing on stderr. InputError for an
 // unknown name; std::runtime_error when a download or a tool fails.
-std::filesystem::path fetch_real_scene(const std::string& name, const std::filesystem::path& cache_dir);
+std::filesystem::path fetch_real_scene(const std::string& name, const std::filesystem::path& cache_dir,
+                                       bool force = false);
 
 }  // namespace rtsim

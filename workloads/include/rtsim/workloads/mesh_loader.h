@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace rtsim {
@@ -18,6 +19,11 @@ struct Mesh {
   std::vector<uint32_t> material_ids;  // per triangle, into materials
   std::vector<Material> materials;
   std::vector<Camera> suggested_cameras;  // spawn points, track quads
+  // Quake 3 faces left out on purpose (counted so that `scenes info` can say so):
+  // sky faces (when MeshOptions::bsp_drop_sky) and tool faces (textures/common/:
+  // clip, caulk, triggers, which no renderer draws).
+  uint64_t dropped_sky_faces = 0;
+  uint64_t dropped_tool_faces = 0;
 };
 
 struct MeshOptions {
@@ -29,7 +35,17 @@ struct MeshOptions {
 // Dispatches on the file name: .bsp/.pk3, .spm, scene.xml (a STK track), else assimp.
 Mesh load_mesh(const std::filesystem::path& path, const MeshOptions& options = {});
 
+// assimp, run in a forked child so that a file on which assimp aborts or crashes
+// is an InputError, not the end of rtsim; a PLY is first checked against its
+// own header (check_ply_against_header). The file must be a regular file within
+// kMaxDataFileBytes (files.h).
 Mesh load_mesh_assimp(const std::filesystem::path& path);
+// The same in this process (what the child runs): only for tests and tools that
+// want assimp's own behaviour.
+Mesh load_mesh_assimp_in_process(const std::filesystem::path& path);
+// InputError unless the PLY file's body holds every element its header announces
+// (ASCII: enough numbers; binary: enough bytes) and the header is well formed.
+void check_ply_against_header(std::string_view bytes, const std::string& file);
 Mesh parse_q3bsp(const std::vector<uint8_t>& bytes, const std::string& file_name,
                  const MeshOptions& options = {});
 Mesh parse_spm(const std::vector<uint8_t>& bytes, const std::string& file_name);

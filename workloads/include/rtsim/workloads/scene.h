@@ -66,6 +66,10 @@ struct ValidationReport {
   uint64_t dropped_bad_index = 0;
   uint64_t degenerate_kept = 0;
   uint64_t non_finite_vertices = 0;
+  // Faces a loader leaves out before triangles exist (Quake 3 maps: sky faces and
+  // textures/common/ tool faces), so they are in no triangle count above.
+  uint64_t dropped_sky_faces = 0;
+  uint64_t dropped_tool_faces = 0;
 };
 
 struct Scene {

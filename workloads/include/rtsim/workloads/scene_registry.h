@@ -15,4 +15,13 @@ std::string default_scene_name();  // "interior"
 Scene load_scene(const std::string& name_or_path);  // validated; throws InputError
 std::vector<std::string> known_scene_names();  // procedural + fetchable real scenes
 
+// The files a scene is read from, found the way load_scene finds the scene: its
+// descriptor, every mesh file it names (a folder mesh, e.g. a SuperTuxKart track:
+// every regular file under it; an .obj: its mtllib files too). Empty for a
+// built-in scene (its content is the binary's). InputError if the scene is unknown.
+std::vector<std::filesystem::path> scene_source_files(const std::string& name_or_path);
+// A hash over those files' names (relative to the descriptor) and contents, 16 hex
+// digits; "" for a built-in scene. What changes when any input file of the scene does.
+std::string scene_files_hash(const std::string& name_or_path);
+
 }  // namespace rtsim
