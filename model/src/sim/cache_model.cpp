@@ -137,14 +137,15 @@ uint64_t CacheModel::reserve_port(uint64_t t_ps) {
     if (slot * port_interval_ps_ > start) start = slot * port_interval_ps_;
     taken_slots_.insert(it, slot);
   }
-  // Slots long past are never asked for again.
+  // Slots long past are never asked for again: dropped in batches (erasing from the
+  // front of the vector on every call would move it each time).
   constexpr uint64_t kHorizonPs = 8'000'000;
-  if (taken_slots_.size() > 4096) {
-    const uint64_t oldest = (taken_slots_.back() * port_interval_ps_ > kHorizonPs)
-                                ? (taken_slots_.back() * port_interval_ps_ - kHorizonPs) / port_interval_ps_
-                                : 0;
+  if (taken_slots_.size() >= prune_at_) {
+    const uint64_t newest = taken_slots_.back() * port_interval_ps_;
+    const uint64_t oldest = newest > kHorizonPs ? (newest - kHorizonPs) / port_interval_ps_ : 0;
     taken_slots_.erase(taken_slots_.begin(),
                        std::lower_bound(taken_slots_.begin(), taken_slots_.end(), oldest));
+    prune_at_ = std::max<size_t>(4096, 2 * taken_slots_.size());
   }
   counters_.port_wait_ps += start - t_ps;
   return start;

@@ -163,25 +163,31 @@ double DramModel::peak_bytes_per_second() const {
 uint64_t DramModel::lt_activate_fit(const Rank& r, uint32_t group, uint64_t t) const {
   // Move t until it keeps tRRD_S/L to every placed activate of the rank and no four
   // placed activates lie with it in one tFAW window (five consecutive span >= tFAW).
+  const auto& acts = r.lt_acts;
+  const uint64_t reach = std::max({rrd_l_, rrd_s_, faw_});
   for (bool moved = true; moved;) {
     moved = false;
-    for (const auto& [a, g] : r.lt_acts) {
-      const uint64_t rrd = g == group ? rrd_l_ : rrd_s_;
+    // Only activates within tFAW (the longest of these spacings) of t can clash.
+    const auto lo = std::lower_bound(acts.begin(), acts.end(),
+                                     std::make_pair(t > reach ? t - reach : 0, 0u));
+    for (auto it = lo; it != acts.end() && it->first < t + reach; ++it) {
+      const uint64_t a = it->first;
+      const uint64_t rrd = it->second == group ? rrd_l_ : rrd_s_;
       if (t < a + rrd && t + rrd > a) {
         t = edge(a + rrd);
         moved = true;
+        break;
       }
     }
     if (moved) continue;
-    const auto& acts = r.lt_acts;
     const size_t at = size_t(std::lower_bound(acts.begin(), acts.end(), std::make_pair(t, 0u)) - acts.begin());
-    // The five-activate windows holding t: acts[at-4+k .. at+k] with t among them.
+    // The five-activate windows holding t: four placed ones around it, t among them.
     for (size_t k = 0; k < 5 && !moved; ++k) {
-      if (at + k < 4 || at + k - 4 + 4 > acts.size()) continue;
-      const size_t first = at + k - 4;               // the window's first placed activate
-      const size_t last = first + 3;                 // its last placed one (t makes five)
-      const uint64_t lo = std::min(acts[first].first, t), hi = std::max(acts[last].first, t);
-      if (hi - lo < faw_) {
+      if (at + k < 4 || at + k > acts.size()) continue;
+      const size_t first = at + k - 4;  // the window's first placed activate
+      const size_t last = first + 3;    // its last placed one (t makes five)
+      const uint64_t lo_t = std::min(acts[first].first, t), hi_t = std::max(acts[last].first, t);
+      if (hi_t - lo_t < faw_) {
         t = edge(acts[first].first + faw_);
         moved = true;
       }
@@ -233,9 +239,15 @@ uint64_t DramModel::lt_column_fit(const Channel& ch, uint32_t rank, uint32_t gro
     return need;
   };
   const uint64_t lat = write ? cwl_ : cl_;
+  // Only columns this close can clash (the largest spacing in either order).
+  const uint64_t reach = std::max(cl_, cwl_) + transfer_ps_ + rtrs_ + column_l_ + write_to_read_l_;
+  const auto& uses = ch.lt_columns;
   for (bool moved = true; moved;) {
     moved = false;
-    for (const Channel::ColumnUse& u : ch.lt_columns) {
+    const auto lo = std::lower_bound(uses.begin(), uses.end(), t > reach ? t - reach : 0,
+                                     [](const Channel::ColumnUse& u, uint64_t x) { return u.time_ps < x; });
+    for (auto it = lo; it != uses.end() && it->time_ps < t + reach; ++it) {
+      const Channel::ColumnUse& u = *it;
       const uint64_t lat_u = u.write ? cwl_ : cl_;
       const int64_t after = spacing(lat_u, u.write, u.rank, u.group, lat, write, rank, group);
       const int64_t before = spacing(lat, write, rank, group, lat_u, u.write, u.rank, u.group);
@@ -243,6 +255,7 @@ uint64_t DramModel::lt_column_fit(const Channel& ch, uint32_t rank, uint32_t gro
       if (int64_t(t) < int64_t(u.time_ps) + after && int64_t(t) + before > int64_t(u.time_ps)) {
         t = edge(uint64_t(int64_t(u.time_ps) + after));
         moved = true;
+        break;
       }
     }
   }
@@ -662,20 +675,23 @@ uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps) {
     if (c.time_ps == UINT64_MAX) break;
     execute(ch, c, pending_completions_);  // never a column command: nothing is queued
   }
-  // Command slots and columns older than the horizon are never asked for again
-  // (tRTRS, tCCD, tWTR and the bus span far less than it).
-  const uint64_t oldest = ch.lt_floor_ps - std::min(ch.lt_floor_ps, 2 * kLtHorizonPs);
-  auto& slots = ch.reserved_slots;
-  slots.erase(slots.begin(), std::lower_bound(slots.begin(), slots.end(), oldest));
-  auto& uses = ch.lt_columns;
-  size_t keep = 0;
-  while (keep < uses.size() && uses[keep].time_ps < oldest) ++keep;
-  uses.erase(uses.begin(), uses.begin() + long(keep));
-  for (Rank& rank : ch.ranks) {
-    auto& acts = rank.lt_acts;
-    size_t old = 0;
-    while (old < acts.size() && acts[old].first < oldest) ++old;
-    acts.erase(acts.begin(), acts.begin() + long(old));
+  // Command slots, columns and activates older than the horizon are never asked for
+  // again (tRTRS, tCCD, tWTR, tFAW and the bus span far less than it); they are
+  // dropped in batches, not on every call.
+  if (++ch.lt_calls_since_prune >= 1024) {
+    ch.lt_calls_since_prune = 0;
+    const uint64_t oldest = ch.lt_floor_ps - std::min(ch.lt_floor_ps, 2 * kLtHorizonPs);
+    auto& slots = ch.reserved_slots;
+    slots.erase(slots.begin(), std::lower_bound(slots.begin(), slots.end(), oldest));
+    auto& uses = ch.lt_columns;
+    uses.erase(uses.begin(), std::lower_bound(uses.begin(), uses.end(), oldest,
+                                              [](const Channel::ColumnUse& u, uint64_t x) {
+                                                return u.time_ps < x;
+                                              }));
+    for (Rank& rank : ch.ranks) {
+      auto& acts = rank.lt_acts;
+      acts.erase(acts.begin(), std::lower_bound(acts.begin(), acts.end(), std::make_pair(oldest, 0u)));
+    }
   }
   RowOutcome outcome = RowOutcome::Hit;
   if (k.open_row != int64_t(w.row)) {

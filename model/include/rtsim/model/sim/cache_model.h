@@ -98,6 +98,7 @@ class CacheModel {
   CacheTags tags_;
   uint64_t hit_ps_, fill_ps_, port_interval_ps_, cycle_ps_;
   std::vector<uint64_t> taken_slots_;  // port slots (time / interval) taken, sorted
+  size_t prune_at_ = 4096;
   Counters counters_;
   TrafficMatrix requested_, filled_;
   struct Mshr {
