@@ -103,9 +103,14 @@ const std::vector<MemoryAccess>& RayTraversal::step_reads() const {
 
 uint32_t RayTraversal::step_independent_reads() const {
   // Only the triangles behind a prim-ref list wait: they need the addresses it holds.
-  if (action_ == TraversalAction::TestTriangles && leaf_cursor_ == 0 && context_->image().indexed())
-    return 1;
-  return uint32_t(step_reads().size());
+  switch (action_) {
+    case TraversalAction::FetchNode: return 1;
+    case TraversalAction::TestTriangles:
+      if (leaf_cursor_ == 0 && context_->image().indexed()) return 1;
+      return std::min(leaf_count_ - leaf_cursor_, context_->config().triangles_per_step);
+    case TraversalAction::Done: break;
+  }
+  return 0;
 }
 
 uint64_t RayTraversal::spill_address(uint32_t position) const {

@@ -45,6 +45,49 @@ uint64_t interval_ps(double per_cycle, uint64_t cycle_ps) {
 }
 }  // namespace
 
+void RayEngine::EventCalendar::push(const Event& e) {
+  const uint64_t bucket = e.time_ps / bucket_ps_;
+  if (in_buckets_ == 0 && overflow_.empty()) base_ = bucket;  // events never go back in time
+  if (bucket < base_ + kWindow) {
+    buckets_[bucket % kWindow].push_back(e);
+    ++in_buckets_;
+  } else {
+    overflow_.push(e);
+  }
+}
+
+void RayEngine::EventCalendar::migrate() {
+  while (!overflow_.empty() && overflow_.top().time_ps / bucket_ps_ < base_ + kWindow) {
+    buckets_[(overflow_.top().time_ps / bucket_ps_) % kWindow].push_back(overflow_.top());
+    ++in_buckets_;
+    overflow_.pop();
+  }
+}
+
+bool RayEngine::EventCalendar::pop(Event* out) {
+  if (empty()) return false;
+  if (in_buckets_ == 0) {
+    base_ = overflow_.top().time_ps / bucket_ps_;
+    migrate();
+  }
+  for (;;) {
+    std::vector<Event>& b = buckets_[base_ % kWindow];
+    if (!b.empty()) {
+      // A bucket holds events of one cycle: take the earliest (time, then sequence).
+      size_t best = 0;
+      for (size_t i = 1; i < b.size(); ++i)
+        if (b[best] < b[i]) best = i;  // operator< is inverted for the max-heap
+      *out = b[best];
+      b[best] = b.back();
+      b.pop_back();
+      --in_buckets_;
+      return true;
+    }
+    ++base_;
+    migrate();
+  }
+}
+
 RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, bool timed)
     : config_(config), workload_(&workload), timed_(timed),
       cycle_ps_(uint64_t(std::llround(config.clock_period_ps()))),
@@ -53,7 +96,7 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
       visit_order_(free_slot_order(config.trv_units, config.trv_ray_slots)),
       trv_free_(config.trv_units, 0), ist_free_(config.ist_units, 0),
       trv_time_(config.trv_units), ist_time_(config.ist_units), trv_nodes_(config.trv_units, 0),
-      ist_tests_(config.ist_units, 0) {
+      ist_tests_(config.ist_units, 0), events_(cycle_ps_) {
   trv_interval_ps_ = interval_ps(config.trv_nodes_per_cycle, cycle_ps_);
   ist_interval_ps_ = interval_ps(config.ist_tests_per_cycle, cycle_ps_);
   shading_interval_ps_ = interval_ps(config.shading_rays_per_cycle, cycle_ps_);
@@ -216,9 +259,8 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
   uint64_t reported = done_rays_;
   idle_slots_.assign(visit_order_.begin(), visit_order_.end());
   schedule(frame_start_ps_, 0, EventKind::Dispatch);
-  while (!events_.empty()) {
-    const Event e = events_.top();
-    events_.pop();
+  Event e{};
+  while (events_.pop(&e)) {
     const uint64_t t = e.time_ps;
     sync(t);
     if (e.kind == EventKind::Dispatch) {
