@@ -129,18 +129,29 @@ void RayEngine::reset_counters() {
 
 uint64_t RayEngine::issue(MemoryPort& port, Slot& slot, const std::vector<MemoryAccess>& list,
                           size_t begin, size_t end, uint64_t t) {
+  if (begin == end) return t;
   const RayType type = slot.traversal.ray().type;
-  uint64_t ready = t;
-  for (int who = 0; who < 2; ++who) {
-    lines_.clear();
-    for (size_t i = begin; i < end; ++i)
-      if (requester_of(list[i].kind) == Requester(who))
-        append_line_accesses(list[i], type, line_bytes_[size_t(who)], lines_);
-    const uint32_t unit = who == 0 ? slot.unit : slot.unit % config_.ist_units;
-    for (const LineAccess& line : lines_) {
-      const uint64_t done = port.access(Requester(who), unit, line, t);
-      if (!line.write) ready = std::max(ready, done);
+  if (end - begin == 1 && !workload_->observer) {
+    // The common step: one access within one line (a node record).
+    const MemoryAccess& a = list[begin];
+    const Requester who = requester_of(a.kind);
+    const uint64_t line_bytes = line_bytes_[size_t(who)];
+    const uint64_t line = a.address & ~(line_bytes - 1);
+    if (a.address + a.bytes <= line + line_bytes) {
+      const uint32_t unit = who == Requester::Trv ? slot.unit : slot.unit % config_.ist_units;
+      const uint64_t done = port.access(who, unit, LineAccess{line, a.bytes, a.kind, type, a.write}, t);
+      return a.write ? t : std::max(t, done);
     }
+  }
+  lines_.clear();
+  for (size_t i = begin; i < end; ++i)
+    append_line_accesses(list[i], type, line_bytes_[size_t(requester_of(list[i].kind))], lines_);
+  uint64_t ready = t;
+  for (const LineAccess& line : lines_) {
+    const Requester who = requester_of(line.kind);
+    const uint32_t unit = who == Requester::Trv ? slot.unit : slot.unit % config_.ist_units;
+    const uint64_t done = port.access(who, unit, line, t);
+    if (!line.write) ready = std::max(ready, done);
   }
   if (workload_->observer)
     for (size_t i = begin; i < end; ++i) workload_->observer(slot.traversal.ray(), list[i]);
