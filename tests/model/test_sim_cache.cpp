@@ -121,6 +121,11 @@ TEST(SimCache, PortsServeSoManyAccessesPerCycle) {
   EXPECT_EQ(cache.reserve_port(0), 1000u);
   EXPECT_EQ(cache.reserve_port(5000), 5000u);
   EXPECT_EQ(cache.counters().port_wait_ps, 1500u);
+  // A request that comes late (it waited upstream) takes a free slot at its own
+  // time, not the slot after the latest taken.
+  EXPECT_EQ(cache.reserve_port(2000), 2000u);
+  EXPECT_EQ(cache.reserve_port(2000), 2500u);
+  EXPECT_EQ(cache.reserve_port(5000), 5500u);
 }
 
 TEST(SimHierarchy, StreamingTwiceOverACacheSizedRegionHitsTheL2TheSecondTime) {

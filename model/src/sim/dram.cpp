@@ -651,8 +651,8 @@ uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps) {
   // an MSHR, say) arrives after later ones were placed. It is placed at its own time
   // among them (bank state and the calendars below), not behind the latest arrival;
   // only one older than the calendars' horizon is moved up to it.
-  ch.lt_floor_ps = std::max(ch.lt_floor_ps, edge(now_ps));
-  const uint64_t t0 = std::max(edge(now_ps), ch.lt_floor_ps - std::min(ch.lt_floor_ps, kLtHorizonPs));
+  ch.lt_latest_ps = std::max(ch.lt_latest_ps, edge(now_ps));
+  const uint64_t t0 = std::max(edge(now_ps), ch.lt_latest_ps - std::min(ch.lt_latest_ps, kLtHorizonPs));
   Bank& k = bank_of(ch, w.rank, w.bank);
   if (policy_ == PagePolicy::Closed) {
     // A row auto-precharges after its column command unless the next request to the
@@ -680,7 +680,7 @@ uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps) {
   // dropped in batches, not on every call.
   if (++ch.lt_calls_since_prune >= 1024) {
     ch.lt_calls_since_prune = 0;
-    const uint64_t oldest = ch.lt_floor_ps - std::min(ch.lt_floor_ps, 2 * kLtHorizonPs);
+    const uint64_t oldest = ch.lt_latest_ps - std::min(ch.lt_latest_ps, 2 * kLtHorizonPs);
     auto& slots = ch.reserved_slots;
     slots.erase(slots.begin(), std::lower_bound(slots.begin(), slots.end(), oldest));
     auto& uses = ch.lt_columns;

@@ -220,7 +220,7 @@ class DramModel {
     bool drain_to_low = false;     // the drain started at the high watermark
     uint64_t command_free_ps = 0;  // next free command-bus slot (queued path)
     std::vector<uint64_t> reserved_slots;  // lt: command-bus slots taken, sorted
-    uint64_t lt_floor_ps = 0;              // lt: latest arrival served
+    uint64_t lt_latest_ps = 0;              // lt: the latest arrival seen
     uint32_t lt_calls_since_prune = 0;
     // lt: column commands placed, sorted by time. A request's column takes the
     // earliest time its bank allows at which the data bus, tCCD and tWTR allow it

@@ -8,7 +8,7 @@
 //   cycle       approximately timed, event-driven units and memory
 // All three take every memory access from the one traversal core, so each ray's
 // address stream is the same at every level; what differs is the interleaving of
-// rays (see docs/fidelity.md for what agrees and what does not).
+// rays (see docs/memory-traffic.md for what agrees and what does not).
 // SystemC allows one elaboration per process: lt and cycle can run once per
 // process (tests and benchmarks run them in child processes).
 #include <rtsim/model/core/functional_tracer.h>
