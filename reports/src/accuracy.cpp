@@ -114,6 +114,31 @@ TrafficVerdict judge_traffic(const std::string& scene, const std::vector<Traffic
                     : "DRAM B/ray still falls with resolution at the highest one measured (denser rays "
                       "share more cache lines): measure at the resolution the study targets.");
   v.summary = buf;
+  // Whether the traffic is the frame's footprint streamed once (bytes per frame
+  // nearly flat as rays grow) or capacity misses (bytes growing with the rays).
+  if (functional.size() >= 2) {
+    const TrafficPoint &hi = *functional.back(), &lo = *functional[functional.size() - 2];
+    const double bytes_hi = hi.dram_bytes_per_ray.back() * double(hi.rays);
+    const double bytes_lo = lo.dram_bytes_per_ray.back() * double(lo.rays);
+    if (bytes_lo > 0 && bytes_hi > 0 && hi.rays > lo.rays) {
+      const double growth = std::log(bytes_hi / bytes_lo) / std::log(double(hi.rays) / double(lo.rays));
+      std::snprintf(buf, sizeof buf,
+                    " Steady-state DRAM bytes per frame grow as rays^%.2f between %ux%u and %ux%u (%.3g -> "
+                    "%.3g MB)%s.",
+                    growth, lo.resolution, lo.resolution, hi.resolution, hi.resolution, bytes_lo / 1e6,
+                    bytes_hi / 1e6,
+                    growth < 0.3 ? ": the frame streams its footprint about once, so per-ray traffic is "
+                                   "footprint / rays and builders compare by bytes per frame"
+                                 : ": capacity misses, which denser rays share less than proportionally");
+      v.summary += buf;
+    }
+  }
+  if (cycle.size() >= 2) {
+    const TrafficPoint &hi = *cycle.back(), &lo = *cycle[cycle.size() - 2];
+    std::snprintf(buf, sizeof buf, " Cycles per ray: %.3g at %ux%u, %.3g at %ux%u.", lo.cycles_per_ray.back(),
+                  lo.resolution, lo.resolution, hi.cycles_per_ray.back(), hi.resolution, hi.resolution);
+    v.summary += buf;
+  }
   return v;
 }
 
