@@ -111,8 +111,8 @@ TrafficVerdict judge_traffic(const std::string& scene, const std::vector<Traffic
                        std::to_string(top_res) + " value from " + std::to_string(v.resolution_needed) + "x" +
                        std::to_string(v.resolution_needed) + " on.")
                           .c_str()
-                    : "DRAM B/ray still falls with resolution at the highest one measured (denser rays "
-                      "share more cache lines): measure at the resolution the study targets.");
+                    : "DRAM B/ray still changes with resolution at the highest one measured: measure at "
+                      "the resolution the study targets.");
   v.summary = buf;
   // Whether the traffic is the frame's footprint streamed once (bytes per frame
   // nearly flat as rays grow) or capacity misses (bytes growing with the rays).
