@@ -85,7 +85,7 @@ double ratio(double a, double b) { return (std::isfinite(a) && b > 0) ? a / b : 
 
 // A cache level's hit rate: over all instances ("l1_node.all.*") or the one cache.
 double hit_rate(const std::map<std::string, double>& s, const std::string& cache) {
-  for (const std::string prefix : {cache + ".all.", cache + "."}) {
+  for (const std::string& prefix : {cache + ".all.", cache + "."}) {
     const double direct = first_of(s, {(prefix + "hit_rate").c_str()});
     if (std::isfinite(direct)) return direct;
     const double derived =

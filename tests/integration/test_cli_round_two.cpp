@@ -480,7 +480,7 @@ TEST(OneCommandLine, JsonWhereResultsArePrinted) {
                            "scenes render cornell --res 8x8 --out p.png --json"}) {
     const CliResult r = run_in(dir, args, 300, true);
     ASSERT_EQ(r.exit_code, 0) << args << ": " << r.output;
-    EXPECT_NO_THROW((void)nlohmann::json::parse(r.output)) << args << ": " << r.output;
+    EXPECT_TRUE(nlohmann::json::accept(r.output)) << args << ": " << r.output;
   }
   write_text(dir / "c.toml", "[campaign]\nname = \"j\"\n[sweep]\nscene = \"cornell\"\nbuilder = \"sah\"\n");
   const CliResult status = run_in(dir, "campaign status c.toml --json", 60, true);
