@@ -61,7 +61,7 @@ const char* display_name(const std::string& builder) {
 // the headline counts (camera_table has everything, for --wide and the files).
 TextTable narrow_camera_table(const Table1& table, const std::string& camera) {
   TextTable t({"builder", "ops/ray", "vs median", "vs SAH", "TRV/ray", "IST/ray", "fetch/ray",
-               "DRAM B/ray", "cycles", "build s"});
+               "DRAM B/ray cold/warm", "cycles", "build s"});
   const Table1Row* median = table.find(camera, "median");
   const Table1Row* sah = table.find(camera, "sah");
   for (const Table1Row& r : table.rows) {
@@ -70,7 +70,11 @@ TextTable narrow_camera_table(const Table1& table, const std::string& camera) {
                median ? pct(r.combined.ops_per_ray, median->combined.ops_per_ray) : "-",
                sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
                num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
-               num(r.combined.node_fetches_per_ray), num(r.combined.dram_bytes_per_ray), num(r.cycles, 6),
+               num(r.combined.node_fetches_per_ray),
+               r.combined.dram_bytes_per_ray < 0
+                   ? "-"
+                   : num(r.cold_dram_bytes_per_ray) + "/" + num(r.combined.dram_bytes_per_ray),
+               num(r.cycles, 6),
                num(r.build_seconds + r.estimate_seconds, 3)});
   }
   return t;
