@@ -57,6 +57,12 @@ const char* display_name(const std::string& builder) {
   return builder.c_str();
 }
 
+// "cold/warm": DRAM B/ray of the first frame and of the last, "-" without a cycle-level run.
+std::string dram_cold_warm(const Table1Row& r) {
+  if (r.combined.dram_bytes_per_ray < 0) return "-";
+  return num(r.cold_dram_bytes_per_ray) + "/" + num(r.combined.dram_bytes_per_ray);
+}
+
 // The terminal's table per camera, within 120 columns: the Table 1 columns and
 // the headline counts (camera_table has everything, for --wide and the files).
 TextTable narrow_camera_table(const Table1& table, const std::string& camera) {
@@ -71,9 +77,7 @@ TextTable narrow_camera_table(const Table1& table, const std::string& camera) {
                sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
                num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
                num(r.combined.node_fetches_per_ray),
-               r.combined.dram_bytes_per_ray < 0
-                   ? "-"
-                   : num(r.cold_dram_bytes_per_ray) + "/" + num(r.combined.dram_bytes_per_ray),
+               dram_cold_warm(r),
                num(r.cycles, 6),
                num(r.build_seconds + r.estimate_seconds, 3)});
   }
@@ -96,9 +100,7 @@ TextTable camera_table(const Table1& table, const std::string& camera) {
                num(r.ao.ops_per_ray), num(r.combined.node_fetches_per_ray),
                median ? pct(r.combined.node_fetches_per_ray, median->combined.node_fetches_per_ray) : "-",
                sah ? pct(r.combined.node_fetches_per_ray, sah->combined.node_fetches_per_ray) : "-",
-               r.combined.dram_bytes_per_ray < 0
-                   ? "-"
-                   : num(r.cold_dram_bytes_per_ray) + "/" + num(r.combined.dram_bytes_per_ray),
+               dram_cold_warm(r),
                num(r.cycles, 6),
                num(r.build_seconds + r.estimate_seconds, 3)});
   }
