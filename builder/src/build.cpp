@@ -1,6 +1,7 @@
 // build_bvh: the builders by name. sah, sbvh, osah and aobvh are policies over the
 // one weighted-SAH core; median and the two Embree builders stand apart.
 #include <rtsim/builder/build.h>
+#include <rtsim/builder/collapse.h>
 #include <rtsim/builder/occlusion.h>
 #include <rtsim/workloads/embree_scene.h>
 #include <rtsim/workloads/error.h>
@@ -61,10 +62,16 @@ std::vector<std::string> builder_names() {
   return {"sah", "median", "sbvh", "osah", "aobvh", "aosbvh", "embree", "embree-sbvh"};
 }
 
+void apply_node_format(BuildParams& params, const NodeFormat& format) {
+  params.width = format.encoding == BoxEncoding::OwnBoxFp32 ? 2 : format.width;
+  params.max_leaf_size = std::min(params.max_leaf_size, format.max_leaf_triangles);
+}
+
 BvhLimits limits_for(const BuildParams& params) {
   BvhLimits limits;
   limits.max_leaf_size = params.max_leaf_size;
   limits.max_depth = params.max_depth;
+  limits.max_width = params.width;
   limits.split_references =
       params.builder == "sbvh" || params.builder == "aosbvh" || params.builder == "embree-sbvh";
   // embree-sbvh fills up to ~2 x N references (its capacity); ours keeps the budget.
@@ -78,6 +85,8 @@ void check_build_params(const BuildParams& p) {
   if (!positive(p.t2)) throw InputError("t2", "must be a positive finite number");
   if (p.max_leaf_size == 0) throw InputError("max_leaf_size", "must be at least 1");
   if (p.max_depth == 0) throw InputError("max_depth", "must be at least 1");
+  if (p.width < 2 || p.width > kMaxBvhWidth)
+    throw InputError("width", "must be 2.." + std::to_string(kMaxBvhWidth) + " children per node");
   if (p.bins == 1 || p.bins > 256) throw InputError("bins", "must be 0 (full sweep) or 2..256");
   if (!std::isfinite(p.sbvh_alpha) || p.sbvh_alpha < 0)
     throw InputError("sbvh_alpha", "must be >= 0");
@@ -93,10 +102,35 @@ void check_build_params(const BuildParams& p) {
   if (!std::isfinite(p.ao_cutoff_relative)) throw InputError("ao_cutoff_relative", "must be finite");
 }
 
+namespace {
+Bvh build_binary_or_embree(const Scene& scene, const BuildParams& params, BuildReport* report);
+}
+
 Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report) {
-  check_build_params(params);
   BuildReport local;
   BuildReport& r = report ? *report : local;
+  Bvh bvh = build_binary_or_embree(scene, params, &r);
+  if (params.width == 2 || params.builder == "embree" || params.builder == "embree-sbvh")
+    return bvh;
+  CollapseParams cp;
+  cp.width = params.width;
+  cp.max_leaf_size = params.max_leaf_size;
+  cp.t1 = params.t1;
+  cp.t2 = params.t2;
+  cp.weights = r.weights;
+  cp.visibility = r.visibility;
+  cp.osah_w = params.osah_w;
+  const auto start = std::chrono::steady_clock::now();
+  r.binary_nodes = bvh.nodes.size();
+  bvh = collapse_bvh(bvh, cp);
+  r.collapse_seconds = seconds_since(start);
+  return bvh;
+}
+
+namespace {
+Bvh build_binary_or_embree(const Scene& scene, const BuildParams& params, BuildReport* report) {
+  check_build_params(params);
+  BuildReport& r = *report;
   r = BuildReport{};
   r.builder = params.builder;
   const size_t n = scene.triangle_count();
@@ -189,6 +223,7 @@ Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report
     ec.max_leaf_size = params.max_leaf_size;
     ec.max_depth = params.max_depth;
     ec.threads = params.threads;
+    ec.width = params.width;
     detail::EmbreeBuildStats es;
     const auto start = std::chrono::steady_clock::now();
     bvh = detail::build_with_embree(scene, ec, &es);
@@ -202,5 +237,6 @@ Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report
   }
   return bvh;
 }
+}  // namespace
 
 }  // namespace rtsim

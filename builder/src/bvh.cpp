@@ -1,6 +1,8 @@
 #include <rtsim/builder/bvh.h>
 #include <rtsim/workloads/random.h>
 
+#include <algorithm>
+
 namespace rtsim {
 
 uint64_t bvh_content_hash(const Bvh& bvh) {
@@ -10,8 +12,16 @@ uint64_t bvh_content_hash(const Bvh& bvh) {
     h = hash_bytes(h, box, sizeof box);
     const uint32_t links[2] = {n.index, n.count};
     h = hash_bytes(h, links, sizeof links);
+    // Binary trees keep the names they had before trees could be wide.
+    if (n.children > 2) h = hash_bytes(h, &n.children, sizeof n.children);
   }
   return h;
+}
+
+uint32_t Bvh::width() const {
+  uint32_t w = 2;
+  for (const BvhNode& n : nodes) w = std::max(w, n.children);
+  return w;
 }
 
 }  // namespace rtsim

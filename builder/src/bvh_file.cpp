@@ -14,7 +14,8 @@ namespace rtsim {
 
 namespace {
 constexpr char kMagic[8] = {'R', 'T', 'S', 'I', 'M', 'B', 'V', 'H'};
-constexpr size_t kNodeBytes = 32;
+constexpr size_t kNodeBytes = 36;     // version 2
+constexpr size_t kNodeBytesV1 = 32;   // version 1: binary trees, no child count
 constexpr uint32_t kMaxTextBytes = 1u << 20;
 
 // The file's checksum: the shared content hash over every byte before it.
@@ -78,6 +79,7 @@ std::string build_params_json(const BuildParams& p) {
   j["max_depth"] = p.max_depth;
   j["bins"] = p.bins;
   j["seed"] = p.seed;
+  if (p.width != 2) j["width"] = p.width;  // binary trees keep their old job keys
   if (p.builder == "sbvh" || p.builder == "aosbvh") {
     j["sbvh_alpha"] = p.sbvh_alpha;
     j["sbvh_reference_budget"] = p.sbvh_reference_budget;
@@ -128,6 +130,7 @@ void save_bvh(const std::filesystem::path& path, const Bvh& bvh, const BvhFileHe
     out.append(reinterpret_cast<const char*>(box), sizeof box);
     put(out, n.index);
     put(out, n.count);
+    put(out, n.children);
   }
   out.append(reinterpret_cast<const char*>(bvh.prim_refs.data()), bvh.prim_refs.size() * 4);
   put(out, checksum(out.data(), out.size()));
@@ -145,9 +148,10 @@ Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeade
   r.skip(sizeof kMagic);
   BvhFileHeader h;
   h.version = r.get<uint32_t>("header.version");
-  if (h.version != kBvhFileVersion)
-    r.fail("header.version", "version " + std::to_string(h.version) + " is not supported (this rtsim reads " +
+  if (h.version != kBvhFileVersion && h.version != 1)
+    r.fail("header.version", "version " + std::to_string(h.version) + " is not supported (this rtsim reads 1 and " +
                                  std::to_string(kBvhFileVersion) + ")");
+  const size_t node_bytes = h.version == 1 ? kNodeBytesV1 : kNodeBytes;
   h.scene_hash = r.get<uint64_t>("header.scene_hash");
   h.triangle_count = r.get<uint64_t>("header.triangle_count");
   h.builder = r.text("header.builder");
@@ -155,11 +159,11 @@ Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeade
   const uint64_t node_count = r.get<uint64_t>("header.node_count");
   const uint64_t ref_count = r.get<uint64_t>("header.reference_count");
   // Sizes must match exactly: nodes, refs and the 8-byte checksum.
-  if (node_count == 0 || node_count > r.left() / kNodeBytes)
+  if (node_count == 0 || node_count > r.left() / node_bytes)
     r.fail("header.node_count", "implausible node count " + std::to_string(node_count));
   if (ref_count > r.left() / 4)
     r.fail("header.reference_count", "implausible reference count " + std::to_string(ref_count));
-  const uint64_t body = node_count * kNodeBytes + ref_count * 4 + 8;
+  const uint64_t body = node_count * node_bytes + ref_count * 4 + 8;
   if (r.left() != body)
     r.fail(r.left() < body ? "nodes" : "trailer",
            r.left() < body ? "file truncated" : "unexpected bytes after the checksum");
@@ -187,8 +191,16 @@ Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeade
     n.index = r.get<uint32_t>("nodes[" + std::to_string(i) + "].index");
     n.count = r.get<uint32_t>("nodes[" + std::to_string(i) + "].count");
     const std::string where = "nodes[" + std::to_string(i) + "]";
+    if (h.version == 1)
+      n.children = n.is_leaf() ? 0 : 2;
+    else
+      n.children = r.get<uint32_t>(where + ".children");
+    if (!n.is_leaf() && (n.children < 2 || n.children > kMaxBvhWidth))
+      r.fail(where + ".children", std::to_string(n.children) + " children (allowed 2.." +
+                                      std::to_string(kMaxBvhWidth) + ")");
+    if (n.is_leaf() && n.children != 0) r.fail(where + ".children", "a leaf has no children");
     if (n.is_leaf() ? uint64_t(n.index) + n.count > ref_count
-                    : (uint64_t(n.index) + 1 >= node_count || n.index <= i))
+                    : (uint64_t(n.index) + n.children > node_count || n.index <= i))
       r.fail(where, "index " + std::to_string(n.index) + " out of range");
   }
   bvh.prim_refs.resize(ref_count);
@@ -201,6 +213,7 @@ Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeade
     BvhLimits loose;
     loose.max_leaf_size = ~0u;
     loose.max_depth = ~0u;
+    loose.max_width = kMaxBvhWidth;
     loose.split_references = true;
     loose.reference_budget = double(ref_count) / double(std::max<uint64_t>(1, h.triangle_count)) + 1;
     const BvhValidation v = validate_bvh(bvh, *scene, loose);

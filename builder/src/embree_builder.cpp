@@ -1,6 +1,8 @@
 // The reference builders: Embree's own rtcBuildBVH, with its costs set to ours
-// (traversalCost = 2*T1: a BVH2 node visit tests two boxes; intersectionCost = T2)
-// and its output converted into our flat Bvh.
+// (traversalCost = 2*T1: the cost of one node visit, one TRV op, whatever the
+// width; intersectionCost = T2) and its output converted into our flat Bvh.
+// With maxBranchingFactor 4 or 8 it is Embree's own wide builder: the reference
+// for the collapse pass.
 #include "embree_builder.h"
 
 #include <rtsim/workloads/error.h>
@@ -20,8 +22,9 @@ namespace rtsim::detail {
 namespace {
 
 struct EmbreeNode {
-  Aabb child_box[2];
-  const EmbreeNode* child[2] = {nullptr, nullptr};
+  Aabb child_box[kMaxBvhWidth];
+  const EmbreeNode* child[kMaxBvhWidth] = {};
+  uint32_t children = 0;
   // Leaves: a pointer to this node's own primitive list.
   bool leaf = false;
   uint32_t count = 0;
@@ -38,19 +41,20 @@ void* create_node(RTCThreadLocalAllocator alloc, unsigned int child_count, void*
   auto* ctx = static_cast<Context*>(user);
   ctx->bytes.fetch_add(sizeof(EmbreeNode), std::memory_order_relaxed);
   void* mem = rtcThreadLocalAlloc(alloc, sizeof(EmbreeNode), 16);
-  (void)child_count;  // maxBranchingFactor = 2
-  return new (mem) EmbreeNode();
+  auto* node = new (mem) EmbreeNode();
+  node->children = std::min<unsigned>(child_count, kMaxBvhWidth);  // <= maxBranchingFactor
+  return node;
 }
 
 void set_children(void* node_ptr, void** children, unsigned int child_count, void*) {
   auto* node = static_cast<EmbreeNode*>(node_ptr);
-  for (unsigned i = 0; i < child_count && i < 2; ++i)
+  for (unsigned i = 0; i < child_count && i < kMaxBvhWidth; ++i)
     node->child[i] = static_cast<const EmbreeNode*>(children[i]);
 }
 
 void set_bounds(void* node_ptr, const RTCBounds** bounds, unsigned int child_count, void*) {
   auto* node = static_cast<EmbreeNode*>(node_ptr);
-  for (unsigned i = 0; i < child_count && i < 2; ++i)
+  for (unsigned i = 0; i < child_count && i < kMaxBvhWidth; ++i)
     node->child_box[i] = Aabb{vec3(bounds[i]->lower_x, bounds[i]->lower_y, bounds[i]->lower_z),
                               vec3(bounds[i]->upper_x, bounds[i]->upper_y, bounds[i]->upper_z)};
 }
@@ -151,7 +155,7 @@ Bvh build_with_embree(const Scene& scene, const EmbreeBuildConfig& config,
   RTCBVH handle = rtcNewBVH(device);
   RTCBuildArguments args = rtcDefaultBuildArguments();
   args.buildQuality = config.spatial_splits ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM;
-  args.maxBranchingFactor = 2;
+  args.maxBranchingFactor = config.width;
   args.maxDepth = config.max_depth;
   args.sahBlockSize = 1;
   args.minLeafSize = 1;
@@ -179,8 +183,9 @@ Bvh build_with_embree(const Scene& scene, const EmbreeBuildConfig& config,
   Bvh bvh;
   bvh.nodes.reserve(2 * n);
   bvh.prim_refs.reserve(n);
-  Aabb root_box = root->leaf ? root->leaf_box : root->child_box[0];
-  if (!root->leaf) root_box.extend(root->child_box[1]);
+  Aabb root_box = root->leaf_box;
+  if (!root->leaf)
+    for (uint32_t c = 0; c < root->children; ++c) root_box.extend(root->child_box[c]);
   bvh.nodes.push_back(BvhNode{root_box, 0, 0});
   std::vector<std::pair<const EmbreeNode*, uint32_t>> stack{{root, 0u}};
   std::vector<uint32_t> list;
@@ -199,10 +204,10 @@ Bvh build_with_embree(const Scene& scene, const EmbreeBuildConfig& config,
     const uint32_t first = uint32_t(bvh.nodes.size());
     bvh.nodes[index].index = first;
     bvh.nodes[index].count = 0;
-    bvh.nodes.push_back(BvhNode{node->child_box[0], 0, 0});
-    bvh.nodes.push_back(BvhNode{node->child_box[1], 0, 0});
-    stack.push_back({node->child[1], first + 1});
-    stack.push_back({node->child[0], first});
+    bvh.nodes[index].children = node->children;
+    for (uint32_t c = 0; c < node->children; ++c)
+      bvh.nodes.push_back(BvhNode{node->child_box[c], 0, 0, 0});
+    for (uint32_t c = node->children; c-- > 0;) stack.push_back({node->child[c], first + c});
   }
   if (stats)
     stats->working_bytes = capacity * sizeof(RTCBuildPrimitive) + ctx.bytes.load() +

@@ -12,6 +12,7 @@ struct EmbreeBuildConfig {
   uint32_t max_leaf_size = 4;
   uint32_t max_depth = 64;
   uint32_t threads = 0;
+  uint32_t width = 2;  // maxBranchingFactor: Embree's own wide builder for 4 and 8
   double capacity_factor = 2.0;  // primitive array capacity, x N (room for split references)
 };
 

@@ -43,6 +43,7 @@ struct MedianBuilder {
     const uint32_t child = uint32_t(bvh.nodes.size());
     bvh.nodes[node_index].index = child;
     bvh.nodes[node_index].count = 0;
+    bvh.nodes[node_index].children = 2;
     bvh.nodes.emplace_back();
     bvh.nodes.emplace_back();
     build(child, begin, half);

@@ -75,21 +75,22 @@ double sah_cost(const Bvh& bvh, float t1, float t2, const std::vector<float>& we
       cost[i] = double(t2) * w;
       continue;
     }
-    const uint32_t l = n.index, r = n.index + 1;
-    weight[i] = weight[l] + weight[r];
-    visible[i] = visible[l] + visible[r];
-    refs[i] = refs[l] + refs[r];
+    const uint32_t first = n.index, end = n.index + n.children;
+    weight[i] = 0, visible[i] = 0, refs[i] = 0;
+    for (uint32_t c = first; c < end; ++c) {
+      weight[i] += weight[c];
+      visible[i] += visible[c];
+      refs[i] += refs[c];
+    }
     const double area = n.bounds.area();
-    double pl = 1, pr = 1;
-    if (area > 0) {
-      pl = bvh.nodes[l].bounds.area() / area;
-      pr = bvh.nodes[r].bounds.area() / area;
+    const bool mixed = !visibility.empty() && visible[i] > 0 && visible[i] < refs[i];
+    // One node visit (one TRV op) costs 2*T1 whatever the width.
+    cost[i] = 2.0 * t1;
+    for (uint32_t c = first; c < end; ++c) {
+      double p = area > 0 ? bvh.nodes[c].bounds.area() / area : 1.0;
+      if (mixed) p = osah_w * double(visible[c]) / double(visible[i]) + (1 - osah_w) * p;
+      cost[i] += p * cost[c];
     }
-    if (!visibility.empty() && visible[i] > 0 && visible[i] < refs[i]) {
-      pl = osah_w * double(visible[l]) / double(visible[i]) + (1 - osah_w) * pl;
-      pr = osah_w * double(visible[r]) / double(visible[i]) + (1 - osah_w) * pr;
-    }
-    cost[i] = 2.0 * t1 + pl * cost[l] + pr * cost[r];
   }
   return cost[0];
 }
@@ -105,8 +106,11 @@ double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2)
       ref_begin[i] = node.index;
       ref_end[i] = node.index + node.count;
     } else {
-      ref_begin[i] = std::min(ref_begin[node.index], ref_begin[node.index + 1]);
-      ref_end[i] = std::max(ref_end[node.index], ref_end[node.index + 1]);
+      ref_begin[i] = ~0u, ref_end[i] = 0;
+      for (uint32_t c = node.index; c < node.index + node.children; ++c) {
+        ref_begin[i] = std::min(ref_begin[i], ref_begin[c]);
+        ref_end[i] = std::max(ref_end[i], ref_end[c]);
+      }
     }
   }
   // Where each triangle is referenced (several places only with split references).
@@ -143,8 +147,7 @@ double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2)
       const BvhNode& other = bvh.nodes[m];
       if (!overlaps(other.bounds, box)) continue;
       if (!other.is_leaf()) {
-        s.stack.push_back(other.index);
-        s.stack.push_back(other.index + 1);
+        for (uint32_t c = other.index; c < other.index + other.children; ++c) s.stack.push_back(c);
         continue;
       }
       for (uint32_t k = other.index; k < other.index + other.count; ++k) {
@@ -175,6 +178,7 @@ BvhMetrics compute_metrics(const Bvh& bvh, const Scene& scene, const BuildParams
   m.triangles = scene.triangle_count();
   m.references = bvh.prim_refs.size();
   m.nodes = bvh.nodes.size();
+  m.width = bvh.width();
   m.sah_cost = sah_cost(bvh, params.t1, params.t2);
   m.weighted_cost = sah_cost(bvh, params.t1, params.t2, report.weights, report.visibility,
                              params.osah_w);
@@ -192,7 +196,7 @@ BvhMetrics compute_metrics(const Bvh& bvh, const Scene& scene, const BuildParams
       depth_sum += depth[i];
     } else {
       ++m.inner_nodes;
-      depth[n.index] = depth[n.index + 1] = depth[i] + 1;
+      for (uint32_t c = n.index; c < n.index + n.children; ++c) depth[c] = depth[i] + 1;
     }
   }
   m.average_leaf_depth = m.leaves ? depth_sum / double(m.leaves) : 0;
@@ -214,6 +218,7 @@ std::string metrics_json(const BvhMetrics& m) {
   j["sah_cost"] = m.sah_cost;
   j["weighted_cost"] = m.weighted_cost;
   if (m.epo >= 0) j["epo"] = m.epo;
+  j["width"] = m.width;
   j["nodes"] = m.nodes;
   j["inner_nodes"] = m.inner_nodes;
   j["leaves"] = m.leaves;

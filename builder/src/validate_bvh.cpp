@@ -60,11 +60,16 @@ BvhValidation validate_bvh(const Bvh& bvh, const Scene& scene, const BvhLimits& 
     if (node.bounds.empty() || !is_finite(node.bounds.lo) || !is_finite(node.bounds.hi))
       problem(where + ": empty or non-finite box " + box_text(node.bounds));
     if (!node.is_leaf()) {
-      if (uint64_t(node.index) + 1 >= bvh.nodes.size() || node.index <= item.node) {
+      if (node.children < 2 || node.children > limits.max_width) {
+        problem(where + ": " + std::to_string(node.children) + " children (allowed 2.." +
+                std::to_string(limits.max_width) + ")");
+        continue;
+      }
+      if (uint64_t(node.index) + node.children > bvh.nodes.size() || node.index <= item.node) {
         problem(where + ": child index " + std::to_string(node.index) + " out of range");
         continue;
       }
-      for (uint32_t c = node.index; c <= node.index + 1; ++c) {
+      for (uint32_t c = node.index; c < node.index + node.children; ++c) {
         if (!node.bounds.contains(bvh.nodes[c].bounds))
           problem(where + ": child " + std::to_string(c) + " box " +
                   box_text(bvh.nodes[c].bounds) + " outside " + box_text(node.bounds));

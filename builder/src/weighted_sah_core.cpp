@@ -758,6 +758,7 @@ Bvh Builder::run(CoreStats* stats) {
     const uint32_t first_child = uint32_t(bvh.nodes.size());
     bvh.nodes[final_index].index = first_child;
     bvh.nodes[final_index].count = 0;
+    bvh.nodes[final_index].children = 2;
     bvh.nodes.push_back(BvhNode{nodes_[t.left].box, 0, 0});
     bvh.nodes.push_back(BvhNode{nodes_[t.right].box, 0, 0});
     stack.push_back({t.right, first_child + 1});

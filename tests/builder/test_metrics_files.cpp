@@ -45,7 +45,7 @@ TEST(Metrics, EndPointOverlapMatchesAHandComputation) {
   test::add_triangle(scene, vec3(0.5f, 0.5f, -1), vec3(0.6f, 0.5f, 1), vec3(0.5f, 0.6f, 1));
   Bvh bvh;
   bvh.nodes.resize(3);
-  bvh.nodes[0] = {scene.bounds(), 1, 0};
+  bvh.nodes[0] = {scene.bounds(), 1, 0, 2};
   bvh.nodes[1] = {scene.triangle_bounds(0), 0, 1};
   bvh.nodes[2] = {scene.triangle_bounds(1), 1, 1};
   bvh.prim_refs = {0, 1};

@@ -47,6 +47,7 @@ inline Bvh median_bvh(const Scene& scene, uint32_t leaf_size = 4) {
     bvh.nodes.emplace_back();
     bvh.nodes[job.node].index = left;
     bvh.nodes[job.node].count = 0;
+    bvh.nodes[job.node].children = 2;
     jobs.push_back({left + 1, mid, job.end});
     jobs.push_back({left, job.begin, mid});
   }

@@ -1,6 +1,7 @@
 #pragma once
 // The one entry point to every BVH builder, selected by name.
 #include <rtsim/builder/bvh.h>
+#include <rtsim/builder/node_format.h>
 #include <rtsim/builder/validate_bvh.h>
 #include <rtsim/workloads/scene.h>
 
@@ -15,6 +16,10 @@ struct BuildParams {
   float t1 = 1.0f;              // cost of one ray-node test
   float t2 = 1.0f;              // cost of one ray-triangle test
   uint32_t max_leaf_size = 4;   // must fit the hardware leaf count field
+  // Children per node of the tree returned: 2 = the builder's binary tree; 4, 6
+  // or 8 = that tree collapsed (collapse.h) with the builder's own cost model.
+  // The Embree builders build wide trees themselves (maxBranchingFactor).
+  uint32_t width = 2;
   uint32_t max_depth = 64;
   uint32_t bins = 32;           // binned SAH; 0 = full sweep
   uint64_t seed = 1;
@@ -69,6 +74,8 @@ struct BuildReport {
   uint64_t visible_triangles = 0;  // osah
   double mean_occlusion = 0;    // aobvh: mean occlusion value (1 = open)
   uint64_t ao_rays = 0;         // aobvh: rays cast
+  double collapse_seconds = 0;  // width > 2: the collapse pass (not in build_seconds)
+  uint64_t binary_nodes = 0;    // width > 2: nodes of the binary tree collapsed (0 = none)
 };
 
 // Limits a tree from `params` must satisfy (for validate_bvh).
@@ -81,5 +88,9 @@ Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report
 // right after parsing and names the flag instead.
 void check_build_params(const BuildParams& params);
 std::vector<std::string> builder_names();
+
+// Builds for a node format: its width (2 for bvh2-*: the builder's own tree) and
+// leaves no larger than the format holds (max_leaf_size lowered to it if larger).
+void apply_node_format(BuildParams& params, const NodeFormat& format);
 
 }  // namespace rtsim

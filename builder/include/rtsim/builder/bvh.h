@@ -1,8 +1,9 @@
 #pragma once
-// A binary BVH (BVH2) in a flat array. Node 0 is the root. An inner node's two
-// children sit next to each other at `index` and `index + 1`; a leaf's triangles
-// are prim_refs[index .. index + count). SBVH may reference a triangle from
-// several leaves; every other builder references each exactly once.
+// A BVH of 2 to 8 children per node in a flat array. Node 0 is the root. An
+// inner node's children sit next to each other at [index, index + children); a
+// leaf's triangles are prim_refs[index .. index + count). Builders make binary
+// trees; the collapse pass (collapse.h) makes wide ones. SBVH may reference a
+// triangle from several leaves; every other builder references each exactly once.
 #include <rtsim/workloads/geometry.h>
 
 #include <cstdint>
@@ -15,14 +16,18 @@ struct BvhNode {
   Aabb bounds;
   uint32_t index = 0;  // inner: first child; leaf: first prim_ref
   uint32_t count = 0;  // 0 = inner node; > 0 = leaf with `count` triangles
+  uint32_t children = 0;  // inner: 2..kMaxBvhWidth children; leaf: 0
   bool is_leaf() const { return count > 0; }
 };
+
+constexpr uint32_t kMaxBvhWidth = 8;
 
 struct Bvh {
   std::vector<BvhNode> nodes;
   std::vector<uint32_t> prim_refs;  // triangle indices into the Scene
   const BvhNode& root() const { return nodes.front(); }
   bool empty() const { return nodes.empty(); }
+  uint32_t width() const;  // most children of any node (2 for a binary tree or a single leaf)
 };
 
 // Content hash of the tree (nodes and references): names a tree in result files.

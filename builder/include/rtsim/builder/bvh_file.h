@@ -9,7 +9,8 @@
 //   u32 + n  builder name
 //   u32 + n  build parameters (JSON text)
 //   u64      node count, u64 reference count
-//   nodes    per node: 6 x f32 box (lo xyz, hi xyz), u32 index, u32 count
+//   nodes    per node: 6 x f32 box (lo xyz, hi xyz), u32 index, u32 count,
+//            u32 children (version 2; version 1 files, binary trees, lack it)
 //   refs     u32 triangle index each
 //   u64      checksum of every byte before it
 // A corrupt, truncated or mismatched file is refused with an InputError naming the
@@ -24,7 +25,7 @@
 
 namespace rtsim {
 
-constexpr uint32_t kBvhFileVersion = 1;
+constexpr uint32_t kBvhFileVersion = 2;
 
 struct BvhFileHeader {
   uint32_t version = kBvhFileVersion;

@@ -3,7 +3,9 @@
 //
 // SAH cost (normalised by the root box area): the expected cost of a ray that hits
 // the root box, cost(leaf) = T2 * count, cost(inner) = 2*T1 + sum_i P_i cost(child_i),
-// P_i = A(child_i) / A(node). Unrolled, this is
+// P_i = A(child_i) / A(node), over the node's 2..8 children: a visit of a wide node
+// is one TRV op and costs 2*T1 like a binary one (the hardware tests its child boxes
+// together). Unrolled, this is
 //   (sum_inner 2*T1*A(n) + sum_leaf T2*count(l)*A(l)) / A(root).
 // (A node of zero area - all geometry on a line or point - counts P_i = 1, as in
 // the builders.)
@@ -30,6 +32,7 @@ struct BvhMetrics {
   double sah_cost = 0;
   double weighted_cost = 0;
   double epo = -1;  // < 0: not computed
+  uint32_t width = 2;  // most children of a node
   uint64_t nodes = 0, inner_nodes = 0, leaves = 0;
   uint64_t references = 0, triangles = 0;
   std::vector<uint64_t> leaf_size_histogram;  // [k] = leaves holding k references

@@ -1,5 +1,6 @@
 #pragma once
 // Structural checks every built tree must pass, whatever the builder:
+//   - every inner node has 2..max_width children;
 //   - every node has a finite, non-empty box; child boxes lie inside their parent's;
 //   - every node is reached exactly once from the root (no cycles, no orphans);
 //   - leaves hold 1..max_leaf_size references, all inside prim_refs and naming
@@ -19,6 +20,7 @@ namespace rtsim {
 struct BvhLimits {
   uint32_t max_leaf_size = 4;
   uint32_t max_depth = 64;
+  uint32_t max_width = 2;  // children per node (BuildParams::width)
   bool split_references = false;  // SBVH / embree-sbvh: a leaf may hold part of a triangle
   double reference_budget = 1.3;  // with split references: prim_refs <= budget x N
 };
