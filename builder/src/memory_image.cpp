@@ -14,21 +14,29 @@ uint64_t align_up(uint64_t value, uint64_t alignment) {
 bool is_power_of_two(uint64_t v) { return v != 0 && (v & (v - 1)) == 0; }
 
 // Nodes in the configured order. Children always follow their parent in the
-// flat array (checked), so neither walk can loop.
-std::vector<uint32_t> node_order(const Bvh& bvh, NodeOrder order) {
+// flat array (checked), so no walk can loop.
+std::vector<uint32_t> node_order(const Bvh& bvh, NodeOrder order, bool siblings_adjacent) {
   std::vector<uint32_t> out;
   out.reserve(bvh.nodes.size());
-  if (order == NodeOrder::DepthFirst) {
+  if (order == NodeOrder::DepthFirst && !siblings_adjacent) {
     std::vector<uint32_t> stack{0};
     while (!stack.empty()) {
       const uint32_t n = stack.back();
       stack.pop_back();
       out.push_back(n);
       const BvhNode& node = bvh.nodes[n];
-      if (!node.is_leaf()) {
-        stack.push_back(node.index + 1);
-        stack.push_back(node.index);
-      }
+      for (uint32_t c = node.index + node.children; c-- > node.index;) stack.push_back(c);
+    }
+  } else if (order == NodeOrder::DepthFirst) {
+    // A node's children together, then each child's family in turn.
+    out.push_back(0);
+    std::vector<uint32_t> stack{0};
+    while (!stack.empty()) {
+      const uint32_t n = stack.back();
+      stack.pop_back();
+      const BvhNode& node = bvh.nodes[n];
+      for (uint32_t c = node.index; c < node.index + node.children; ++c) out.push_back(c);
+      for (uint32_t c = node.index + node.children; c-- > node.index;) stack.push_back(c);
     }
   } else {
     std::deque<uint32_t> queue{0};
@@ -37,10 +45,7 @@ std::vector<uint32_t> node_order(const Bvh& bvh, NodeOrder order) {
       queue.pop_front();
       out.push_back(n);
       const BvhNode& node = bvh.nodes[n];
-      if (!node.is_leaf()) {
-        queue.push_back(node.index);
-        queue.push_back(node.index + 1);
-      }
+      for (uint32_t c = node.index; c < node.index + node.children; ++c) queue.push_back(c);
     }
   }
   return out;
@@ -48,8 +53,8 @@ std::vector<uint32_t> node_order(const Bvh& bvh, NodeOrder order) {
 }  // namespace
 
 MemoryImage::MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutConfig& config)
-    : config_(config),
-      node_bytes_(config.node_layout == NodeLayout::Bvh2Wide64 ? 64u : 32u) {
+    : config_(config), format_(&node_format(config.node_format)),
+      boxes_per_record_(format_->encoding == BoxEncoding::OwnBoxFp32 ? 1 : format_->width) {
   if (config_.triangle_bytes < 36)
     throw InputError("memory.triangle_bytes", "must be at least 36 (three float3 vertices)");
   if (config_.triangle_packing == TrianglePacking::Line &&
@@ -65,9 +70,21 @@ MemoryImage::MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutC
     if (n.is_leaf()) {
       if (uint64_t(n.index) + n.count > bvh.prim_refs.size())
         throw InputError("bvh: node " + std::to_string(i), "leaf prim range past the end of prim_refs");
-    } else if (n.index <= i || uint64_t(n.index) + 1 >= node_count) {
+      if (n.count > format_->max_leaf_triangles)
+        throw InputError("memory.node_format",
+                         format_->name + " leaves hold at most " +
+                             std::to_string(format_->max_leaf_triangles) + " triangles; node " +
+                             std::to_string(i) + " holds " + std::to_string(n.count) +
+                             " (build with --max-leaf-size " +
+                             std::to_string(format_->max_leaf_triangles) + " or less)");
+    } else if (n.children < 2 || n.index <= i || uint64_t(n.index) + n.children > node_count) {
       throw InputError("bvh: node " + std::to_string(i),
                        "inner node's children must follow it and exist");
+    } else if (n.children > format_->width) {
+      throw InputError("memory.node_format",
+                       format_->name + " holds " + std::to_string(format_->width) +
+                           " children per node; node " + std::to_string(i) + " has " +
+                           std::to_string(n.children) + " (build the tree for this format)");
     }
   }
   for (size_t r = 0; r < bvh.prim_refs.size(); ++r)
@@ -75,22 +92,28 @@ MemoryImage::MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutC
       throw InputError("bvh: prim_ref " + std::to_string(r), "triangle index out of range");
 
   record_address_.assign(node_count, kNoRecord);
+  record_ordinal_.assign(node_count, ~0u);
   leaf_first_.assign(node_count, 0);
   nodes_base_ = align_up(config_.base_address, config_.region_alignment);
   if (node_count == 0) {
     prim_refs_base_ = triangles_base_ = end_ = nodes_base_;
     return;
   }
-  const std::vector<uint32_t> order = node_order(bvh, config_.node_order);
+  const std::vector<uint32_t> order =
+      node_order(bvh, config_.node_order, format_->contiguous_children);
 
-  // Node records: the BVH2 64-byte record holds its children's boxes, so only
-  // inner nodes (and a root that is a leaf) are fetched on their own.
+  // Node records: a record that holds its children's boxes makes leaves part of
+  // their parent's record, so only inner nodes (and a root that is a leaf) are
+  // fetched on their own.
+  const uint32_t node_bytes = format_->record_bytes;
   uint64_t records = 0;
   for (uint32_t n : order) {
-    const bool own_record = config_.node_layout == NodeLayout::SingleBox32 ||
-                            !bvh.nodes[n].is_leaf() || n == 0;
-    if (own_record) record_address_[n] = nodes_base_ + records++ * node_bytes_;
+    const bool own_record = !format_->leaves_in_parent || !bvh.nodes[n].is_leaf() || n == 0;
+    if (!own_record) continue;
+    record_ordinal_[n] = uint32_t(records);
+    record_address_[n] = nodes_base_ + records++ * node_bytes;
   }
+  encode_records(bvh);
 
   // Leaf slots in the same order; a leaf's triangles sorted by geometry.
   for (uint32_t n : order) {
@@ -104,7 +127,7 @@ MemoryImage::MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutC
               [&](uint32_t a, uint32_t b) { return triangle_geometric_less(scene, a, b); });
   }
   const uint64_t slots = slot_triangle_.size();
-  prim_refs_base_ = align_up(nodes_base_ + records * node_bytes_, config_.region_alignment);
+  prim_refs_base_ = align_up(nodes_base_ + records * node_bytes, config_.region_alignment);
   const uint64_t prim_ref_bytes = indexed() ? slots * 4 : 0;
   triangles_base_ = align_up(prim_refs_base_ + prim_ref_bytes, config_.region_alignment);
 
@@ -134,11 +157,36 @@ MemoryImage::MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutC
   }
   end_ = cursor;
   footprint_.node_records = records;
-  footprint_.node_bytes = records * node_bytes_;
+  footprint_.node_bytes = records * node_bytes;
   footprint_.prim_refs = indexed() ? slots : 0;
   footprint_.prim_ref_bytes = prim_ref_bytes;
   footprint_.triangle_records = triangle_records;
   footprint_.triangle_bytes = end_ - triangles_base_;
+}
+
+void MemoryImage::encode_records(const Bvh& bvh) {
+  // Each record goes through its format's bytes; the image keeps what they decode to.
+  std::vector<uint8_t> bytes(format_->record_bytes);
+  size_t records = 0;
+  for (uint32_t o : record_ordinal_) records += o != ~0u;
+  record_boxes_.assign(records * boxes_per_record_, Aabb{});
+  Aabb exact[kMaxBvhWidth];
+  for (size_t n = 0; n < bvh.nodes.size(); ++n) {
+    if (record_ordinal_[n] == ~0u) continue;
+    const BvhNode& node = bvh.nodes[n];
+    uint32_t count = 1;
+    if (format_->encoding == BoxEncoding::OwnBoxFp32) {
+      exact[0] = node.bounds;
+    } else if (node.is_leaf()) {
+      continue;  // a root leaf: its record holds only the leaf's range
+    } else {
+      count = node.children;
+      for (uint32_t k = 0; k < count; ++k) exact[k] = bvh.nodes[node.index + k].bounds;
+    }
+    encode_child_boxes(*format_, exact, count, bytes.data());
+    decode_child_boxes(*format_, bytes.data(), count,
+                       &record_boxes_[size_t(record_ordinal_[n]) * boxes_per_record_]);
+  }
 }
 
 std::string MemoryImage::describe() const {
@@ -148,7 +196,7 @@ std::string MemoryImage::describe() const {
                 "prim_refs  0x%010llx  %llu B\n"
                 "triangles  0x%010llx  %llu B (%llu records of %u B)\n",
                 (unsigned long long)nodes_base_, (unsigned long long)footprint_.node_bytes,
-                (unsigned long long)footprint_.node_records, node_bytes_,
+                (unsigned long long)footprint_.node_records, format_->record_bytes,
                 (unsigned long long)prim_refs_base_, (unsigned long long)footprint_.prim_ref_bytes,
                 (unsigned long long)triangles_base_, (unsigned long long)footprint_.triangle_bytes,
                 (unsigned long long)footprint_.triangle_records, config_.triangle_bytes);

@@ -44,15 +44,15 @@ bool triangle_less(const Scene& s, uint32_t a, uint32_t b) { return triangle_geo
 TEST(MemoryImage, RegionsAreAlignedAndDisjoint) {
   const Scene scene = test::triangle_soup(1000);
   const Bvh bvh = build_bvh(scene, BuildParams{});
-  for (NodeLayout layout : {NodeLayout::Bvh2Wide64, NodeLayout::SingleBox32})
+  for (const std::string layout : {"bvh2-64", "bvh2-32"})
     for (TriangleStorage storage : {TriangleStorage::Indexed, TriangleStorage::Inline}) {
       MemoryLayoutConfig config;
-      config.node_layout = layout;
+      config.node_format = layout;
       config.triangle_storage = storage;
       config.triangle_bytes = 48;
       config.base_address = 0x1234;
       const MemoryImage image(scene, bvh, config);
-      EXPECT_EQ(image.node_bytes(), layout == NodeLayout::Bvh2Wide64 ? 64u : 32u);
+      EXPECT_EQ(image.node_bytes(), layout == "bvh2-64" ? 64u : 32u);
       for (uint64_t base : {image.nodes_base(), image.prim_refs_base(), image.triangles_base()})
         EXPECT_EQ(base % config.region_alignment, 0u);
       EXPECT_GE(image.nodes_base(), config.base_address);
@@ -83,7 +83,7 @@ TEST(MemoryImage, LeavesTakeNoNodeSlotWhereTheParentHoldsThem) {
   const MemoryImage wide(scene, bvh, config);
   EXPECT_EQ(wide.footprint().node_records, inner);
   for (uint32_t n = 0; n < bvh.nodes.size(); ++n) EXPECT_EQ(wide.has_record(n), !bvh.nodes[n].is_leaf());
-  config.node_layout = NodeLayout::SingleBox32;
+  config.node_format = "bvh2-32";
   const MemoryImage single(scene, bvh, config);
   EXPECT_EQ(single.footprint().node_records, bvh.nodes.size());
   // A single-leaf tree: its root record is still fetched.
@@ -99,7 +99,7 @@ TEST(MemoryImage, RecordsAndLeafDataFollowTheNodeOrder) {
   for (NodeOrder order : {NodeOrder::DepthFirst, NodeOrder::BreadthFirst}) {
     MemoryLayoutConfig config;
     config.node_order = order;
-    config.node_layout = NodeLayout::SingleBox32;
+    config.node_format = "bvh2-32";
     const MemoryImage image(scene, bvh, config);
     const std::vector<uint32_t> walk = order == NodeOrder::DepthFirst ? depth_first(bvh) : breadth_first(bvh);
     uint64_t expected = image.nodes_base();

@@ -184,7 +184,7 @@ TEST(CoreWatertight, ClosedSphereFarFromOriginShotFromInsideNeverMisses) {
 
 TEST(CoreTraversal, SingleBoxLayoutFindsTheSameHits) {
   MemoryLayoutConfig single;
-  single.node_layout = NodeLayout::SingleBox32;
+  single.node_format = "bvh2-32";
   SphereScene wide, narrow(single);
   const std::vector<Ray> rays = wide.inside_rays(20000);
   std::vector<TraceResult> a, b;

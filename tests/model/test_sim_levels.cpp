@@ -219,7 +219,7 @@ TEST(SimLevels, FunctionalReportsUnitWorkAndAnEstimate) {
   const auto s = flat_stats(simulate(w.request(Fidelity::Functional)).stats.to_json());
   double nodes = 0;
   for (uint32_t u = 0; u < preset("mobile").trv_units; ++u)
-    nodes += s.at("trv.unit" + std::to_string(u) + ".nodes");
+    nodes += s.at("trv.unit" + std::to_string(u) + ".passes");
   EXPECT_EQ(nodes, s.at("ops.trv"));
   EXPECT_GE(s.at("time.cycles"), s.at("time.bound_trv_cycles"));
   EXPECT_GE(s.at("time.cycles"), s.at("time.bound_dram_cycles"));

@@ -106,6 +106,7 @@ struct TracedScene {
       : scene(std::move(s)) {
     BuildParams p;
     p.builder = builder;
+    apply_node_format(p, node_format(layout.node_format));  // a wide format gets a wide tree
     bvh = build_bvh(scene, p);
     image = std::make_unique<MemoryImage>(scene, bvh, layout);
     context = std::make_unique<TraversalContext>(scene, bvh, *image, traversal);

@@ -553,9 +553,9 @@ TEST(RobustIntersection, CoordinatesFromOneMillionthToOneMillionGiveTheReference
 // budget (no endless loop), and in both node layouts.
 TEST(RobustIntersection, NonFiniteOriginDirectionOrIntervalNeverHitsNorHangs) {
   Scene s = make_procedural_scene("cornell");
-  for (NodeLayout layout : {NodeLayout::Bvh2Wide64, NodeLayout::SingleBox32}) {
+  for (const NodeFormat& format : node_formats()) {
     MemoryLayoutConfig lc;
-    lc.node_layout = layout;
+    lc.node_format = format.name;
     TracedScene ts(s, "sah", {}, lc);
     const Camera& cam = s.cameras.front();
     const Ray good = make_ray(cam.position, cam.target - cam.position);

@@ -34,7 +34,7 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
       bvh_(&bvh),
       image_(&image),
       config_(config),
-      wide_nodes_(image.config().node_layout == NodeLayout::Bvh2Wide64),
+      own_box_records_(image.format().encoding == BoxEncoding::OwnBoxFp32),
       stack_base_((image.end_address() + 4095) & ~uint64_t(4095)) {
   if (config_.stack_limit < 1)
     throw InputError("traversal.stack_limit", "must be at least 1");
@@ -67,7 +67,7 @@ void RayTraversal::reset(const Ray& ray, TraversalMode mode) {
   counters_ = RayCounters{};
   stack_.clear();
   stack_accesses_.clear();
-  leaf_slot_ = leaf_count_ = leaf_cursor_ = last_tests_ = 0;
+  leaf_slot_ = leaf_count_ = leaf_cursor_ = last_tests_ = last_box_tests_ = 0;
   current_node_ = 0;
   tfar_ = ray.tmax;
   const bool usable = is_finite(ray.origin) && is_finite(ray.direction) &&
@@ -79,8 +79,8 @@ void RayTraversal::reset(const Ray& ray, TraversalMode mode) {
   }
   box_ray_ = RayBoxPrecompute(ray.origin, ray.direction);
   tri_ray_ = RayTrianglePrecompute(ray.origin, ray.direction);
-  // The root record is always fetched: in the wide layout it holds the child
-  // boxes (the root's own box is never needed), in the single-box layout its box.
+  // The root record is always fetched: it holds the child boxes (the root's own
+  // box is never needed), or in bvh2-32 its own box.
   action_ = TraversalAction::FetchNode;
 }
 
@@ -113,6 +113,12 @@ uint32_t RayTraversal::step_independent_reads() const {
   return 0;
 }
 
+uint32_t RayTraversal::step_box_tests() const {
+  if (action_ != TraversalAction::FetchNode) return 0;
+  if (context_->own_box_records()) return 1;
+  return nodes_[current_node_].children;
+}
+
 uint64_t RayTraversal::spill_address(uint32_t position) const {
   const uint32_t last = TraversalContext::kStackAreaEntries - 1;
   return stack_area_ + uint64_t(std::min(position, last)) * context_->config().stack_entry_bytes;
@@ -143,7 +149,7 @@ void RayTraversal::enter_leaf(uint32_t node) {
 }
 
 void RayTraversal::enter(uint32_t node) {
-  if (context_->wide_nodes() && nodes_[node].is_leaf()) {
+  if (!context_->own_box_records() && nodes_[node].is_leaf()) {
     // The leaf's range came with its parent's record: straight to IST.
     enter_leaf(node);
   } else {
@@ -173,7 +179,7 @@ void RayTraversal::pop_next() {
 
 void RayTraversal::process() {
   stack_accesses_.clear();
-  last_tests_ = 0;
+  last_tests_ = last_box_tests_ = 0;
   if (action_ == TraversalAction::FetchNode) process_node();
   else if (action_ == TraversalAction::TestTriangles) process_triangles();
 }
@@ -182,46 +188,49 @@ void RayTraversal::process_node() {
   ++counters_.trv_ops;
   ++counters_.node_fetches;
   counters_.node_bytes += context_->image().node_bytes();
-  if (context_->wide_nodes())
-    process_wide_node();
+  if (context_->own_box_records())
+    process_own_box_node();
   else
-    process_single_box_node();
+    process_child_boxes_node();
 }
 
-void RayTraversal::process_wide_node() {
+void RayTraversal::process_child_boxes_node() {
   const BvhNode& n = nodes_[current_node_];
   if (n.is_leaf()) {  // only a root that is a leaf is ever fetched as a node
     enter_leaf(current_node_);
     return;
   }
-  const uint32_t c0 = n.index, c1 = n.index + 1;
-  float t0 = 0.0f, t1 = 0.0f;
-  counters_.box_tests += 2;
-  const bool hit0 = intersect_box(box_ray_, nodes_[c0].bounds, ray_.tmin, tfar_, &t0);
-  const bool hit1 = intersect_box(box_ray_, nodes_[c1].bounds, ray_.tmin, tfar_, &t1);
-  if (hit0 && hit1) {
-    // Nearest child first; ties go to the first child so the order is fixed.
-    if (t1 < t0) {
-      push(c0, t0);
-      enter(c1);
-    } else {
-      push(c1, t1);
-      enter(c0);
-    }
-  } else if (hit0) {
-    enter(c0);
-  } else if (hit1) {
-    enter(c1);
-  } else {
-    pop_next();
+  // The child boxes as the record decodes them (quantized formats: conservative).
+  const Aabb* boxes = context_->image().record_boxes(current_node_);
+  StackEntry hits[kMaxBvhWidth];
+  uint32_t hit_count = 0;
+  counters_.box_tests += n.children;
+  last_box_tests_ = n.children;
+  for (uint32_t k = 0; k < n.children; ++k) {
+    float t = 0.0f;
+    if (!intersect_box(box_ray_, boxes[k], ray_.tmin, tfar_, &t)) continue;
+    // Insertion by entry distance; equal distances keep child order, so the
+    // order is fixed.
+    uint32_t at = hit_count++;
+    for (; at > 0 && hits[at - 1].tnear > t; --at) hits[at] = hits[at - 1];
+    hits[at] = StackEntry{n.index + k, t};
   }
+  if (hit_count == 0) {
+    pop_next();
+    return;
+  }
+  // Nearest child next; the others pushed farthest first, so they pop nearest first.
+  for (uint32_t h = hit_count; h-- > 1;) push(hits[h].node, hits[h].tnear);
+  enter(hits[0].node);
 }
 
-void RayTraversal::process_single_box_node() {
+void RayTraversal::process_own_box_node() {
   const BvhNode& n = nodes_[current_node_];
   float t_entry = 0.0f;
   ++counters_.box_tests;
-  if (!intersect_box(box_ray_, n.bounds, ray_.tmin, tfar_, &t_entry)) {
+  last_box_tests_ = 1;
+  if (!intersect_box(box_ray_, context_->image().record_boxes(current_node_)[0], ray_.tmin,
+                     tfar_, &t_entry)) {
     pop_next();
     return;
   }

@@ -1,4 +1,5 @@
 #include <rtsim/model/sim/config.h>
+#include <rtsim/builder/node_format.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
 
@@ -45,6 +46,12 @@ ParameterInfo f64(const std::string& key, double& field, double min, double max,
   p.max = max;
   return p;
 }
+std::vector<std::string> node_format_list() {
+  std::vector<std::string> names;
+  for (const NodeFormat& f : node_formats()) names.push_back(f.name);
+  return names;
+}
+
 ParameterInfo text(const std::string& key, std::string& field, std::vector<std::string> choices,
                    const std::string& description) {
   ParameterInfo p;
@@ -95,8 +102,12 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
           "bytes one spilled stack entry occupies in memory"),
       u32("trv.box_test_latency", c.trv_box_test_latency, 1, 10000, "cycles",
           "node data arrival to the traversal decision"),
-      f64("trv.nodes_per_cycle", c.trv_nodes_per_cycle, 0.001, 64, "nodes/cycle",
-          "box-test pipeline throughput per unit"),
+      f64("trv.nodes_per_cycle", c.trv_nodes_per_cycle, 0.001, 64, "passes/cycle",
+          "box-test pipeline throughput per unit: passes per cycle (a node of up to "
+          "trv.boxes_per_pass children is one pass)"),
+      u32("trv.boxes_per_pass", c.trv_boxes_per_pass, 1, 16, "boxes",
+          "child boxes one pipeline pass tests; a node with more children takes "
+          "ceil(children / boxes_per_pass) passes, each adding 1 / nodes_per_cycle to its latency"),
       u32("ist.units", c.ist_units, 1, 256, "units", "intersection units"),
       u32("ist.queue_entries", c.ist_queue_entries, 1, 4096, "jobs",
           "leaf jobs waiting per IST unit; a full queue stalls TRV"),
@@ -111,8 +122,9 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
           "finished ray to its shading result and spawned rays"),
       f64("shading.rays_per_cycle", c.shading_rays_per_cycle, 0.001, 64, "rays/cycle",
           "shading throughput"),
-      text("memory.node_layout", c.node_layout, {"bvh2-64", "single-32"},
-           "BVH node format in memory (64-byte two-box node or 32-byte one-box node)"),
+      text("memory.node_format", c.node_format, node_format_list(),
+           "BVH node record format (docs/node-formats.md): children per node, bytes, box "
+           "encoding; the tree is built (collapsed) for its width and leaf capacity"),
       text("memory.node_order", c.node_order, {"depth-first", "breadth-first"},
            "order of node records and of leaf data in memory"),
       text("memory.triangle_storage", c.triangle_storage, {"indexed", "inline"},
@@ -470,6 +482,9 @@ HardwareConfig parse_hardware_config(const std::string& toml_text, const std::st
       auto section = params.lower_bound(key + ".");
       if (section != params.end() && section->first.rfind(key + ".", 0) == 0) continue;
     }
+    if (it == params.end() && key == "memory.node_layout")
+      throw InputError(where + key, "renamed memory.node_format (bvh2-64 stays bvh2-64; single-32 "
+                                    "is now bvh2-32)");
     if (it == params.end()) throw InputError(where + key, "unknown key");
     set_from_toml(it->second, *node, where);
   }

@@ -95,7 +95,7 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
                   workload.height, workload.spawn_secondary),
       visit_order_(free_slot_order(config.trv_units, config.trv_ray_slots)),
       trv_free_(config.trv_units, 0), ist_free_(config.ist_units, 0),
-      trv_time_(config.trv_units), ist_time_(config.ist_units), trv_nodes_(config.trv_units, 0),
+      trv_time_(config.trv_units), ist_time_(config.ist_units), trv_passes_(config.trv_units, 0),
       ist_tests_(config.ist_units, 0), events_(cycle_ps_) {
   trv_interval_ps_ = interval_ps(config.trv_nodes_per_cycle, cycle_ps_);
   ist_interval_ps_ = interval_ps(config.ist_tests_per_cycle, cycle_ps_);
@@ -121,7 +121,7 @@ void RayEngine::reset_counters() {
   for (auto& t : trv_time_) t = UnitTime{};
   for (auto& t : ist_time_) t = UnitTime{};
   shading_time_ = UnitTime{};
-  std::fill(trv_nodes_.begin(), trv_nodes_.end(), 0);
+  std::fill(trv_passes_.begin(), trv_passes_.end(), 0);
   std::fill(ist_tests_.begin(), ist_tests_.end(), 0);
   per_type_ = {};
   shaded_ = 0;
@@ -233,11 +233,12 @@ void RayEngine::run_rounds(MemoryPort& port, const std::function<void(uint64_t)>
       if (!slot.active && !start_next_ray(slot, UINT64_MAX, &start)) continue;
       RayTraversal& trv = slot.traversal;
       const bool node_step = trv.action() == TraversalAction::FetchNode;
+      const uint32_t passes = node_step ? config_.trv_passes(trv.step_box_tests()) : 0;
       if (!trv.done()) {
         const std::vector<MemoryAccess>& reads = trv.step_reads();
         issue(port, slot, reads, 0, reads.size(), 0);
         trv.process();
-        if (node_step) ++trv_nodes_[slot.unit];
+        if (node_step) trv_passes_[slot.unit] += passes;
         else ist_tests_[slot.unit % config_.ist_units] += trv.last_step_tests();
         const std::vector<MemoryAccess>& stack = trv.stack_accesses();
         issue(port, slot, stack, 0, stack.size(), 0);
@@ -299,12 +300,14 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
       case EventKind::Arrive: {
         uint64_t ready;
         if (trv.action() == TraversalAction::FetchNode) {
+          // A node takes one pipeline pass per trv.boxes_per_pass child boxes.
+          const uint32_t passes = config_.trv_passes(trv.step_box_tests());
           const uint64_t start = std::max(t, trv_free_[slot.unit]);
-          trv_free_[slot.unit] = start + trv_interval_ps_;
-          trv_time_[slot.unit].busy_ps += trv_interval_ps_;
-          ready = start + box_latency_ps_;
+          trv_free_[slot.unit] = start + passes * trv_interval_ps_;
+          trv_time_[slot.unit].busy_ps += passes * trv_interval_ps_;
+          ready = start + (passes - 1) * trv_interval_ps_ + box_latency_ps_;
           trv.process();
-          ++trv_nodes_[slot.unit];
+          trv_passes_[slot.unit] += passes;
         } else {
           trv.process();
           const uint32_t tests = trv.last_step_tests();

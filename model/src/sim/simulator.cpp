@@ -155,7 +155,7 @@ bool& systemc_used() {
 
 MemoryLayoutConfig memory_layout_for(const HardwareConfig& c) {
   MemoryLayoutConfig layout;
-  layout.node_layout = c.node_layout == "single-32" ? NodeLayout::SingleBox32 : NodeLayout::Bvh2Wide64;
+  layout.node_format = c.node_format;
   layout.node_order = c.node_order == "breadth-first" ? NodeOrder::BreadthFirst : NodeOrder::DepthFirst;
   layout.triangle_storage =
       c.triangle_storage == "inline" ? TriangleStorage::Inline : TriangleStorage::Indexed;
@@ -256,15 +256,17 @@ SimulationResult simulate(const SimulationRequest& request) {
       // Analytic estimate: the busiest resource bounds the run.
       const double bytes_per_cycle = dram->peak_bytes_per_second() * cycle_ps * 1e-12;
       const uint64_t dram_bytes = dram->counters().bytes;
+      uint64_t trv_passes = 0;
+      for (uint64_t p : engine->trv_passes()) trv_passes += p;
       const double cycles = std::max(
-          {double(total.trv_ops) / (config.trv_units * config.trv_nodes_per_cycle),
+          {double(trv_passes) / (config.trv_units * config.trv_nodes_per_cycle),
            double(total.ist_ops) / (config.ist_units * config.ist_tests_per_cycle),
            double(total.rays) / config.raygen_rays_per_cycle,
            double(dram_bytes) / bytes_per_cycle});
       result.simulated_ps = uint64_t(std::llround(std::ceil(cycles) * cycle_ps));
       s.set_real("time.bound_trv_cycles",
-                 double(total.trv_ops) / (config.trv_units * config.trv_nodes_per_cycle), "cycles",
-                 "TRV ops / TRV throughput");
+                 double(trv_passes) / (config.trv_units * config.trv_nodes_per_cycle), "cycles",
+                 "box-test pipeline passes / TRV throughput");
       s.set_real("time.bound_ist_cycles",
                  double(total.ist_ops) / (config.ist_units * config.ist_tests_per_cycle), "cycles",
                  "IST ops / IST throughput");
@@ -275,10 +277,10 @@ SimulationResult simulate(const SimulationRequest& request) {
       const auto unit_busy_ps = [&](uint64_t work_done, double per_cycle) {
         return uint64_t(std::llround(double(work_done) / per_cycle * cycle_ps));
       };
-      for (size_t u = 0; u < engine->trv_nodes().size(); ++u) {
-        const uint64_t busy = unit_busy_ps(engine->trv_nodes()[u], config.trv_nodes_per_cycle);
+      for (size_t u = 0; u < engine->trv_passes().size(); ++u) {
+        const uint64_t busy = unit_busy_ps(engine->trv_passes()[u], config.trv_nodes_per_cycle);
         report_unit(s, "trv.unit" + std::to_string(u), {busy, busy, 0}, result.simulated_ps,
-                    cycle_ps, engine->trv_nodes()[u], "nodes", "nodes through the box-test pipeline");
+                    cycle_ps, engine->trv_passes()[u], "passes", "box-test pipeline passes (a node takes ceil(children / trv.boxes_per_pass))");
       }
       for (size_t u = 0; u < engine->ist_tests().size(); ++u) {
         const uint64_t busy = unit_busy_ps(engine->ist_tests()[u], config.ist_tests_per_cycle);
@@ -297,7 +299,7 @@ SimulationResult simulate(const SimulationRequest& request) {
         const UnitTime& t = engine->trv_time()[u];
         report_unit(s, "trv.unit" + std::to_string(u), {t.busy_ps, t.occupied_ps(), 0},
                     result.simulated_ps, cycle_ps,
-                    engine->trv_nodes()[u], "nodes", "nodes through the box-test pipeline");
+                    engine->trv_passes()[u], "passes", "box-test pipeline passes (a node takes ceil(children / trv.boxes_per_pass))");
       }
       for (size_t u = 0; u < engine->ist_time().size(); ++u) {
         const UnitTime& t = engine->ist_time()[u];
@@ -333,7 +335,7 @@ SimulationResult simulate(const SimulationRequest& request) {
     for (size_t u = 0; u < system.trv.size(); ++u) {
       const Occupancy& o = system.trv[u]->occupancy;
       report_unit(s, "trv.unit" + std::to_string(u), {o.busy_ps, o.occupied_ps, o.stalled_ps}, T,
-                  cycle_ps, system.trv[u]->nodes, "nodes", "nodes through the box-test pipeline");
+                  cycle_ps, system.trv[u]->passes, "passes", "box-test pipeline passes (a node takes ceil(children / trv.boxes_per_pass))");
     }
     for (size_t u = 0; u < system.ist.size(); ++u) {
       const Occupancy& o = system.ist[u]->occupancy;

@@ -6,9 +6,11 @@
 //
 // Regions, each starting at its base and aligned to `region_alignment`:
 //   nodes      one record per node that the format fetches on its own, in
-//              `node_order` (BVH2 64-byte: inner nodes only, each record holding
-//              both child boxes, so leaves take no node slot; single-box 32-byte:
-//              every node)
+//              `node_order` (formats whose records hold their children's boxes,
+//              node_format.h: inner nodes only, so leaves take no node slot;
+//              bvh2-32: every node). Formats with one child base pointer keep a
+//              node's inner children adjacent: depth-first order then places a
+//              node's children together and descends into them in turn.
 //   prim_refs  (indexed storage) each leaf's list of 4-byte triangle record
 //              indices, leaves in the same order as the node records
 //   triangles  triangle records. Indexed: one record per triangle, placed where
@@ -17,7 +19,12 @@
 //              several leaves, as SBVH does, is stored once per leaf).
 // Within a leaf, triangles are ordered by their geometry
 // (triangle_geometric_less), and the IST unit reads and tests them in that order.
+//
+// Every record is encoded in its format (encode_child_boxes) and the image keeps
+// the boxes decoded from those bytes: the traversal tests what the hardware would
+// read, quantization included.
 #include <rtsim/builder/bvh.h>
+#include <rtsim/builder/node_format.h>
 #include <rtsim/workloads/scene.h>
 
 #include <cstdint>
@@ -26,14 +33,10 @@
 
 namespace rtsim {
 
-enum class NodeLayout {
-  Bvh2Wide64,    // 64 bytes: child boxes of both children (6 x 2 floats x 2 = 48 B) + links
-  SingleBox32,   // 32 bytes: own box (24 B) + link and count
-};
-
 // Order of node records and of leaf data in memory.
 enum class NodeOrder {
-  DepthFirst,    // pre-order, first child's subtree before the second's
+  DepthFirst,    // pre-order, first child's subtree before the second's (siblings
+                 // adjacent first, for formats with one child base pointer)
   BreadthFirst,  // level by level
 };
 
@@ -48,7 +51,7 @@ enum class TrianglePacking {
 };
 
 struct MemoryLayoutConfig {
-  NodeLayout node_layout = NodeLayout::Bvh2Wide64;
+  std::string node_format = "bvh2-64";  // a name from node_formats()
   NodeOrder node_order = NodeOrder::DepthFirst;
   TriangleStorage triangle_storage = TriangleStorage::Indexed;
   TrianglePacking triangle_packing = TrianglePacking::Packed;
@@ -68,19 +71,26 @@ struct MemoryFootprint {
 
 class MemoryImage {
  public:
-  // Throws InputError ("memory.*") for a bad configuration or a tree whose links
-  // are broken (a child before its parent, a leaf range past prim_refs, a
-  // triangle index past the scene).
+  // Throws InputError ("memory.*") for a bad configuration, a tree the format
+  // cannot hold (more children or leaf triangles than it has room for), or a
+  // tree whose links are broken (a child before its parent, a leaf range past
+  // prim_refs, a triangle index past the scene).
   MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutConfig& config = {});
 
   const MemoryLayoutConfig& config() const { return config_; }
-  uint32_t node_bytes() const { return node_bytes_; }
+  const NodeFormat& format() const { return *format_; }
+  uint32_t node_bytes() const { return format_->record_bytes; }
   uint32_t triangle_bytes() const { return config_.triangle_bytes; }
   bool indexed() const { return config_.triangle_storage == TriangleStorage::Indexed; }
 
   // The node's own record; only for nodes the format fetches (has_record).
   bool has_record(uint32_t node) const { return record_address_[node] != kNoRecord; }
   uint64_t node_address(uint32_t node) const { return record_address_[node]; }
+  // The boxes the node's record decodes to: its children's (child k is node
+  // bvh.nodes[node].index + k), or for OwnBoxFp32 its own box. Only for has_record.
+  const Aabb* record_boxes(uint32_t node) const {
+    return &record_boxes_[size_t(record_ordinal_[node]) * boxes_per_record_];
+  }
 
   // A leaf's triangles occupy slots [leaf_first(leaf), leaf_first(leaf) + count)
   // in memory order; slots are numbered in leaf order.
@@ -99,11 +109,15 @@ class MemoryImage {
   std::string describe() const;  // one line per region: base, size
 
  private:
+  void encode_records(const Bvh& bvh);
   static constexpr uint64_t kNoRecord = ~uint64_t(0);
   MemoryLayoutConfig config_;
-  uint32_t node_bytes_;
+  const NodeFormat* format_;
+  uint32_t boxes_per_record_;
   uint64_t nodes_base_ = 0, prim_refs_base_ = 0, triangles_base_ = 0, end_ = 0;
   std::vector<uint64_t> record_address_;  // per node
+  std::vector<uint32_t> record_ordinal_;  // per node with a record: its place in records
+  std::vector<Aabb> record_boxes_;        // decoded, boxes_per_record_ per record
   std::vector<uint32_t> leaf_first_;      // per node (leaves only)
   std::vector<uint32_t> slot_triangle_;
   std::vector<uint64_t> slot_address_;

@@ -26,7 +26,7 @@ CycleTrv::CycleTrv(sc_core::sc_module_name name, const HardwareConfig& config,
 
 void CycleTrv::reset_counters() {
   occupancy.restart(now_ps());
-  nodes = 0;
+  passes = 0;
 }
 
 void CycleTrv::start_ray(uint32_t s, uint32_t ray_index, const Ray& ray, uint64_t t) {
@@ -107,18 +107,20 @@ void CycleTrv::handle(const Item& item) {
     case Item::MemoryBack:
       if (--slot.pending > 0) break;
       if (slot.phase == Phase::WaitNode) {
-        // Box-test pipeline: one node per interval, result after its latency.
+        // Box-test pipeline: one pass per interval, a node of more than
+        // trv.boxes_per_pass children takes several; the result after the last.
+        const uint32_t passes = config_.trv_passes(slot.traversal.step_box_tests());
         const uint64_t start = std::max(now, pipe_free_ps_);
-        pipe_free_ps_ = start + interval_ps_;
-        occupancy.busy_ps += interval_ps_;
-        queue_.push(start + latency_ps_, Item{Item::NodeDone, item.slot});
+        pipe_free_ps_ = start + passes * interval_ps_;
+        occupancy.busy_ps += passes * interval_ps_;
+        queue_.push(start + (passes - 1) * interval_ps_ + latency_ps_, Item{Item::NodeDone, item.slot});
       } else {
         next_action(item.slot);
       }
       break;
     case Item::NodeDone:
+      passes += config_.trv_passes(slot.traversal.step_box_tests());
       slot.traversal.process();
-      ++nodes;
       after_step(item.slot);
       break;
     case Item::IstSpace: break;

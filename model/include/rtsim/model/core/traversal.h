@@ -1,5 +1,6 @@
 #pragma once
-// The functional ray core: stack-based BVH2 traversal and watertight triangle
+// The functional ray core: stack-based traversal of BVHs of 2..8 children per
+// node and watertight triangle
 // tests over a MemoryImage, written ONCE as a resumable per-ray state machine
 // that also owns its memory access sequence.
 //
@@ -20,13 +21,15 @@
 // every ray's address stream are identical at every fidelity level.
 //
 // Steps:
-//  - FetchNode: read the node's record; one TRV op.
-//    Bvh2Wide64: the 64-byte record holds both child boxes and links: test the two
-//    boxes, descend into the nearer hit child and push the farther. Leaf children
-//    are reached through their parent's record (no fetch of their own); the root
-//    is fetched first. SingleBox32: each node's record holds its own box: test it;
-//    a hit leaf goes to IST, a hit inner node pushes its children, nearer first by
-//    the ray direction along the node's longest axis.
+//  - FetchNode: read the node's record; one TRV op, whatever the node's width.
+//    Formats whose record holds its children's boxes (every format but bvh2-32,
+//    node_format.h): test all the child boxes as the record decodes them, descend
+//    into the nearest hit child and push the other hit children farthest first
+//    (equal distances keep child order). Leaf children are reached through their
+//    parent's record (no fetch of their own); the root is fetched first. bvh2-32:
+//    each node's record holds its own box: test it; a hit leaf goes to IST, a hit
+//    inner node pushes its children, nearer first by the ray direction along the
+//    node's longest axis.
 //  - TestTriangles: the next triangles_per_step triangles of the leaf (memory
 //    order) are read together and tested in order; in indexed storage the leaf's
 //    first step reads its prim-ref list first, and the triangles, whose addresses
@@ -101,7 +104,7 @@ class TraversalContext {
   const TraversalConfig& config() const { return config_; }
   // Triangle data by memory slot (see MemoryImage): the leaf's triangles in order.
   const PackedTriangle& slot_data(uint32_t slot) const { return triangles_[slot]; }
-  bool wide_nodes() const { return wide_nodes_; }
+  bool own_box_records() const { return own_box_records_; }  // bvh2-32
   // Spill area of ray slot `slot`: past the memory image, kStackAreaEntries entries each.
   static constexpr uint32_t kStackAreaEntries = 256;
   uint64_t stack_area(uint32_t slot) const {
@@ -113,7 +116,7 @@ class TraversalContext {
   const Bvh* bvh_;
   const MemoryImage* image_;
   TraversalConfig config_;
-  bool wide_nodes_;
+  bool own_box_records_;
   uint64_t stack_base_;
   std::vector<PackedTriangle> triangles_;  // by slot
 };
@@ -144,6 +147,10 @@ class RayTraversal {
   // Spill writes and refill reads the last process() caused, in order.
   const std::vector<MemoryAccess>& stack_accesses() const { return stack_accesses_; }
   uint32_t last_step_tests() const { return last_tests_; }  // IST ops of the last process()
+  uint32_t last_step_box_tests() const { return last_box_tests_; }  // box tests of the last process()
+  // FetchNode: the boxes the record holds and process() will test (the node's
+  // child count; 1 in bvh2-32; 0 for a root that is a leaf). Timing uses it.
+  uint32_t step_box_tests() const;
 
   uint32_t node() const { return current_node_; }      // FetchNode: the node; else the leaf
   uint32_t leaf_size() const { return leaf_count_; }
@@ -166,8 +173,8 @@ class RayTraversal {
   void pop_next();            // next non-culled stack entry, or Done
   void process_node();
   void process_triangles();
-  void process_wide_node();
-  void process_single_box_node();
+  void process_child_boxes_node();
+  void process_own_box_node();
   uint64_t spill_address(uint32_t position) const;
 
   const TraversalContext* context_;
@@ -183,7 +190,7 @@ class RayTraversal {
   RayCounters counters_;
   uint32_t current_node_ = 0;
   uint32_t leaf_slot_ = 0, leaf_count_ = 0, leaf_cursor_ = 0;
-  uint32_t last_tests_ = 0;
+  uint32_t last_tests_ = 0, last_box_tests_ = 0;
   std::vector<StackEntry> stack_;
   std::vector<MemoryAccess> stack_accesses_;
   mutable std::vector<MemoryAccess> reads_;  // built on demand by step_reads()

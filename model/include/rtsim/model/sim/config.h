@@ -87,7 +87,12 @@ struct HardwareConfig {
   uint32_t trv_stack_entries = 8;     // short stack on chip; deeper entries spill to memory
   uint32_t trv_stack_entry_bytes = 8; // node index + entry distance
   uint32_t trv_box_test_latency = 4;  // cycles from node data to the next decision
-  double trv_nodes_per_cycle = 1.0;   // box-test pipeline throughput per unit
+  double trv_nodes_per_cycle = 1.0;   // box-test pipeline passes per cycle per unit
+  uint32_t trv_boxes_per_pass = 4;    // child boxes one pass tests; wider nodes take more passes
+  // Pipeline passes a node of `boxes` child boxes takes (at least one).
+  uint32_t trv_passes(uint32_t boxes) const {
+    return boxes <= trv_boxes_per_pass ? 1 : (boxes + trv_boxes_per_pass - 1) / trv_boxes_per_pass;
+  }
 
   // IST
   uint32_t ist_units = 2;
@@ -106,7 +111,7 @@ struct HardwareConfig {
   DramConfig dram;
 
   // Memory image layout (builder/memory_image.h)
-  std::string node_layout = "bvh2-64";  // bvh2-64 | single-32
+  std::string node_format = "bvh2-64";  // builder/node_format.h: bvh2-64 | bvh2-32 | bvh4-128 | ...
   std::string node_order = "depth-first";  // depth-first | breadth-first
   std::string triangle_storage = "indexed";  // indexed (via prim refs) | inline (in the leaf)
   std::string triangle_packing = "packed";   // packed | line (no record straddles an L1 line)

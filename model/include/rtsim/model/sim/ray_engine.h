@@ -120,7 +120,7 @@ class RayEngine {
   const std::vector<UnitTime>& trv_time() const { return trv_time_; }
   const std::vector<UnitTime>& ist_time() const { return ist_time_; }
   const UnitTime& shading_time() const { return shading_time_; }
-  const std::vector<uint64_t>& trv_nodes() const { return trv_nodes_; }  // per TRV unit
+  const std::vector<uint64_t>& trv_passes() const { return trv_passes_; }  // per TRV unit
   const std::vector<uint64_t>& ist_tests() const { return ist_tests_; }  // per IST unit
   uint64_t shaded() const { return shaded_; }
 
@@ -167,7 +167,7 @@ class RayEngine {
   uint64_t trv_interval_ps_, ist_interval_ps_, shading_interval_ps_, raygen_interval_ps_;
   uint64_t box_latency_ps_, test_latency_ps_, shading_latency_ps_;
   std::vector<UnitTime> trv_time_, ist_time_;
-  std::vector<uint64_t> trv_nodes_, ist_tests_;
+  std::vector<uint64_t> trv_passes_, ist_tests_;
   UnitTime shading_time_;
   uint64_t shaded_ = 0;
   std::array<CounterTotals, kRayTypeCount> per_type_{};

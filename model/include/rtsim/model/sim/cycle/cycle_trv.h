@@ -32,7 +32,7 @@ class CycleTrv : public sc_core::sc_module {
   void reset_counters();
 
   Occupancy occupancy;
-  uint64_t nodes = 0;
+  uint64_t passes = 0;  // box-test pipeline passes (trv.boxes_per_pass)
 
  private:
   SC_HAS_PROCESS(CycleTrv);
