@@ -1,5 +1,7 @@
-// One-thread throughput of the functional ray core for primary and AO rays, side
-// by side with Embree (rtcIntersect1 / rtcOccluded1) on the same rays.
+// One-thread throughput of the functional ray core for primary and AO rays, per
+// node format (the tree built and collapsed for it), side by side with Embree
+// (rtcIntersect1 / rtcOccluded1) on the same rays on its own BVH4 and BVH8
+// (tri_accel=bvh4.triangle4 / bvh8.triangle4).
 // Scenes: the default scene, and `dragon` when it has been fetched into the
 // scene cache (RTSIM_CACHE). Report: items_per_second = rays/s.
 #include <rtsim/builder/build.h>
@@ -11,6 +13,7 @@
 #include <benchmark/benchmark.h>
 
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -19,34 +22,48 @@ using namespace rtsim;
 
 namespace {
 
-struct Workload {
-  Scene scene;
+const char* const kFormats[] = {"bvh2-64", "bvh4-128", "bvh6-64q", "bvh8-80q"};
+
+struct FormatTree {
   Bvh bvh;
   std::unique_ptr<MemoryImage> image;
   std::unique_ptr<TraversalContext> context;
-  std::unique_ptr<EmbreeScene> embree;
+};
+
+struct Workload {
+  Scene scene;
+  std::map<std::string, FormatTree> trees;
+  std::unique_ptr<EmbreeScene> embree4, embree8;
   std::vector<Ray> primary, ao;
 
   explicit Workload(const std::string& name) : scene(load_scene(name)) {
-    BuildParams params;
-    params.builder = "sah";
-    bvh = build_bvh(scene, params);
-    image = std::make_unique<MemoryImage>(scene, bvh);
-    context = std::make_unique<TraversalContext>(scene, bvh, *image);
-    embree = std::make_unique<EmbreeScene>(scene);
+    for (const char* format : kFormats) {
+      BuildParams params;
+      params.builder = "sah";
+      apply_node_format(params, node_format(format));
+      FormatTree& t = trees[format];
+      t.bvh = build_bvh(scene, params);
+      MemoryLayoutConfig layout;
+      layout.node_format = format;
+      t.image = std::make_unique<MemoryImage>(scene, t.bvh, layout);
+      t.context = std::make_unique<TraversalContext>(scene, t.bvh, *t.image);
+    }
+    embree4 = std::make_unique<EmbreeScene>(scene, "tri_accel=bvh4.triangle4");
+    embree8 = std::make_unique<EmbreeScene>(scene, "tri_accel=bvh8.triangle4");
+    const TraversalContext& context = *trees.at("bvh2-64").context;
     EffectSettings settings;
     settings.width = 256;
     settings.height = 256;
     settings.ao_samples = 4;
-    const FrameRun run = run_frame(*context, scene.cameras.front(), settings);
+    const FrameRun run = run_frame(context, scene.cameras.front(), settings);
     for (const Ray& r : run.rays) (r.type == RayType::Primary ? primary : ao).push_back(r);
     if (ao.empty()) ao = primary;  // a scene with AO off: still measure any-hit rays
   }
 };
 
-void core_rays(benchmark::State& state, const Workload* w, bool use_ao) {
+void core_rays(benchmark::State& state, const Workload* w, const char* format, bool use_ao) {
   const std::vector<Ray>& rays = use_ao ? w->ao : w->primary;
-  RayTraversal traversal(*w->context);
+  RayTraversal traversal(*w->trees.at(format).context);
   uint64_t ops = 0, hits = 0;
   for (auto _ : state) {
     for (const Ray& r : rays) {
@@ -59,15 +76,15 @@ void core_rays(benchmark::State& state, const Workload* w, bool use_ao) {
   state.counters["ops_per_ray"] = double(ops) / double(state.iterations() * rays.size());
 }
 
-void embree_rays(benchmark::State& state, const Workload* w, bool use_ao) {
+void embree_rays(benchmark::State& state, const EmbreeScene* embree, const Workload* w, bool use_ao) {
   const std::vector<Ray>& rays = use_ao ? w->ao : w->primary;
   uint64_t hits = 0;
   for (auto _ : state) {
     for (const Ray& r : rays) {
       if (use_ao)
-        hits += w->embree->occluded(r.origin, r.direction, r.tmin, r.tmax) ? 1 : 0;
+        hits += embree->occluded(r.origin, r.direction, r.tmin, r.tmax) ? 1 : 0;
       else
-        hits += w->embree->intersect(r.origin, r.direction, r.tmin, r.tmax).hit ? 1 : 0;
+        hits += embree->intersect(r.origin, r.direction, r.tmin, r.tmax).hit ? 1 : 0;
     }
   }
   benchmark::DoNotOptimize(hits);
@@ -84,10 +101,17 @@ int main(int argc, char** argv) {
   for (const std::string& name : names) {
     workloads.push_back(std::make_unique<Workload>(name));
     const Workload* w = workloads.back().get();
-    benchmark::RegisterBenchmark(("core_primary/" + name).c_str(), core_rays, w, false)->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark(("embree_intersect1/" + name).c_str(), embree_rays, w, false)->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark(("core_ao/" + name).c_str(), core_rays, w, true)->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark(("embree_occluded1/" + name).c_str(), embree_rays, w, true)->Unit(benchmark::kMillisecond);
+    for (bool ao : {false, true}) {
+      const std::string kind = ao ? "ao/" : "primary/";
+      for (const char* format : kFormats)
+        benchmark::RegisterBenchmark(("core_" + kind + name + "/" + format).c_str(), core_rays, w, format, ao)
+            ->Unit(benchmark::kMillisecond);
+      const std::string call = ao ? "embree_occluded1_" : "embree_intersect1_";
+      benchmark::RegisterBenchmark((call + "bvh4/" + name).c_str(), embree_rays, w->embree4.get(), w, ao)
+          ->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark((call + "bvh8/" + name).c_str(), embree_rays, w->embree8.get(), w, ao)
+          ->Unit(benchmark::kMillisecond);
+    }
   }
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();

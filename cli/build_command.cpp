@@ -6,6 +6,7 @@
 
 #include <rtsim/builder/build.h>
 #include <rtsim/builder/bvh_file.h>
+#include <rtsim/builder/memory_image.h>
 #include <rtsim/builder/metrics.h>
 #include <rtsim/builder/validate_bvh.h>
 #include <rtsim/workloads/error.h>
@@ -34,8 +35,17 @@ struct BuildOptions {
   bool all = false;
   bool list_builders = false;
   bool no_epo = false;
+  std::string node_format = "bvh2-64";
   BuildParams params;
 };
+
+// Node-record bytes per triangle of the tree laid out in `format`.
+double node_bytes_per_triangle(const Scene& scene, const Bvh& bvh, const std::string& format) {
+  MemoryLayoutConfig layout;
+  layout.node_format = format;
+  const MemoryImage image(scene, bvh, layout);
+  return double(image.footprint().node_bytes) / double(std::max<size_t>(1, scene.triangle_count()));
+}
 
 std::string human_bytes(double bytes) {
   char buf[32];
@@ -48,7 +58,8 @@ std::string human_bytes(double bytes) {
 
 // Rows = metrics, columns = builders.
 void print_table(const std::string& scene, const std::vector<BvhMetrics>& all,
-                 const std::vector<bool>& valid) {
+                 const std::vector<bool>& valid, const std::vector<double>& node_bytes,
+                 const std::string& format) {
   std::printf("scene %s: %llu triangles\n", scene.c_str(),
               (unsigned long long)(all.empty() ? 0 : all.front().triangles));
   auto row = [&](const char* label, auto cell) {
@@ -66,7 +77,9 @@ void print_table(const std::string& scene, const std::vector<BvhMetrics>& all,
   row("SAH cost", [&](size_t i) { return num("%.3f", all[i].sah_cost); });
   row("weighted cost", [&](size_t i) { return num("%.3f", all[i].weighted_cost); });
   row("EPO", [&](size_t i) { return all[i].epo < 0 ? std::string("-") : num("%.3f", all[i].epo); });
+  row("width", [&](size_t i) { return std::to_string(all[i].width); });
   row("nodes", [&](size_t i) { return std::to_string(all[i].nodes); });
+  row(("node B/tri " + format).c_str(), [&](size_t i) { return num("%.2f", node_bytes[i]); });
   row("leaves", [&](size_t i) { return std::to_string(all[i].leaves); });
   row("references", [&](size_t i) { return std::to_string(all[i].references); });
   row("max depth", [&](size_t i) { return std::to_string(all[i].max_depth); });
@@ -102,6 +115,8 @@ void run_build(const BuildOptions& o) {
   // the scene's default. A scene without cameras still builds every other tree.
   if (!o.camera.empty()) base.camera = scene.camera(o.camera).name;
   else if (!scene.cameras.empty()) base.camera = scene.default_camera().name;
+  apply_node_format(base, node_format(o.node_format, typed_flag("--node-format")));
+  std::vector<double> node_bytes;
 
   std::vector<BvhMetrics> metrics;
   std::vector<bool> valid;
@@ -115,7 +130,10 @@ void run_build(const BuildOptions& o) {
     BvhMetrics m = compute_metrics(bvh, scene, base, r, !o.no_epo);
     metrics.push_back(m);
     valid.push_back(true);
+    node_bytes.push_back(node_bytes_per_triangle(scene, bvh, o.node_format));
     nlohmann::json j = nlohmann::json::parse(metrics_json(m));
+    j["node_format"] = o.node_format;
+    j["node_bytes_per_triangle"] = node_bytes.back();
     j["file"] = o.load;
     j["parameters"] = nlohmann::json::parse(header.params_json, nullptr, false);
     report.push_back(j);
@@ -132,7 +150,11 @@ void run_build(const BuildOptions& o) {
       if (!v.ok()) std::fprintf(stderr, "rtsim: %s tree is invalid:\n%s", name.c_str(), v.summary().c_str());
       const BvhMetrics m = compute_metrics(bvh, scene, params, r, !o.no_epo);
       nlohmann::json j = nlohmann::json::parse(metrics_json(m));
+      node_bytes.push_back(node_bytes_per_triangle(scene, bvh, o.node_format));
       j["valid"] = v.ok();
+      j["node_format"] = o.node_format;
+      j["node_bytes_per_triangle"] = node_bytes.back();
+      if (params.width > 2) j["collapse_seconds"] = r.collapse_seconds;
       j["parameters"] = nlohmann::json::parse(build_params_json(params));
       if (name == "aobvh" || name == "aosbvh") j["mean_occlusion"] = r.mean_occlusion, j["ao_rays"] = r.ao_rays;
       if (name == "osah") j["visible_triangles"] = r.visible_triangles;
@@ -156,7 +178,7 @@ void run_build(const BuildOptions& o) {
     out["trees"] = report;
     std::cout << out.dump(2) << "\n";
   } else {
-    print_table(scene.name, metrics, valid);
+    print_table(scene.name, metrics, valid, node_bytes, o.node_format);
   }
   for (bool ok : valid)
     if (!ok) throw ExitStatus(1, "a built tree failed the structural checks");
@@ -185,6 +207,10 @@ void add_build_command(CLI::App& root) {
   cmd->add_flag("--list-builders", o->list_builders, "print the builder names, one a line, and stop");
   cmd->add_option("--load", o->load, "load a saved tree (checked against the scene) and report it");
   cmd->add_flag("--no-epo", o->no_epo, "skip the end-point overlap (the slowest metric)");
+  cmd->add_option("--node-format", o->node_format,
+                  "build for this node record format: " + node_format_names("|") +
+                      "\n(its width: wide formats collapse the binary tree; its leaf capacity)")
+      ->capture_default_str();
   add_build_options(cmd, o->params);
   cmd->add_option("--seed", o->params.seed, "same as --build-seed");
   cmd->callback([o] {

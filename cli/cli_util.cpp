@@ -159,9 +159,15 @@ void check_build_flags(const BuildParams& params) {
   }
 }
 
+std::string node_format_flag(const std::string& value, const std::string& fallback) {
+  if (value.empty()) return fallback;
+  node_format(value, typed_flag("--node-format"));  // throws, listing the formats
+  return value;
+}
+
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
-                   uint64_t shuffle_seed, uint32_t threads) {
+                   uint64_t shuffle_seed, uint32_t threads, const std::string& node_format) {
   out.scene = load_scene(scene.empty() ? default_scene_name() : scene);
   if (shuffle_seed != 0) shuffle_triangles(out.scene, shuffle_seed);
   out.camera = camera.empty() ? &out.scene.default_camera() : &out.scene.camera(camera);
@@ -170,6 +176,7 @@ void load_workload(Workload& out, const std::string& scene, const std::string& c
   out.params.seed = seed;
   out.params.threads = threads;
   out.params.camera = out.camera->name;
+  apply_node_format(out.params, rtsim::node_format(node_format));
   out.report = BuildReport{};
   if (bvh_file.empty()) {
     out.bvh = build_bvh(out.scene, out.params, &out.report);

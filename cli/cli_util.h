@@ -108,8 +108,14 @@ struct Workload {
 // shuffle_seed != 0: the scene's faces are permuted first (shuffle_triangles), a
 // check that no result depends on the file's face order. `threads` limits the
 // build too (0: all cores).
+// The tree is built for `node_format` (apply_node_format); a loaded tree must fit it.
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
-                   uint64_t shuffle_seed = 0, uint32_t threads = 0);
+                   uint64_t shuffle_seed = 0, uint32_t threads = 0,
+                   const std::string& node_format = "bvh2-64");
+
+// --node-format NAME: checks the name (a message listing the formats, naming the
+// flag) and returns it; empty value: `fallback` (the hardware's memory.node_format).
+std::string node_format_flag(const std::string& value, const std::string& fallback);
 
 }  // namespace rtsim::cli

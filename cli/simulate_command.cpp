@@ -31,7 +31,7 @@ namespace {
 
 struct SimulateOptions {
   std::string scene, builder = "sah", camera, fidelity = "functional", config = "mobile", out_dir;
-  std::string resolution = kDefaultResolution, rays_in, bvh_in;
+  std::string resolution = kDefaultResolution, rays_in, bvh_in, node_format;
   int ao = -1;
   uint32_t spp = 1, bounces = 2, frames = 1;
   uint64_t seed = 1, shuffle_faces = 0;
@@ -42,6 +42,7 @@ void run_simulate(const SimulateOptions& o) {
   sim::SimulationRequest request;
   request.fidelity = sim::parse_fidelity(o.fidelity);
   request.config = sim::load_hardware_config(o.config);
+  request.config.node_format = node_format_flag(o.node_format, request.config.node_format);
   parse_resolution(o.resolution, request.settings.width, request.settings.height);
   if (o.ao < -1 || o.ao > 1024) throw InputError("--ao", "must be 0..1024");
   if (o.spp == 0 || o.spp > 1024) throw InputError("--spp", "must be 1..1024");
@@ -56,7 +57,8 @@ void run_simulate(const SimulateOptions& o) {
   Workload workload;
   request.frames = o.frames;
   if (o.frames < 1 || o.frames > 1000) throw InputError("--frames", "must be 1..1000");
-  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces);
+  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, 0,
+                request.config.node_format);
   const Scene& scene = workload.scene;
   const Camera& camera = *workload.camera;
   const BuildParams& params = workload.params;
@@ -107,6 +109,7 @@ void run_simulate(const SimulateOptions& o) {
       {"bvh_file", o.bvh_in},
       {"bvh_hash", hex64(bvh_content_hash(bvh))},
       {"bvh_nodes", bvh.nodes.size()},
+      {"bvh_width", bvh.width()},
       {"camera", camera.name},
       {"resolution", {request.settings.width, request.settings.height}},
       {"spp", o.spp},
@@ -179,6 +182,9 @@ void add_simulate_command(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--shuffle-faces", opts->shuffle_faces,
                   "permute the scene's triangles with this seed first (0: no): results must not change");
+  cmd->add_option("--node-format", opts->node_format,
+                  "node record format: " + node_format_names("|") +
+                      "\n(the tree is built for its width; default: memory.node_format)");
   cmd->add_option("--bvh", opts->bvh_in, "replay this saved tree (rtsim build --out) instead of building one");
   cmd->add_flag("--json", opts->json, "print stats.json to stdout");
   cmd->callback([opts] {

@@ -17,6 +17,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 
 namespace rtsim::cli {
 
@@ -25,6 +26,7 @@ namespace {
 struct Table1CommandOptions {
   Table1Options table;
   std::string resolution = kDefaultResolution;
+  std::vector<std::string> node_formats = {"bvh2-64"};
   bool all_scenes = false, no_cycle = false, json = false, wide = false;
 };
 
@@ -130,6 +132,10 @@ void add_table1_command(CLI::App& root) {
       ->check(CLI::Range(1u, 256u))->capture_default_str();
   cmd->add_option("--out-dir", o->table.out_dir, "Where table1.{md,csv,json} and the pictures go")
       ->capture_default_str();
+  cmd->add_option("--node-formats,--node-format", o->node_formats,
+                  "Node record formats: " + node_format_names("|") +
+                      "\n(several: one Table 1 each in OUT_DIR/FORMAT, and a comparison)")
+      ->capture_default_str();
   add_build_options(cmd, o->table.build);
   cmd->add_flag("--json", o->json, "Print table1.json to stdout instead of the text table");
   cmd->add_flag("--wide", o->wide, "Every column in the text tables (wider than 120 columns)");
@@ -144,8 +150,37 @@ void add_table1_command(CLI::App& root) {
     if (cmd->count("--build-seed") == 0) o->table.build.seed = o->table.seed;
     o->table.cycle_level = !o->no_cycle;
     o->table.rtsim_binary = self_executable();
+    for (const std::string& f : o->node_formats) node_format_flag(f, "");
+    if (o->node_formats.empty()) throw InputError("--node-formats", "needs at least one format");
     OutputFolder out_dir;
     out_dir.prepare(o->table.out_dir, "--out-dir");
+    if (o->node_formats.size() > 1) {
+      if (o->all_scenes) throw InputError("--node-formats", "takes one scene (not --all-scenes)");
+      // One Table 1 per format in its own folder, then the formats side by side.
+      std::vector<Table1> tables;
+      for (const std::string& f : o->node_formats) {
+        Table1Options options = o->table;
+        options.node_format = f;
+        options.out_dir = o->table.out_dir / f;
+        tables.push_back(run_one(options, false, o->wide));
+      }
+      const std::string text = write_table1_formats(tables, o->table.out_dir);
+      out_dir.keep();
+      if (o->json) {
+        nlohmann::json j = nlohmann::json::array();
+        for (const std::string& f : o->node_formats) {
+          std::ifstream in(o->table.out_dir / f / "table1.json");
+          j.push_back(nlohmann::json::parse(in));
+        }
+        std::cout << j.dump(2) << "\n";
+      } else {
+        std::fputs(text.c_str(), stdout);
+      }
+      std::fprintf(stderr, "wrote %s/formats.{md,csv}, table1_formats.png\n",
+                   o->table.out_dir.string().c_str());
+      return;
+    }
+    o->table.node_format = o->node_formats.front();
     if (o->all_scenes) {
       run_all_scenes(*o);
       out_dir.keep();

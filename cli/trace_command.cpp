@@ -31,8 +31,8 @@ namespace {
 struct TraceOptions {
   std::string scene, builder = "sah", camera, resolution = kDefaultResolution, out_dir, rays_in, rays_out,
       bvh_in;
-  // "" = the hardware configuration's memory.node_layout; else one of its names.
-  std::string node_layout, config = "mobile";
+  // "" = the hardware configuration's memory.node_format; else a format's name.
+  std::string node_format, node_layout, config = "mobile";
   int ao = -1;
   uint32_t spp = 1, threads = 0, bounces = 2, stack_limit = 128;
   uint64_t shuffle_faces = 0;
@@ -83,19 +83,19 @@ void run_trace(const TraceOptions& o) {
   if (!(o.heat_max > 0.0f)) throw InputError("--heat-max", "must be > 0");
   if (o.stack_limit < 1) throw InputError("--stack-limit", "must be at least 1");
   sim::HardwareConfig hardware = sim::load_hardware_config(o.config);
+  std::string format = o.node_format;
   if (!o.node_layout.empty()) {
-    std::string layout = o.node_layout;
-    if (layout == "wide" || layout == "single") {
-      const std::string now = layout == "wide" ? "bvh2-64" : "single-32";
-      warn_deprecated("--node-layout " + layout, "--node-layout " + now +
-                                                     " (the names of the hardware configuration)");
-      layout = now;
-    }
-    if (layout != "bvh2-64" && layout != "single-32")
-      throw InputError("--node-layout", "must be bvh2-64 (64 B nodes, both child boxes) or single-32 "
-                                        "(32 B, one box), as memory.node_layout in the hardware configuration");
-    hardware.node_layout = layout;
+    // The old flag and its names: bvh2-64 | single-32, and before them wide | single.
+    const std::string& old = o.node_layout;
+    const std::string now = old == "wide" || old == "bvh2-64" ? "bvh2-64"
+                            : old == "single" || old == "single-32" ? "bvh2-32" : "";
+    if (now.empty())
+      throw InputError("--node-layout", "must be bvh2-64 or single-32; the flag is now --node-format (" +
+                                            node_format_names() + ")");
+    warn_deprecated("--node-layout " + old, "--node-format " + now);
+    if (format.empty()) format = now;
   }
+  hardware.node_format = node_format_flag(format, hardware.node_format);
   settings.spp = o.spp;
   settings.seed = o.seed;
   settings.ao_samples = o.ao;
@@ -106,7 +106,8 @@ void run_trace(const TraceOptions& o) {
   if (!o.rays_out.empty()) check_output_file(o.rays_out, "--rays-out");
 
   Workload workload;
-  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, o.threads);
+  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, o.threads,
+                hardware.node_format);
   const Scene& scene = workload.scene;
   const Camera& camera = *workload.camera;
   const Bvh& bvh = workload.bvh;
@@ -140,7 +141,8 @@ void run_trace(const TraceOptions& o) {
   j["resolution"] = {settings.width, settings.height};
   j["spp"] = settings.spp;
   j["seed"] = settings.seed;
-  j["node_layout"] = hardware.node_layout;
+  j["node_format"] = hardware.node_format;
+  j["bvh_width"] = bvh.width();
   j["config"] = o.config;
   j["node_bytes"] = image.node_bytes();
   j["triangle_bytes"] = image.triangle_bytes();
@@ -201,7 +203,7 @@ void run_trace(const TraceOptions& o) {
     std::printf("scene %s (%zu triangles), builder %s (%zu nodes), camera %s, %ux%u x %u spp, %s nodes (%u B)\n",
                 scene.name.c_str(), scene.triangle_count(), workload.params.builder.c_str(), bvh.nodes.size(),
                 camera.name.c_str(), settings.width, settings.height, settings.spp,
-                hardware.node_layout.c_str(), image.node_bytes());
+                hardware.node_format.c_str(), image.node_bytes());
     std::printf("\n%-11s %9s %9s %8s %8s %8s %9s %9s %9s %7s\n", "ray type", "rays", "ops/ray",
                 "TRV/ray", "IST/ray", "box/ray", "node f/r", "tri f/r", "bytes/r", "share");
     auto row = [&](const char* name, const CounterTotals& t) {
@@ -272,8 +274,10 @@ void add_trace_command(CLI::App& root) {
   cmd->add_option("--config", options->config,
                   "hardware preset (mobile | desktop) or TOML file: memory layout and caches")
       ->capture_default_str();
-  cmd->add_option("--node-layout", options->node_layout,
-                  "bvh2-64 (64 B) | single-32 (32 B); default: the hardware's memory.node_layout");
+  cmd->add_option("--node-format", options->node_format,
+                  "node record format: " + node_format_names("|") +
+                      "\n(the tree is built for its width; default: memory.node_format)");
+  cmd->add_option("--node-layout", options->node_layout, "deprecated: --node-format")->group("");
   cmd->add_option("--shuffle-faces", options->shuffle_faces,
                   "permute the scene's triangles with this seed first (0: no): results must not change");
   cmd->add_option("--stack-limit", options->stack_limit, "traversal stack entries before overflow")

@@ -3,6 +3,9 @@
 ops-per-pixel heatmaps of every builder side by side on one colour scale.
 
 Usage: table1_plots.py OUT_DIR   (reads OUT_DIR/table1.json and OUT_DIR/data/*.f32)
+       table1_plots.py OUT_DIR --formats FORMAT...
+                                 (reads OUT_DIR/FORMAT/table1.json; draws the reductions
+                                  by node format into OUT_DIR/table1_formats.png)
 """
 import json
 import os
@@ -98,7 +101,43 @@ def main(out_dir):
         save(fig, os.path.join(out_dir, "table1_heatmaps.png"))
 
 
+def formats(out_dir, names):
+    """AO-BVH's (and every builder's) reduction against SAH and SBVH per node format."""
+    tables = []
+    for name in names:
+        with open(os.path.join(out_dir, name, "table1.json")) as f:
+            tables.append(json.load(f))
+    cameras = list(dict.fromkeys(r["camera"] for r in tables[0]["rows"]))
+    builders = [b for b in dict.fromkeys(r["builder"] for r in tables[0]["rows"])
+                if b not in ("median", "sah")]
+    fig, axes = plt.subplots(2, len(cameras), figsize=(6.5 * len(cameras), 8), squeeze=False)
+    width = 0.8 / max(1, len(names))
+    for col, cam in enumerate(cameras):
+        for row, base in enumerate(("sah", "sbvh")):
+            ax = axes[row][col]
+            x = np.arange(len(builders))
+            for k, (name, table) in enumerate(zip(names, tables)):
+                ops = {r["builder"]: r["combined"]["ops_per_ray"]
+                       for r in table["rows"] if r["camera"] == cam}
+                red = [100 * (1 - ops[b] / ops[base]) if b in ops and base in ops else np.nan
+                       for b in builders]
+                ax.bar(x + (k - (len(names) - 1) / 2) * width, red, width, label=name)
+            ax.axhline(0, color="black", linewidth=0.8)
+            ax.set_xticks(x)
+            ax.set_xticklabels([NAMES.get(b, b) for b in builders])
+            ax.set_ylabel("reduction vs %s, same format (%%)" % NAMES.get(base, base))
+            ax.set_title("camera %s" % cam)
+            ax.grid(axis="y", alpha=0.3)
+            ax.legend(fontsize=8, title="node format")
+    fig.suptitle("Table 1 on %s by node format: TRV+IST ops/ray reduction (higher is better)"
+                 % tables[0]["scene"])
+    save(fig, os.path.join(out_dir, "table1_formats.png"))
+
+
 if __name__ == "__main__":
-    if len(sys.argv) != 2:
+    if len(sys.argv) >= 4 and sys.argv[2] == "--formats":
+        formats(sys.argv[1], sys.argv[3:])
+    elif len(sys.argv) == 2:
+        main(sys.argv[1])
+    else:
         sys.exit(__doc__)
-    main(sys.argv[1])

@@ -28,8 +28,8 @@ namespace {
 constexpr size_t kMaxValuesPerAxis = 10000;
 constexpr size_t kMaxJobs = 200000;
 
-const char* const kAxes[] = {"scene", "builder",    "camera", "preset", "fidelity",
-                             "seed",  "resolution", "ao",     "frames"};
+const char* const kAxes[] = {"scene", "builder",    "node_format", "camera", "preset", "fidelity",
+                             "seed",  "resolution", "ao",          "frames"};
 
 // One axis value as the text passed on the command line. Integers stay integers;
 // reals use the shortest text that reads back to the same double.
@@ -239,6 +239,7 @@ std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir
   if (!resolution.empty()) a.insert(a.end(), {"--res", resolution});
   if (ao_rays >= 0) a.insert(a.end(), {"--ao", std::to_string(ao_rays)});
   if (frames > 0) a.insert(a.end(), {"--frames", std::to_string(frames)});
+  if (!node_format.empty()) a.insert(a.end(), {"--node-format", node_format});
   if (hardware_file.empty())
     for (const auto& [k, v] : overrides) a.insert(a.end(), {"--set", k + "=" + v});
   return a;
@@ -476,6 +477,11 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
           if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > 1024)
             throw InputError(w, "AO ray counts must be integers in [0, 1024]");
           job.ao_rays = v.get<int64_t>();
+        } else if (name == "node_format") {
+          node_format(value, w);  // names the formats when unknown
+          job.node_format = value;
+          // The tree and the memory image both follow it: part of the hardware.
+          typed_overrides["memory.node_format"] = json(value);
         } else if (name == "frames") {
           const json& v = (*dims[d].second)[index[d]];
           if (!v.is_number_integer() || v.get<int64_t>() < 1 || v.get<int64_t>() > 1000)
@@ -483,6 +489,9 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
           job.frames = v.get<int64_t>();
         }
       }
+      // A format set as an override builds the tree for it too, as the axis does.
+      if (job.node_format.empty() && job.overrides.count("memory.node_format"))
+        job.node_format = job.overrides.at("memory.node_format");
       resolved["set"] = overrides;
       // The identity is the resolved configuration: the full hardware configuration
       // (preset and overrides applied), not how it was spelt, so "mobile" with
@@ -499,6 +508,7 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
       if (!job.resolution.empty()) job.label += "/" + job.resolution;
       if (job.ao_rays >= 0) job.label += "/ao" + std::to_string(job.ao_rays);
       if (job.frames > 0) job.label += "/frames" + std::to_string(job.frames);
+      if (!job.node_format.empty()) job.label += "/" + job.node_format;
       for (const auto& [k, v] : job.overrides) job.label += "/" + k + "=" + v;
       if (seen.insert(job.key).second) campaign.jobs.push_back(std::move(job));
 

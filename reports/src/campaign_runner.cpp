@@ -225,6 +225,7 @@ JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, con
                       " --builder " + shell_quote(job.builder) + " --seed " +
                       std::to_string(job.seed) + " --out \"$T\"";
   if (!job.camera.empty()) build += " --camera " + shell_quote(job.camera);
+  if (!job.node_format.empty()) build += " --node-format " + shell_quote(job.node_format);
   std::string simulate = "exec " + shell_quote(binary.string());
   for (const std::string& a : args) simulate += " " + shell_quote(a);
   simulate += " --bvh \"$T\"";
@@ -311,6 +312,7 @@ fs::path cached_tree(const fs::path& cache, const Campaign& campaign, const Camp
                    {"camera", job.camera},
                    {"seed", job.seed},
                    {"revision", campaign.revision}};
+  if (!job.node_format.empty()) identity["node_format"] = job.node_format;
   return cache / (content_hash_hex(identity.dump()) + ".bvh");
 }
 

@@ -51,6 +51,7 @@ Table1Counts counts_of(const CounterTotals& t) {
   c.trv_per_ray = t.per_ray(t.trv_ops);
   c.ist_per_ray = t.per_ray(t.ist_ops);
   c.node_fetches_per_ray = t.per_ray(t.node_fetches);
+  c.box_tests_per_ray = t.per_ray(t.box_tests);
   return c;
 }
 
@@ -94,7 +95,8 @@ void run_cycle_level(Table1& table, const std::map<std::string, std::filesystem:
                   " --builder " + shell_quote(row.builder) + " --bvh " +
                   shell_quote(tree_files.at(tree_key(row.builder, row.camera)).string()) +
                   " --camera " + shell_quote(row.camera) + " --fidelity cycle --config " +
-                  shell_quote(o.hardware) + " --res " + res + " --ao " + std::to_string(o.ao_samples) +
+                  shell_quote(o.hardware) + " --node-format " + shell_quote(o.node_format) +
+                  " --res " + res + " --ao " + std::to_string(o.ao_samples) +
                   " --seed " + std::to_string(o.seed) + " --frames " + std::to_string(o.frames) +
                   " --out-dir " + shell_quote(job.dir.string()) +
                   " > " + shell_quote(job.log.string()) + " 2>&1";
@@ -286,6 +288,7 @@ Table1 run_table1_checked(const Table1Options& options) {
       BuildParams params = options.build;
       params.builder = builder;
       params.camera = camera;
+      apply_node_format(params, node_format(options.node_format));
       if (options.osah_resolution_from_frame) {
         params.osah_width = options.width;
         params.osah_height = options.height;
@@ -308,7 +311,9 @@ Table1 run_table1_checked(const Table1Options& options) {
       const Camera& camera = scene.camera(camera_name);
       for (const std::string& builder : options.builders) {
         const Tree& tree = trees.at(tree_key(builder, camera_name));
-        const MemoryImage image(scene, tree.bvh);
+        MemoryLayoutConfig layout;
+        layout.node_format = options.node_format;
+        const MemoryImage image(scene, tree.bvh, layout);
         const TraversalContext context(scene, tree.bvh, image);
         const FrameRun run = run_frame(context, camera, settings);
         Table1Row row;
@@ -320,6 +325,9 @@ Table1 run_table1_checked(const Table1Options& options) {
         row.build_seconds = tree.report.build_seconds;
         row.estimate_seconds = tree.report.estimate_seconds;
         row.sah_cost = tree.sah_cost;
+        row.nodes = tree.bvh.nodes.size();
+        row.node_bytes_per_triangle =
+            double(image.footprint().node_bytes) / double(std::max<size_t>(1, scene.triangle_count()));
         table.rows.push_back(row);
         write_floats(options.out_dir / "data" / ("ops_" + camera_name + "_" + builder + ".f32"),
                      ops_per_pixel(run));
@@ -330,10 +338,25 @@ Table1 run_table1_checked(const Table1Options& options) {
   if (options.cycle_level) run_cycle_level(table, tree_files);
   add_verdicts(table);
 
-  char rule[1024];
+  const NodeFormat& format = node_format(options.node_format);
+  char node_rule[512];
+  if (format.encoding == BoxEncoding::OwnBoxFp32)
+    std::snprintf(node_rule, sizeof node_rule,
+                  "TRV op = one ray processing one node of a binary tree in format %s (fetch its "
+                  "%u-byte record holding its own box, 1 box test, stack update)",
+                  format.name.c_str(), format.record_bytes);
+  else
+    std::snprintf(node_rule, sizeof node_rule,
+                  "TRV op = one ray processing one node of format %s (fetch its %u-byte record "
+                  "holding up to %u child boxes, test all of them, stack update), whatever its "
+                  "width: box tests per ray are shown beside it to compare widths%s",
+                  format.name.c_str(), format.record_bytes, format.width,
+                  format.width > 2 ? " (the builders' binary trees collapsed to this width with "
+                                     "their own cost model; embree built wide by Embree)"
+                                   : "");
+  char rule[1536];
   std::snprintf(rule, sizeof rule,
-                "TRV op = one ray processing one BVH2 node (fetch its 64-byte record holding both "
-                "child boxes, 2 box tests, stack update); IST op = one ray-triangle test "
+                "%s; IST op = one ray-triangle test "
                 "(watertight); ops/ray = (TRV + IST ops) / rays. Rays: %ux%u primary rays (1 per "
                 "pixel, closest hit) per camera, plus %u AO rays per primary hit (cosine-weighted, "
                 "any hit, length %.4g = %.3g x scene diagonal). Node fetch = one node record read by "
@@ -341,8 +364,8 @@ Table1 run_table1_checked(const Table1Options& options) {
                 "rays/primitive with weight floor %g, OSAH w = %g. DRAM bytes and cycles: cycle-level "
                 "model, hardware preset '%s', %u frames of the same rays: DRAM B/ray shown as the first "
                 "frame's (cold caches) / the last's (steady state), cycles of the last. %.1f s in all.",
-                options.width, options.height, table.ao_samples, table.ao_length,
-                scene.ao.cutoff_relative, options.build.max_leaf_size, options.build.t1,
+                node_rule, options.width, options.height, table.ao_samples, table.ao_length,
+                scene.ao.cutoff_relative, std::min(options.build.max_leaf_size, format.max_leaf_triangles), options.build.t1,
                 options.build.t2, options.build.bins, options.build.ao_rays,
                 options.build.ao_weight_floor, options.build.osah_w, options.hardware.c_str(),
                 options.frames, seconds_since(total_start));

@@ -87,8 +87,9 @@ TextTable narrow_camera_table(const Table1& table, const std::string& camera) {
 // One table per camera: the Table 1 columns first, then what the patent does not show.
 TextTable camera_table(const Table1& table, const std::string& camera) {
   TextTable t({"builder", "ops/ray", "red. vs median", "red. vs SAH", "TRV/ray", "IST/ray",
-               "primary ops/ray", "AO ops/ray", "node fetches/ray", "fetch red. vs median",
-               "fetch red. vs SAH", "DRAM B/ray cold/warm", "cycles", "build s"});
+               "box tests/ray", "primary ops/ray", "AO ops/ray", "node fetches/ray",
+               "fetch red. vs median", "fetch red. vs SAH", "node B/tri", "DRAM B/ray cold/warm",
+               "cycles", "build s"});
   const Table1Row* median = table.find(camera, "median");
   const Table1Row* sah = table.find(camera, "sah");
   for (const Table1Row& r : table.rows) {
@@ -96,11 +97,12 @@ TextTable camera_table(const Table1& table, const std::string& camera) {
     t.add_row({display_name(r.builder), num(r.combined.ops_per_ray),
                median ? pct(r.combined.ops_per_ray, median->combined.ops_per_ray) : "-",
                sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
-               num(r.combined.trv_per_ray), num(r.combined.ist_per_ray), num(r.primary.ops_per_ray),
+               num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
+               num(r.combined.box_tests_per_ray), num(r.primary.ops_per_ray),
                num(r.ao.ops_per_ray), num(r.combined.node_fetches_per_ray),
                median ? pct(r.combined.node_fetches_per_ray, median->combined.node_fetches_per_ray) : "-",
                sah ? pct(r.combined.node_fetches_per_ray, sah->combined.node_fetches_per_ray) : "-",
-               dram_cold_warm(r),
+               num(r.node_bytes_per_triangle, 3), dram_cold_warm(r),
                num(r.cycles, 6),
                num(r.build_seconds + r.estimate_seconds, 3)});
   }
@@ -127,6 +129,7 @@ nlohmann::json counts_json(const Table1Counts& c) {
           {"trv_ops_per_ray", c.trv_per_ray},
           {"ist_ops_per_ray", c.ist_per_ray},
           {"node_fetches_per_ray", c.node_fetches_per_ray},
+          {"box_tests_per_ray", c.box_tests_per_ray},
           {"dram_bytes_per_ray", c.dram_bytes_per_ray < 0 ? nlohmann::json(nullptr)
                                                           : nlohmann::json(c.dram_bytes_per_ray)}};
 }
@@ -135,7 +138,8 @@ nlohmann::json counts_json(const Table1Counts& c) {
 
 std::string table1_text(const Table1& table, bool wide) {
   std::string out = "Table 1 on scene '" + table.scene_name + "' (" + std::to_string(table.triangles) +
-                    " triangles)\n\nThe patent's Table 1 (TRV+IST ops/ray, reduction against BVH):\n" +
+                    " triangles, node format " + table.options.node_format +
+                    ")\n\nThe patent's Table 1 (TRV+IST ops/ray, reduction against BVH):\n" +
                     patent_table().plain() + "\n";
   for (const std::string& camera : table.options.cameras)
     out += "Ours, camera " + camera + " (reductions: positive = fewer than the baseline):\n" +
@@ -154,7 +158,7 @@ std::string table1_text(const Table1& table, bool wide) {
 void write_table1(const Table1& table) {
   const auto& dir = table.options.out_dir;
   std::string md = "# Table 1 on `" + table.scene_name + "` (" + std::to_string(table.triangles) +
-                   " triangles)\n\n## The patent's Table 1\n\nTRV+IST operations per ray "
+                   " triangles, node format `" + table.options.node_format + "`)\n\n## The patent's Table 1\n\nTRV+IST operations per ray "
                    "(reduction against BVH):\n\n" + patent_table().markdown() + "\n";
   for (const std::string& camera : table.options.cameras)
     md += "## Ours, camera `" + camera + "`\n\nReductions: positive = fewer than the baseline.\n\n" +
@@ -166,7 +170,7 @@ void write_table1(const Table1& table) {
   write_file_atomic(dir / "table1.md", md);
 
   TextTable csv({"scene", "camera", "builder", "ray_type", "rays", "ops_per_ray", "trv_ops_per_ray",
-                 "ist_ops_per_ray", "node_fetches_per_ray", "dram_bytes_per_ray",
+                 "ist_ops_per_ray", "box_tests_per_ray", "node_fetches_per_ray", "dram_bytes_per_ray",
                  "cold_dram_bytes_per_ray", "cycles",
                  "build_seconds", "estimate_seconds", "sah_cost"});
   nlohmann::json json;
@@ -177,6 +181,7 @@ void write_table1(const Table1& table) {
   json["ao_samples"] = table.ao_samples;
   json["ao_length"] = table.ao_length;
   json["hardware"] = table.options.hardware;
+  json["node_format"] = table.options.node_format;
   json["frames"] = table.options.frames;
   json["verdicts"] = table.verdicts;
   for (const auto& p : patent_table1())
@@ -193,6 +198,8 @@ void write_table1(const Table1& table) {
                           {"build_seconds", r.build_seconds},
                           {"estimate_seconds", r.estimate_seconds},
                           {"sah_cost", r.sah_cost},
+                          {"nodes", r.nodes},
+                          {"node_bytes_per_triangle", r.node_bytes_per_triangle},
                           {"counts_match_cycle_level", r.counts_match_cycle_level},
                           {"combined", counts_json(r.combined)},
                           {"primary", counts_json(r.primary)},
@@ -203,7 +210,8 @@ void write_table1(const Table1& table) {
                                   {"ao", &r.ao}})
       csv.add_row({table.scene_name, r.camera, r.builder, type, std::to_string(c->rays),
                    format_number(c->ops_per_ray, 6), format_number(c->trv_per_ray, 6),
-                   format_number(c->ist_per_ray, 6), format_number(c->node_fetches_per_ray, 6),
+                   format_number(c->ist_per_ray, 6), format_number(c->box_tests_per_ray, 6),
+                   format_number(c->node_fetches_per_ray, 6),
                    c->dram_bytes_per_ray < 0 ? "" : format_number(c->dram_bytes_per_ray, 6),
                    c != &r.combined || r.cold_dram_bytes_per_ray < 0 ? ""
                                                                      : format_number(r.cold_dram_bytes_per_ray, 6),
@@ -214,6 +222,43 @@ void write_table1(const Table1& table) {
   write_file_atomic(dir / "table1.json", json.dump(2) + "\n");
 
   run_plot_script("table1_plots.py", {dir.string()});
+}
+
+std::string write_table1_formats(const std::vector<Table1>& tables,
+                                 const std::filesystem::path& out_dir) {
+  if (tables.empty()) return "";
+  const Table1& first = tables.front();
+  TextTable t({"camera", "builder", "format", "ops/ray", "vs SAH", "vs SBVH", "TRV/ray", "box tests/ray",
+               "IST/ray", "fetch/ray", "node B/tri", "DRAM B/ray", "cycles"});
+  for (const std::string& camera : first.options.cameras)
+    for (const Table1Row& base : first.rows) {
+      if (base.camera != camera) continue;
+      for (const Table1& table : tables) {
+        const Table1Row* r = table.find(camera, base.builder);
+        if (!r) continue;
+        const Table1Row* sah = table.find(camera, "sah");
+        const Table1Row* sbvh = table.find(camera, "sbvh");
+        t.add_row({camera, display_name(r->builder), table.options.node_format,
+                   num(r->combined.ops_per_ray),
+                   sah ? pct(r->combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
+                   sbvh ? pct(r->combined.ops_per_ray, sbvh->combined.ops_per_ray) : "-",
+                   num(r->combined.trv_per_ray), num(r->combined.box_tests_per_ray),
+                   num(r->combined.ist_per_ray), num(r->combined.node_fetches_per_ray),
+                   num(r->node_bytes_per_triangle, 3), num(r->combined.dram_bytes_per_ray),
+                   num(r->cycles, 6)});
+      }
+    }
+  std::string md = "# Table 1 on `" + first.scene_name + "` by node format\n\n"
+                   "Reductions: positive = fewer ops/ray than the SAH (or SBVH) tree in the same "
+                   "format. Each format's own folder has its full Table 1 and counting rule.\n\n" +
+                   t.markdown() + "\n![Reductions by format](table1_formats.png)\n";
+  write_file_atomic(out_dir / "formats.md", md);
+  write_file_atomic(out_dir / "formats.csv", t.csv());
+  std::vector<std::string> args = {out_dir.string(), "--formats"};
+  for (const Table1& table : tables) args.push_back(table.options.node_format);
+  run_plot_script("table1_plots.py", args);
+  return "Table 1 on '" + first.scene_name + "' by node format (reductions against SAH and SBVH in "
+         "the same format):\n" + t.plain();
 }
 
 }  // namespace rtsim

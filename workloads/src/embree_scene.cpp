@@ -33,8 +33,17 @@ RTCDevice shared_embree_device() {
   return device;
 }
 
-EmbreeScene::EmbreeScene(const Scene& scene) : device_(shared_embree_device()) {
-  rtcRetainDevice(device_);
+EmbreeScene::EmbreeScene(const Scene& scene) : EmbreeScene(scene, std::string()) {}
+
+EmbreeScene::EmbreeScene(const Scene& scene, const std::string& device_config) {
+  if (device_config.empty()) {
+    device_ = shared_embree_device();
+    rtcRetainDevice(device_);
+  } else {
+    device_ = rtcNewDevice(device_config.c_str());
+    if (!device_) throw std::runtime_error("Embree: cannot create a device with '" + device_config + "'");
+    rtcSetDeviceErrorFunction(device_, report_embree_error, nullptr);
+  }
   scene_ = rtcNewScene(device_);
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
   rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);

@@ -29,6 +29,8 @@ struct Table1Options {
   std::filesystem::path out_dir = "table1";
   std::filesystem::path rtsim_binary;  // for the cycle-level child processes
   BuildParams build;              // one parameter set for every builder and scene
+  // Node record format the trees are built (collapsed) for and traced with.
+  std::string node_format = "bvh2-64";
   // OSAH's visibility rays: build.osah_width x osah_height as given, or (true, the
   // default) the frame's resolution.
   bool osah_resolution_from_frame = true;
@@ -38,6 +40,7 @@ struct Table1Options {
 struct Table1Counts {
   uint64_t rays = 0;
   double ops_per_ray = 0, trv_per_ray = 0, ist_per_ray = 0, node_fetches_per_ray = 0;
+  double box_tests_per_ray = 0;  // compares widths fairly: a wide node visit tests more boxes
   double dram_bytes_per_ray = -1;  // < 0: not measured (no cycle-level run)
 };
 
@@ -50,6 +53,8 @@ struct Table1Row {
   double l1_node_hit_rate = -1, l2_hit_rate = -1;
   double build_seconds = 0, estimate_seconds = 0;
   double sah_cost = 0;
+  uint64_t nodes = 0;                // of the tree
+  double node_bytes_per_triangle = 0;  // node records in the format, / scene triangles
   bool counts_match_cycle_level = true;  // the invariant: same counts at every level
 };
 
@@ -72,6 +77,13 @@ Table1 run_table1(const Table1Options& options);
 // table1.md, table1.csv, table1.json, and the pictures (bar chart of reductions,
 // heatmaps side by side on one colour scale) via reports/scripts/table1_plots.py.
 void write_table1(const Table1& table);
+
+// Several node formats side by side (table1 --node-formats): ops/ray, box tests,
+// fetches, node bytes and the reductions per builder and format, written to
+// out_dir/formats.{md,csv} with a chart of reductions by format
+// (table1_formats.png); returns the text for the terminal.
+std::string write_table1_formats(const std::vector<Table1>& tables,
+                                 const std::filesystem::path& out_dir);
 
 // What the terminal shows: within 120 columns, or every column with `wide`.
 std::string table1_text(const Table1& table, bool wide = false);

@@ -6,6 +6,7 @@
 #include <embree3/rtcore.h>
 
 #include <memory>
+#include <string>
 
 namespace rtsim {
 
@@ -20,6 +21,9 @@ struct EmbreeHit {
 class EmbreeScene {
  public:
   explicit EmbreeScene(const Scene& scene);
+  // On a device of its own with this Embree configuration, e.g.
+  // "tri_accel=bvh4.triangle4" to pin Embree's own tree to BVH4 (benchmarks).
+  EmbreeScene(const Scene& scene, const std::string& device_config);
   ~EmbreeScene();
   EmbreeScene(const EmbreeScene&) = delete;
   EmbreeScene& operator=(const EmbreeScene&) = delete;
