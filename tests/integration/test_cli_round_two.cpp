@@ -437,7 +437,8 @@ TEST(OneCommandLine, DeprecatedSpellingsWorkWithAWarning) {
   EXPECT_TRUE(has(render, "16x8")) << render.output;
   const CliResult layout = run_in(dir, "trace --scene cornell --res 8x8 --node-layout single --json");
   EXPECT_EQ(layout.exit_code, 0) << layout.output;
-  EXPECT_TRUE(has(layout, "\"node_layout\": \"single-32\"")) << layout.output;
+  EXPECT_TRUE(has(layout, "\"node_format\": \"bvh2-32\"")) << layout.output;
+  EXPECT_TRUE(has(layout, "--node-layout single is deprecated; use --node-format bvh2-32")) << layout.output;
   // Ray files: --rays-in on both, simulate's --rays kept as an alias.
   ASSERT_EQ(run_in(dir, "trace --scene cornell --res 8x8 --ao 0 --rays-out r.rays").exit_code, 0);
   const CliResult rays = run_in(dir, "simulate --scene cornell --rays r.rays --out-dir replay");
