@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <set>
 
 namespace rtsim {
@@ -169,6 +170,30 @@ set."l1_node.size_bytes" = 8192
   const auto with_file = c.jobs[0].simulate_arguments("/o", "/o/hardware.toml");
   EXPECT_EQ(with_file[8], "/o/hardware.toml");
   EXPECT_EQ(std::count(with_file.begin(), with_file.end(), "--set"), 0);
+}
+
+TEST(CampaignExpand, NodeFormatAxisBuildsTheTreeForItAndNamesUnknownFormats) {
+  const Campaign c = parse(R"(
+[sweep]
+scene = "interior"
+builder = "sah"
+node_format = ["bvh2-64", "bvh8-80q"]
+)");
+  ASSERT_EQ(c.jobs.size(), 2u);
+  EXPECT_NE(c.jobs[0].key, c.jobs[1].key);
+  for (const CampaignJob& j : c.jobs) {
+    const std::vector<std::string> args = j.simulate_arguments("/o");
+    const auto at = std::find(args.begin(), args.end(), "--node-format");
+    ASSERT_NE(at, args.end());
+    EXPECT_EQ(*(at + 1), j.node_format);
+    EXPECT_NE(j.label.find(j.node_format), std::string::npos) << j.label;
+    // The memory image follows the format too: it is part of the job's hardware.
+    EXPECT_NE(j.hardware_toml.find("node_format = \"" + j.node_format + "\""), std::string::npos)
+        << j.hardware_toml;
+  }
+  const std::string bad = error_of("[sweep]\nscene = \"interior\"\nbuilder = \"sah\"\nnode_format = \"bvh3\"\n");
+  EXPECT_NE(bad.find("node_format"), std::string::npos) << bad;
+  EXPECT_NE(bad.find("bvh8-80q"), std::string::npos) << bad;  // lists the known formats
 }
 
 TEST(CampaignExpand, BadInputNamesFileAndKey) {
