@@ -257,3 +257,41 @@ TEST(SimLevels, ShuffledFacesGiveIdenticalStatsAtFunctionalAndCycleLevel) {
     }
   }
 }
+
+// Wide nodes at the timed levels: a node takes ceil(children / boxes_per_pass)
+// passes of the box-test pipeline, and more passes cost cycles.
+TEST(SimLevels, WideNodesTakeOnePipelinePassPerBoxesPerPassChildren) {
+  const Scene scene = make_procedural_scene("cornell");
+  BuildParams params;
+  params.builder = "sah";
+  apply_node_format(params, node_format("bvh8-80q"));
+  const Bvh bvh = build_bvh(scene, params);
+  ASSERT_GT(bvh.width(), 4u);
+  for (Fidelity level : {Fidelity::Lt, Fidelity::Cycle}) {
+    std::map<uint32_t, std::map<std::string, double>> runs;
+    for (uint32_t boxes_per_pass : {1u, 8u}) {
+      SimulationRequest r;
+      r.scene = &scene;
+      r.bvh = &bvh;
+      r.camera = &scene.cameras.front();
+      r.settings.width = r.settings.height = 24;
+      r.settings.ao_samples = 2;
+      r.config = preset("mobile");
+      r.config.node_format = "bvh8-80q";
+      r.config.trv_boxes_per_pass = boxes_per_pass;
+      r.fidelity = level;
+      runs[boxes_per_pass] = flat_stats(in_child([&] { return simulate(r).stats.to_json(); }));
+    }
+    auto passes = [&](uint32_t bpp) {
+      double sum = 0;
+      for (uint32_t u = 0; u < preset("mobile").trv_units; ++u)
+        sum += runs[bpp].at("trv.unit" + std::to_string(u) + ".passes");
+      return sum;
+    };
+    SCOPED_TRACE(level == Fidelity::Lt ? "lt" : "cycle");
+    EXPECT_EQ(passes(8), runs[8].at("ops.trv"));        // every node fits one pass
+    EXPECT_EQ(passes(1), runs[1].at("ops.box_tests"));  // one pass per child box
+    EXPECT_EQ(runs[1].at("ops.trv"), runs[8].at("ops.trv"));  // timing never changes the work
+    EXPECT_GT(runs[1].at("time.cycles"), runs[8].at("time.cycles"));
+  }
+}
