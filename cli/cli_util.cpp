@@ -159,9 +159,10 @@ void check_build_flags(const BuildParams& params) {
   }
 }
 
-std::string node_format_flag(const std::string& value, const std::string& fallback) {
+std::string node_format_flag(const std::string& value, const std::string& fallback,
+                             const std::string& flag) {
   if (value.empty()) return fallback;
-  node_format(value, typed_flag("--node-format"));  // throws, listing the formats
+  node_format(value, typed_flag(flag));  // throws, listing the formats
   return value;
 }
 

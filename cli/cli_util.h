@@ -116,6 +116,7 @@ void load_workload(Workload& out, const std::string& scene, const std::string& c
 
 // --node-format NAME: checks the name (a message listing the formats, naming the
 // flag) and returns it; empty value: `fallback` (the hardware's memory.node_format).
-std::string node_format_flag(const std::string& value, const std::string& fallback);
+std::string node_format_flag(const std::string& value, const std::string& fallback,
+                             const std::string& flag = "--node-format");
 
 }  // namespace rtsim::cli

@@ -150,7 +150,7 @@ void add_table1_command(CLI::App& root) {
     if (cmd->count("--build-seed") == 0) o->table.build.seed = o->table.seed;
     o->table.cycle_level = !o->no_cycle;
     o->table.rtsim_binary = self_executable();
-    for (const std::string& f : o->node_formats) node_format_flag(f, "");
+    for (const std::string& f : o->node_formats) node_format_flag(f, "", "--node-formats");
     if (o->node_formats.empty()) throw InputError("--node-formats", "needs at least one format");
     OutputFolder out_dir;
     out_dir.prepare(o->table.out_dir, "--out-dir");

@@ -588,3 +588,26 @@ TEST(OneCommandLine, EveryBuilderIsListed) {
 }
 
 }  // namespace
+
+// table1 --node-formats: one Table 1 per format, side by side, with the finding.
+TEST(NodeFormats, Table1ComparesFormatsAndStatesTheFinding) {
+  const fs::path dir = fresh_folder("table1-formats");
+  const CliResult r = run_in(dir, "table1 --scene cornell --res 16x16 --no-cycle --builders sah sbvh aobvh "
+                                  "--node-formats bvh2-64 bvh8-80q --out-dir t");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* f : {"t/bvh2-64/table1.json", "t/bvh8-80q/table1.json", "t/formats.md", "t/formats.csv"})
+    EXPECT_TRUE(fs::exists(dir / f)) << f;
+  const std::string md = rtsim::read_input_file(dir / "t" / "formats.md", 1 << 20);
+  EXPECT_NE(md.find("AO-BVH against SBVH"), std::string::npos) << md;
+  EXPECT_NE(md.find("in bvh8-80q"), std::string::npos) << md;
+  const auto wide = nlohmann::json::parse(rtsim::read_input_file(dir / "t" / "bvh8-80q" / "table1.json", 1 << 20));
+  EXPECT_EQ(wide["node_format"], "bvh8-80q");
+  EXPECT_NE(wide["counting_rule"].get<std::string>().find("up to 8 child boxes"), std::string::npos);
+  // A wide node visit tests more boxes than a binary one.
+  for (const auto& row : wide["rows"])
+    EXPECT_GT(row["combined"]["box_tests_per_ray"].get<double>(), 2 * row["combined"]["trv_ops_per_ray"].get<double>());
+  const CliResult bad = run_in(dir, "table1 --scene cornell --no-cycle --node-formats bvh2-64 bvh5 --out-dir u");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_TRUE(has(bad, "--node-formats")) << bad.output;
+  EXPECT_TRUE(has(bad, "bvh8-80q")) << bad.output;
+}
