@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <utility>
 
 namespace rtsim {
 
@@ -14,7 +15,9 @@ namespace {
 // Area of the part of triangle (a, b, c) inside the box (Sutherland-Hodgman).
 double clipped_area(const vec3& a, const vec3& b, const vec3& c, const Aabb& box) {
   // A triangle clipped by 6 planes has at most 9 vertices.
-  dvec3 poly[16], next[16];
+  dvec3 buffer_a[16], buffer_b[16];
+  dvec3* poly = buffer_a;
+  dvec3* next = buffer_b;
   int count = 3;
   poly[0] = dvec3(a), poly[1] = dvec3(b), poly[2] = dvec3(c);
   for (int plane = 0; plane < 6 && count > 0; ++plane) {
@@ -22,6 +25,10 @@ double clipped_area(const vec3& a, const vec3& b, const vec3& c, const Aabb& box
     const bool keep_above = plane < 3;  // lo planes keep x >= lo; hi planes keep x <= hi
     const double bound = keep_above ? double(box.lo[axis]) : double(box.hi[axis]);
     auto inside = [&](const dvec3& p) { return keep_above ? p[axis] >= bound : p[axis] <= bound; };
+    // A plane every vertex is inside of leaves the polygon as it is.
+    bool all_inside = true;
+    for (int i = 0; i < count && all_inside; ++i) all_inside = inside(poly[i]);
+    if (all_inside) continue;
     int out = 0;
     for (int i = 0; i < count; ++i) {
       const dvec3& p = poly[i];
@@ -36,7 +43,7 @@ double clipped_area(const vec3& a, const vec3& b, const vec3& c, const Aabb& box
       }
     }
     count = out;
-    for (int i = 0; i < count; ++i) poly[i] = next[i];
+    std::swap(poly, next);
   }
   if (count < 3) return 0.0;
   dvec3 sum(0.0);
@@ -122,6 +129,18 @@ double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2)
     total_area += 0.5 * glm::length(glm::cross(dvec3(scene.vertex(uint32_t(t), 1) - scene.vertex(uint32_t(t), 0)),
                                                dvec3(scene.vertex(uint32_t(t), 2) - scene.vertex(uint32_t(t), 0))));
   if (!(total_area > 0)) return 0;
+  // Each triangle's box and its area as clipped_area computes it for a triangle
+  // the box does not cut (in double from the double vertices, so bit for bit the
+  // same): most triangles met are wholly inside or outside a node's box, and only
+  // the ones its planes cut need clipping.
+  std::vector<Aabb> tri_box(n);
+  std::vector<double> tri_area(n);
+  tbb::parallel_for(size_t(0), n, [&](size_t t) {
+    const vec3 a = scene.vertex(uint32_t(t), 0), b = scene.vertex(uint32_t(t), 1),
+               c = scene.vertex(uint32_t(t), 2);
+    tri_box[t] = Aabb::of_triangle(a, b, c);
+    tri_area[t] = 0.5 * glm::length(glm::cross(dvec3(b) - dvec3(a), dvec3(c) - dvec3(a)));
+  });
 
   struct Scratch {
     std::vector<uint32_t> stamp;
@@ -155,7 +174,13 @@ double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2)
         for (uint32_t p = first[t]; p < first[t + 1] && !below; ++p)
           below = positions[p] >= rb && positions[p] < re;
         if (below) continue;
-        area += clipped_area(scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2), box);
+        const Aabb& tb = tri_box[t];
+        if (!overlaps(tb, box)) continue;  // every vertex outside one plane: area 0
+        if (tb.lo.x >= box.lo.x && tb.lo.y >= box.lo.y && tb.lo.z >= box.lo.z &&
+            tb.hi.x <= box.hi.x && tb.hi.y <= box.hi.y && tb.hi.z <= box.hi.z)
+          area += tri_area[t];  // wholly inside: no plane clips it
+        else
+          area += clipped_area(scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2), box);
       }
     }
     const BvhNode& self = bvh.nodes[node];
