@@ -1,8 +1,9 @@
 // Build speed: our binned sah vs Embree's medium build (rtcBuildBVH) on the default
-// scene and, when fetched (RTSIM_CACHE/<name>/scene.toml), on dragon-small and dragon; and the
-// AO-BVH total (AO pass with K = 16 + build) vs sah. Run with
+// scene and, when fetched (RTSIM_CACHE/<name>/scene.toml), on dragon-small, dragon and
+// black_forest; and the AO-BVH total (AO pass with K = 16 + build) vs sah. Run with
 //   bench_build --benchmark_counters_tabular=true
 // Threads: RTSIM_BENCH_THREADS (default 2, this machine's cores).
+// Scenes: RTSIM_BENCH_SCENES, a comma-separated list (default: the above).
 #include <rtsim/builder/build.h>
 #include <rtsim/workloads/scene_registry.h>
 
@@ -12,6 +13,8 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <sstream>
+#include <vector>
 
 namespace {
 
@@ -66,16 +69,26 @@ void register_scene(const std::string& scene) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  register_scene(rtsim::default_scene_name());
-  const char* cache = std::getenv("RTSIM_CACHE");
-  // dragon-small (48k) and dragon (871k) are the same object at two sizes: how build
-  // time grows with N (n log n expected).
-  for (const char* name : {"dragon-small", "dragon"}) {
-    const std::filesystem::path dir = std::filesystem::path(cache ? cache : "/work/cache") / name;
-    if (std::filesystem::exists(dir / "scene.toml"))
+  // dragon-small (48k) and dragon (871k) are the same object at two sizes, and
+  // black_forest (1.09M) the largest fetched scene: how build time grows with N
+  // (n log n expected).
+  std::vector<std::string> names;
+  if (const char* list = std::getenv("RTSIM_BENCH_SCENES")) {
+    std::stringstream in(list);
+    for (std::string name; std::getline(in, name, ',');)
+      if (!name.empty()) names.push_back(name);
+  } else {
+    names = {rtsim::default_scene_name(), "dragon-small", "dragon", "black_forest"};
+  }
+  for (const std::string& name : names) {
+    // A built-in scene always loads; a real one only when fetched.
+    const std::filesystem::path dir = rtsim::scene_cache_dir() / name;
+    const bool builtin = name == "interior" || name == "cornell" || name == "foliage";
+    if (builtin || std::filesystem::exists(dir / "scene.toml"))
       register_scene(name);
     else
-      std::fprintf(stderr, "bench_build: %s not fetched, skipping %s\n", (dir / "scene.toml").c_str(), name);
+      std::fprintf(stderr, "bench_build: %s not fetched, skipping %s\n", (dir / "scene.toml").c_str(),
+                   name.c_str());
   }
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();

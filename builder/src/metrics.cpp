@@ -6,38 +6,61 @@
 
 #include <chrono>
 #include <cmath>
+#include <utility>
 
 namespace rtsim {
 
 namespace {
 
-// Area of the part of triangle (a, b, c) inside the box (Sutherland-Hodgman).
+// One Sutherland-Hodgman pass: keeps the part of the polygon with p[Axis] >= bound
+// (Above) or <= bound. Returns the new vertex count; a plane every vertex is
+// inside of leaves the polygon as it is (count unchanged, no copy).
+template <int Axis, bool Above>
+int clip_pass(const dvec3* poly, int count, double bound, dvec3* next, bool* unchanged) {
+  auto inside = [bound](const dvec3& p) { return Above ? p[Axis] >= bound : p[Axis] <= bound; };
+  bool all_inside = true;
+  for (int i = 0; i < count; ++i) all_inside = all_inside && inside(poly[i]);
+  *unchanged = all_inside;
+  if (all_inside) return count;
+  int out = 0;
+  bool pin = inside(poly[0]);
+  for (int i = 0; i < count; ++i) {
+    const dvec3& p = poly[i];
+    const dvec3& q = poly[i + 1 == count ? 0 : i + 1];
+    const bool qin = inside(q);
+    if (pin) next[out++] = p;
+    if (pin != qin) {
+      const double t = (bound - p[Axis]) / (q[Axis] - p[Axis]);
+      dvec3 x = p + t * (q - p);
+      x[Axis] = bound;
+      next[out++] = x;
+    }
+    pin = qin;
+  }
+  return out;
+}
+
+// Area of the part of triangle (a, b, c) inside the box (Sutherland-Hodgman, the
+// lo planes x, y, z, then the hi planes).
 double clipped_area(const vec3& a, const vec3& b, const vec3& c, const Aabb& box) {
   // A triangle clipped by 6 planes has at most 9 vertices.
-  dvec3 poly[16], next[16];
+  dvec3 buffer_a[16], buffer_b[16];
+  dvec3* poly = buffer_a;
+  dvec3* next = buffer_b;
   int count = 3;
   poly[0] = dvec3(a), poly[1] = dvec3(b), poly[2] = dvec3(c);
-  for (int plane = 0; plane < 6 && count > 0; ++plane) {
-    const int axis = plane % 3;
-    const bool keep_above = plane < 3;  // lo planes keep x >= lo; hi planes keep x <= hi
-    const double bound = keep_above ? double(box.lo[axis]) : double(box.hi[axis]);
-    auto inside = [&](const dvec3& p) { return keep_above ? p[axis] >= bound : p[axis] <= bound; };
-    int out = 0;
-    for (int i = 0; i < count; ++i) {
-      const dvec3& p = poly[i];
-      const dvec3& q = poly[(i + 1) % count];
-      const bool pin = inside(p), qin = inside(q);
-      if (pin) next[out++] = p;
-      if (pin != qin) {
-        const double t = (bound - p[axis]) / (q[axis] - p[axis]);
-        dvec3 x = p + t * (q - p);
-        x[axis] = bound;
-        next[out++] = x;
-      }
-    }
-    count = out;
-    for (int i = 0; i < count; ++i) poly[i] = next[i];
-  }
+  bool unchanged = false;
+  auto pass = [&](auto clip, double bound) {
+    if (count == 0) return;
+    count = clip(poly, count, bound, next, &unchanged);
+    if (!unchanged) std::swap(poly, next);
+  };
+  pass(clip_pass<0, true>, double(box.lo.x));
+  pass(clip_pass<1, true>, double(box.lo.y));
+  pass(clip_pass<2, true>, double(box.lo.z));
+  pass(clip_pass<0, false>, double(box.hi.x));
+  pass(clip_pass<1, false>, double(box.hi.y));
+  pass(clip_pass<2, false>, double(box.hi.z));
   if (count < 3) return 0.0;
   dvec3 sum(0.0);
   for (int i = 1; i + 1 < count; ++i) sum += glm::cross(poly[i] - poly[0], poly[i + 1] - poly[0]);
@@ -126,12 +149,76 @@ double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2)
     total_area += 0.5 * glm::length(glm::cross(dvec3(scene.vertex(uint32_t(t), 1) - scene.vertex(uint32_t(t), 0)),
                                                dvec3(scene.vertex(uint32_t(t), 2) - scene.vertex(uint32_t(t), 0))));
   if (!(total_area > 0)) return 0;
+  // Each triangle's box and its area as clipped_area computes it for a triangle
+  // the box does not cut (in double from the double vertices, so bit for bit the
+  // same): most triangles met are wholly inside or outside a node's box, and only
+  // the ones its planes cut need clipping.
+  std::vector<Aabb> tri_box(n);
+  std::vector<double> tri_area(n);
+  tbb::parallel_for(size_t(0), n, [&](size_t t) {
+    const vec3 a = scene.vertex(uint32_t(t), 0), b = scene.vertex(uint32_t(t), 1),
+               c = scene.vertex(uint32_t(t), 2);
+    tri_box[t] = Aabb::of_triangle(a, b, c);
+    tri_area[t] = 0.5 * glm::length(glm::cross(dvec3(b) - dvec3(a), dvec3(c) - dvec3(a)));
+  });
+
+  // A subtree whose triangles all lie inside its box, in a tree that references
+  // every triangle once, adds all of its area to a node whose box holds its box
+  // (and which it is not above): no triangle of it needs visiting. Only the
+  // subtrees a node's box cuts are descended.
+  bool single_refs = bvh.prim_refs.size() == n;
+  for (size_t t = 0; t < n && single_refs; ++t) single_refs = first[t + 1] - first[t] == 1;
+  auto contains = [](const Aabb& outer, const Aabb& inner) {
+    return inner.lo.x >= outer.lo.x && inner.lo.y >= outer.lo.y && inner.lo.z >= outer.lo.z &&
+           inner.hi.x <= outer.hi.x && inner.hi.y <= outer.hi.y && inner.hi.z <= outer.hi.z;
+  };
+  // In such a tree the triangles are read in reference order, where a leaf's are
+  // adjacent (and near its neighbours'), not through the index.
+  struct RefTriangle {
+    vec3 v[3];
+    Aabb box;
+    double area;
+  };
+  std::vector<RefTriangle> ref_triangles(single_refs ? n : 0);
+  if (single_refs)
+    tbb::parallel_for(size_t(0), n, [&](size_t k) {
+      const uint32_t t = bvh.prim_refs[k];
+      ref_triangles[k] = RefTriangle{{scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2)},
+                                     tri_box[t], tri_area[t]};
+    });
+  std::vector<double> subtree_area(single_refs ? count : 0);
+  std::vector<uint8_t> holds_its_triangles(single_refs ? count : 0, 0);
+  if (single_refs) {
+    for (size_t i = count; i-- > 0;) {
+      const BvhNode& node = bvh.nodes[i];
+      if (node.is_leaf()) {
+        double sum = 0;
+        bool inside = true;
+        for (uint32_t k = node.index; k < node.index + node.count; ++k) {
+          sum += tri_area[bvh.prim_refs[k]];
+          inside = inside && contains(node.bounds, tri_box[bvh.prim_refs[k]]);
+        }
+        subtree_area[i] = sum;
+        holds_its_triangles[i] = inside;
+      } else {
+        double sum = 0;
+        bool inside = true;
+        for (uint32_t c = node.index; c < node.index + node.children; ++c) {
+          sum += subtree_area[c];
+          inside = inside && holds_its_triangles[c] && contains(node.bounds, bvh.nodes[c].bounds);
+        }
+        subtree_area[i] = sum;
+        holds_its_triangles[i] = inside;
+      }
+    }
+  }
 
   struct Scratch {
     std::vector<uint32_t> stamp;
     std::vector<uint32_t> stack;
   };
-  tbb::enumerable_thread_specific<Scratch> scratch([n] { return Scratch{std::vector<uint32_t>(n, ~0u), {}}; });
+  tbb::enumerable_thread_specific<Scratch> scratch(
+      [n, single_refs] { return Scratch{std::vector<uint32_t>(single_refs ? 0 : n, ~0u), {}}; });
   std::vector<double> contribution(count, 0.0);
   tbb::parallel_for(size_t(1), count, [&](size_t node) {
     Scratch& s = scratch.local();
@@ -146,8 +233,25 @@ double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2)
       if (m == node) continue;  // the node's own subtree
       const BvhNode& other = bvh.nodes[m];
       if (!overlaps(other.bounds, box)) continue;
+      if (single_refs && holds_its_triangles[m] && contains(box, other.bounds) &&
+          (ref_end[m] <= rb || ref_begin[m] >= re)) {
+        area += subtree_area[m];
+        continue;
+      }
       if (!other.is_leaf()) {
         for (uint32_t c = other.index; c < other.index + other.children; ++c) s.stack.push_back(c);
+        continue;
+      }
+      if (single_refs) {
+        // No triangle is met twice and none below the node's range: no stamps.
+        for (uint32_t k = other.index; k < other.index + other.count; ++k) {
+          const RefTriangle& rt = ref_triangles[k];
+          if (!overlaps(rt.box, box)) continue;
+          if (contains(box, rt.box))
+            area += rt.area;
+          else
+            area += clipped_area(rt.v[0], rt.v[1], rt.v[2], box);
+        }
         continue;
       }
       for (uint32_t k = other.index; k < other.index + other.count; ++k) {
@@ -158,7 +262,13 @@ double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2)
         for (uint32_t p = first[t]; p < first[t + 1] && !below; ++p)
           below = positions[p] >= rb && positions[p] < re;
         if (below) continue;
-        area += clipped_area(scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2), box);
+        const Aabb& tb = tri_box[t];
+        if (!overlaps(tb, box)) continue;  // every vertex outside one plane: area 0
+        if (tb.lo.x >= box.lo.x && tb.lo.y >= box.lo.y && tb.lo.z >= box.lo.z &&
+            tb.hi.x <= box.hi.x && tb.hi.y <= box.hi.y && tb.hi.z <= box.hi.z)
+          area += tri_area[t];  // wholly inside: no plane clips it
+        else
+          area += clipped_area(scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2), box);
       }
     }
     const BvhNode& self = bvh.nodes[node];

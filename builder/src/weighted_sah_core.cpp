@@ -173,6 +173,15 @@ struct SpatialBinning {
   float plane(uint32_t after_bin) const { return origin + extent * float(after_bin + 1) / float(bins); }
 };
 
+// The sweep's order along an axis: slots of the node's range sorted by RefLess,
+// with the centroid precomputed as the key (the geometric order only breaks ties).
+struct SweepKey {
+  float key;
+  uint32_t slot;
+};
+
+constexpr uint32_t kSmallSweep = 64;
+
 struct TempNode {
   Aabb box;
   uint32_t left = ~0u, right = ~0u;  // ~0u: leaf
@@ -192,10 +201,11 @@ class Builder {
                    float weight_right, uint32_t visible_right, float node_area,
                    const NodeInfo& info) const;
   Split find_object_split(uint32_t begin, uint32_t count, const NodeInfo& info) const;
-  Split find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info) const;
+  Split find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info,
+                         SweepKey* best_order) const;
   Split find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info) const;
   uint32_t partition_object(const Split& split, uint32_t begin, uint32_t count,
-                            const NodeInfo& info);
+                            const NodeInfo& info, const SweepKey* sweep_order);
   bool partition_spatial(const Split& split, uint32_t begin, uint32_t count, uint32_t capacity,
                          const NodeInfo& info, uint32_t* left_count, uint32_t* right_count,
                          uint32_t* left_capacity);
@@ -324,27 +334,36 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
   return best;
 }
 
-// The sweep's order along an axis: slots of the node's range sorted by RefLess.
-struct SweepKey {
-  uint32_t slot;
-};
-
 void sweep_order(const Scene& scene, const Ref* refs, uint32_t count, int axis, SweepKey* keys) {
-  for (uint32_t i = 0; i < count; ++i) keys[i] = SweepKey{i};
-  const RefLess less{&scene, axis};
-  std::sort(keys, keys + count,
-            [&](const SweepKey& a, const SweepKey& b) { return less(refs[a.slot], refs[b.slot]); });
+  for (uint32_t i = 0; i < count; ++i) keys[i] = SweepKey{refs[i].centroid2(axis), i};
+  auto less = [&](const SweepKey& a, const SweepKey& b) {
+    if (a.key != b.key) return a.key < b.key;
+    return ref_geometric_less(scene, refs[a.slot], refs[b.slot]);
+  };
+  if (count > kSmallSweep) {
+    std::sort(keys, keys + count, less);
+    return;
+  }
+  // Insertion sort: the nodes swept here are small.
+  for (uint32_t i = 1; i < count; ++i) {
+    const SweepKey k = keys[i];
+    uint32_t j = i;
+    for (; j > 0 && less(k, keys[j - 1]); --j) keys[j] = keys[j - 1];
+    keys[j] = k;
+  }
 }
 
-Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info) const {
+// best_order (count entries) receives the order along the best split's axis, which
+// partition_object then applies without sorting again.
+Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info,
+                                SweepKey* best_order) const {
   Split best;
   if (count < 2) return best;
   const float node_area = info.box.area();
   // Small nodes (the vast majority) sweep on the stack; large ones on the heap.
-  constexpr uint32_t kSmall = 64;
-  SweepKey small_keys[kSmall];
-  float small_area[kSmall], small_weight[kSmall];
-  uint32_t small_visible[kSmall];
+  SweepKey small_keys[kSmallSweep];
+  float small_area[kSmallSweep], small_weight[kSmallSweep];
+  uint32_t small_visible[kSmallSweep];
   std::vector<SweepKey> big_keys;
   std::vector<float> big_area, big_weight;
   std::vector<uint32_t> big_visible;
@@ -352,7 +371,7 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
   float* right_area = small_area;
   float* right_weight = small_weight;
   uint32_t* right_visible = small_visible;
-  if (count > kSmall) {
+  if (count > kSmallSweep) {
     big_keys.resize(count);
     big_area.resize(count);
     big_weight.resize(count);
@@ -374,6 +393,7 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
       right_visible[i] = acc.visible;
     }
     Bin left;
+    const int best_axis_before = best.axis;
     for (uint32_t i = 0; i + 1 < count; ++i) {
       left.add(refs[keys[i].slot]);
       const float cost = split_cost(left.box.area(), left.weight, left.visible, right_area[i + 1],
@@ -388,12 +408,12 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
         best.left_box = left.box;
       }
     }
+    if (best.axis == a && best_axis_before != a) std::copy(keys, keys + count, best_order);
   }
   if (best.valid() && config_.spatial_splits) {
     // The right box is needed by the SBVH overlap test only.
-    sweep_order(scene_, refs, count, best.axis, keys);
     Aabb right;
-    for (uint32_t i = best.bin + 1; i < count; ++i) right.extend(refs[keys[i].slot].box());
+    for (uint32_t i = best.bin + 1; i < count; ++i) right.extend(refs[best_order[i].slot].box());
     best.right_box = right;
   }
   return best;
@@ -511,20 +531,15 @@ Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo
 }
 
 uint32_t Builder::partition_object(const Split& split, uint32_t begin, uint32_t count,
-                                   const NodeInfo& info) {
+                                   const NodeInfo& info, const SweepKey* sweep_order) {
   Ref* first = refs_.data() + begin;
   Ref* last = first + count;
   Ref* middle;
   if (split.kind == Split::Kind::Sweep) {
-    constexpr uint32_t kSmall = 64;
-    SweepKey small_keys[kSmall];
-    Ref small_refs[kSmall];
-    std::vector<SweepKey> big_keys(count > kSmall ? count : 0);
-    std::vector<Ref> big_refs(count > kSmall ? count : 0);
-    SweepKey* keys = count > kSmall ? big_keys.data() : small_keys;
-    Ref* ordered = count > kSmall ? big_refs.data() : small_refs;
-    sweep_order(scene_, first, count, split.axis, keys);
-    for (uint32_t i = 0; i < count; ++i) ordered[i] = first[keys[i].slot];
+    Ref small_refs[kSmallSweep];
+    std::vector<Ref> big_refs(count > kSmallSweep ? count : 0);
+    Ref* ordered = count > kSmallSweep ? big_refs.data() : small_refs;
+    for (uint32_t i = 0; i < count; ++i) ordered[i] = first[sweep_order[i].slot];
     std::copy(ordered, ordered + count, first);
     middle = first + split.bin + 1;
   } else {
@@ -635,9 +650,19 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
 
   // Small nodes take the exact sweep even in binned mode: it is cheaper than
   // filling and sweeping 3 x bins bins there, and never worse.
-  Split best = (config_.bins == 0 || count <= kExactSweepBelow)
-                   ? find_sweep_split(begin, count, info)
-                   : find_object_split(begin, count, info);
+  SweepKey small_order[kSmallSweep];
+  std::vector<SweepKey> big_order;
+  SweepKey* order = small_order;
+  Split best;
+  if (config_.bins == 0 || count <= kExactSweepBelow) {
+    if (count > kSmallSweep) {
+      big_order.resize(count);
+      order = big_order.data();
+    }
+    best = find_sweep_split(begin, count, info, order);
+  } else {
+    best = find_object_split(begin, count, info);
+  }
   if (config_.spatial_splits && best.valid() && capacity > count) {
     const Aabb overlap = Aabb::intersection(best.left_box, best.right_box);
     if (!overlap.empty() && overlap.area() >= config_.sbvh_alpha * root_area_) {
@@ -660,7 +685,7 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
                                       &right_count, &left_capacity);
       if (partitioned) spatial_splits_.fetch_add(1);
     } else {
-      left_count = partition_object(best, begin, count, info);
+      left_count = partition_object(best, begin, count, info, order);
       right_count = count - left_count;
       partitioned = left_count > 0 && right_count > 0;
     }
