@@ -30,54 +30,58 @@ CacheTags::CacheTags(const CacheGeometry& geometry, const std::string& name) : g
   validate_cache_geometry(geometry, name);
   sets_ = uint32_t(geometry.size_bytes / (uint64_t(geometry.line_bytes) * geometry.ways));
   line_shift_ = log2_exact(geometry.line_bytes);
-  ways_.assign(size_t(sets_) * geometry.ways, Way{});
+  const size_t ways = size_t(sets_) * geometry.ways;
+  tags_.assign(ways, kInvalid);
+  last_use_.assign(ways, 0);
+  ready_ps_.assign(ways, 0);
+  dirty_.assign(ways, 0);
 }
 
-CacheTags::Way* CacheTags::find(uint64_t line) {
-  Way* set = &ways_[size_t(line & (sets_ - 1)) * geometry_.ways];
+size_t CacheTags::find(uint64_t line) const {
+  const size_t first = size_t(line & (sets_ - 1)) * geometry_.ways;
+  const uint64_t* set = &tags_[first];
   for (uint32_t w = 0; w < geometry_.ways; ++w)
-    if (set[w].last_use != 0 && set[w].tag == line) return &set[w];
-  return nullptr;
+    if (set[w] == line) return first + w;
+  return npos;
 }
 
 bool CacheTags::lookup(uint64_t address, bool make_dirty, uint64_t* ready_ps) {
-  Way* way = find(address >> line_shift_);
-  if (!way) return false;
-  way->last_use = ++clock_;
-  way->dirty = way->dirty || make_dirty;
-  if (ready_ps) *ready_ps = way->ready_ps;
+  const size_t way = find(address >> line_shift_);
+  if (way == npos) return false;
+  last_use_[way] = ++clock_;
+  dirty_[way] = dirty_[way] || make_dirty;
+  if (ready_ps) *ready_ps = ready_ps_[way];
   return true;
 }
 
 void CacheTags::set_ready(uint64_t address, uint64_t ready_ps) {
-  if (Way* way = find(address >> line_shift_)) way->ready_ps = ready_ps;
+  const size_t way = find(address >> line_shift_);
+  if (way != npos) ready_ps_[way] = ready_ps;
 }
 
-bool CacheTags::contains(uint64_t address) const {
-  return const_cast<CacheTags*>(this)->find(address >> line_shift_) != nullptr;
-}
+bool CacheTags::contains(uint64_t address) const { return find(address >> line_shift_) != npos; }
 
 Eviction CacheTags::insert(uint64_t address, bool dirty) {
   const uint64_t line = address >> line_shift_;
-  Way* set = &ways_[size_t(line & (sets_ - 1)) * geometry_.ways];
-  Way* victim = &set[0];
-  for (uint32_t w = 0; w < geometry_.ways; ++w) {
-    if (set[w].last_use != 0 && set[w].tag == line) {  // already present: refresh only
-      set[w].last_use = ++clock_;
-      set[w].dirty = set[w].dirty || dirty;
+  const size_t first = size_t(line & (sets_ - 1)) * geometry_.ways;
+  size_t victim = first;
+  for (size_t w = first; w < first + geometry_.ways; ++w) {
+    if (tags_[w] == line) {  // already present: refresh only
+      last_use_[w] = ++clock_;
+      dirty_[w] = dirty_[w] || dirty;
       return {};
     }
-    // Invalid ways (last_use 0) are the oldest of all, so they are taken first.
-    if (set[w].last_use < victim->last_use) victim = &set[w];
+    // Empty ways (last use 0) are the oldest of all, so they are taken first.
+    if (last_use_[w] < last_use_[victim]) victim = w;
   }
   Eviction out;
-  out.valid = victim->last_use != 0;
-  out.dirty = out.valid && victim->dirty;
-  out.line = victim->tag << line_shift_;
-  victim->tag = line;
-  victim->last_use = ++clock_;
-  victim->ready_ps = 0;
-  victim->dirty = dirty;
+  out.valid = last_use_[victim] != 0;
+  out.dirty = out.valid && dirty_[victim];
+  out.line = out.valid ? tags_[victim] << line_shift_ : 0;
+  tags_[victim] = line;
+  last_use_[victim] = ++clock_;
+  ready_ps_[victim] = 0;
+  dirty_[victim] = dirty;
   return out;
 }
 
@@ -88,7 +92,10 @@ bool CacheTags::access(uint64_t address) {
 }
 
 void CacheTags::clear() {
-  std::fill(ways_.begin(), ways_.end(), Way{});
+  std::fill(tags_.begin(), tags_.end(), kInvalid);
+  std::fill(last_use_.begin(), last_use_.end(), 0);
+  std::fill(ready_ps_.begin(), ready_ps_.end(), 0);
+  std::fill(dirty_.begin(), dirty_.end(), 0);
   clock_ = 0;
 }
 

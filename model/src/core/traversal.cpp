@@ -7,6 +7,15 @@
 
 namespace rtsim {
 
+namespace {
+// Asks the host to bring [p, p + bytes) into its caches; a hint only.
+inline void prefetch(const void* p, size_t bytes) {
+  const char* c = static_cast<const char*>(p);
+  for (size_t off = 0; off < bytes; off += 64) __builtin_prefetch(c + off);
+  __builtin_prefetch(c + bytes - 1);
+}
+}  // namespace
+
 const char* ray_type_name(RayType type) {
   switch (type) {
     case RayType::Primary: return "primary";
@@ -49,6 +58,26 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
     const uint32_t t = image.slot_triangle(s);
     triangles_[s] = PackedTriangle{scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2)};
   }
+  if (own_box_records_ || bvh.empty()) return;
+  links_per_record_ = image.format().width;
+  heads_.resize(image.record_count());
+  links_.resize(heads_.size() * links_per_record_);
+  for (uint32_t n = 0; n < bvh.nodes.size(); ++n) {
+    if (!image.has_record(n)) continue;
+    const uint32_t r = image.record_ordinal(n);
+    const BvhNode& node = bvh.nodes[n];
+    const uint32_t children = node.is_leaf() ? 0 : node.children;
+    heads_[r] = RecordHead{image.node_address(n), n, children};
+    const Aabb* boxes = children ? image.record_boxes(n) : nullptr;
+    for (uint32_t k = 0; k < children; ++k) {
+      const uint32_t c = node.index + k;
+      const BvhNode& child = bvh.nodes[c];
+      links_[size_t(r) * links_per_record_ + k] =
+          child.is_leaf() ? ChildLink{boxes[k], c, image.leaf_first(c), child.count}
+                          : ChildLink{boxes[k], c, image.record_ordinal(c), 0};
+    }
+  }
+  root_record_ = image.record_ordinal(0);
 }
 
 RayTraversal::RayTraversal(const TraversalContext& context, uint32_t stack_slot)
@@ -69,6 +98,7 @@ void RayTraversal::reset(const Ray& ray, TraversalMode mode) {
   stack_accesses_.clear();
   leaf_slot_ = leaf_count_ = leaf_cursor_ = last_tests_ = last_box_tests_ = 0;
   current_node_ = 0;
+  current_record_ = context_->root_record();
   tfar_ = ray.tmax;
   const bool usable = is_finite(ray.origin) && is_finite(ray.direction) &&
                       ray.direction != vec3(0.0f) && std::isfinite(ray.tmin) &&
@@ -88,7 +118,10 @@ const std::vector<MemoryAccess>& RayTraversal::step_reads() const {
   reads_.clear();
   const MemoryImage& image = context_->image();
   if (action_ == TraversalAction::FetchNode) {
-    reads_.push_back({image.node_address(current_node_), image.node_bytes(), AccessKind::Node, false});
+    const uint64_t address = context_->own_box_records()
+                                 ? image.node_address(current_node_)
+                                 : context_->record_head(current_record_).address;
+    reads_.push_back({address, image.node_bytes(), AccessKind::Node, false});
   } else if (action_ == TraversalAction::TestTriangles) {
     if (leaf_cursor_ == 0 && image.indexed())
       reads_.push_back({image.prim_refs_address(current_node_), leaf_count_ * 4u,
@@ -116,7 +149,7 @@ uint32_t RayTraversal::step_independent_reads() const {
 uint32_t RayTraversal::step_box_tests() const {
   if (action_ != TraversalAction::FetchNode) return 0;
   if (context_->own_box_records()) return 1;
-  return nodes_[current_node_].children;
+  return context_->record_head(current_record_).children;
 }
 
 uint64_t RayTraversal::spill_address(uint32_t position) const {
@@ -124,7 +157,7 @@ uint64_t RayTraversal::spill_address(uint32_t position) const {
   return stack_area_ + uint64_t(std::min(position, last)) * context_->config().stack_entry_bytes;
 }
 
-void RayTraversal::push(uint32_t node, float tnear) {
+void RayTraversal::push(const StackEntry& entry) {
   const uint32_t limit = context_->config().stack_limit;
   if (stack_.size() >= limit) {
     ++counters_.stack_overflows;
@@ -136,7 +169,7 @@ void RayTraversal::push(uint32_t node, float tnear) {
                                  context_->config().stack_entry_bytes, AccessKind::Stack, true});
     }
   }
-  stack_.push_back({node, tnear});
+  stack_.push_back(entry);
   counters_.max_stack_depth = std::max(counters_.max_stack_depth, uint32_t(stack_.size()));
 }
 
@@ -148,13 +181,24 @@ void RayTraversal::enter_leaf(uint32_t node) {
   action_ = TraversalAction::TestTriangles;
 }
 
-void RayTraversal::enter(uint32_t node) {
-  if (!context_->own_box_records() && nodes_[node].is_leaf()) {
-    // The leaf's range came with its parent's record: straight to IST.
-    enter_leaf(node);
-  } else {
-    current_node_ = node;
+void RayTraversal::enter(const StackEntry& entry) {
+  current_node_ = entry.node;
+  if (context_->own_box_records()) {
     action_ = TraversalAction::FetchNode;
+  } else if (entry.leaf_count > 0) {
+    // The leaf's range came with its parent's record: straight to IST.
+    leaf_slot_ = entry.target;
+    leaf_count_ = entry.leaf_count;
+    leaf_cursor_ = 0;
+    action_ = TraversalAction::TestTriangles;
+    prefetch(&context_->slot_data(leaf_slot_), leaf_count_ * sizeof(PackedTriangle));
+    prefetch(context_->image().slot_addresses() + leaf_slot_, leaf_count_ * sizeof(uint64_t));
+  } else {
+    current_record_ = entry.target;
+    action_ = TraversalAction::FetchNode;
+    // The record's size, not its child count: reading that now would wait for it.
+    prefetch(&context_->record_head(current_record_), sizeof(TraversalContext::RecordHead));
+    prefetch(context_->record_links(current_record_), context_->record_link_bytes());
   }
 }
 
@@ -171,7 +215,7 @@ void RayTraversal::pop_next() {
     }
     // Closest-hit: a subtree entered beyond the closest hit cannot hold a nearer one.
     if (entry.tnear > tfar_) continue;
-    enter(entry.node);
+    enter(entry);
     return;
   }
   action_ = TraversalAction::Done;
@@ -195,33 +239,33 @@ void RayTraversal::process_node() {
 }
 
 void RayTraversal::process_child_boxes_node() {
-  const BvhNode& n = nodes_[current_node_];
-  if (n.is_leaf()) {  // only a root that is a leaf is ever fetched as a node
+  const uint32_t children = context_->record_head(current_record_).children;
+  if (children == 0) {  // only a root that is a leaf is ever fetched as a node
     enter_leaf(current_node_);
     return;
   }
   // The child boxes as the record decodes them (quantized formats: conservative).
-  const Aabb* boxes = context_->image().record_boxes(current_node_);
+  const TraversalContext::ChildLink* links = context_->record_links(current_record_);
   StackEntry hits[kMaxBvhWidth];
   uint32_t hit_count = 0;
-  counters_.box_tests += n.children;
-  last_box_tests_ = n.children;
-  for (uint32_t k = 0; k < n.children; ++k) {
+  counters_.box_tests += children;
+  last_box_tests_ = children;
+  for (uint32_t k = 0; k < children; ++k) {
     float t = 0.0f;
-    if (!intersect_box(box_ray_, boxes[k], ray_.tmin, tfar_, &t)) continue;
+    if (!intersect_box(box_ray_, links[k].box, ray_.tmin, tfar_, &t)) continue;
     // Insertion by entry distance; equal distances keep child order, so the
     // order is fixed.
     uint32_t at = hit_count++;
     for (; at > 0 && hits[at - 1].tnear > t; --at) hits[at] = hits[at - 1];
-    hits[at] = StackEntry{n.index + k, t};
+    hits[at] = StackEntry{links[k].node, links[k].target, links[k].leaf_count, t};
   }
   if (hit_count == 0) {
     pop_next();
     return;
   }
   // Nearest child next; the others pushed farthest first, so they pop nearest first.
-  for (uint32_t h = hit_count; h-- > 1;) push(hits[h].node, hits[h].tnear);
-  enter(hits[0].node);
+  for (uint32_t h = hit_count; h-- > 1;) push(hits[h]);
+  enter(hits[0]);
 }
 
 void RayTraversal::process_own_box_node() {
@@ -245,7 +289,7 @@ void RayTraversal::process_own_box_node() {
   const bool reversed = ray_.direction[axis] < 0.0f;
   const uint32_t first = reversed ? n.index + 1 : n.index;
   const uint32_t second = reversed ? n.index : n.index + 1;
-  push(second, t_entry);
+  push(StackEntry{second, 0, 0, t_entry});
   current_node_ = first;
   action_ = TraversalAction::FetchNode;
 }

@@ -86,6 +86,9 @@ class MemoryImage {
   // The node's own record; only for nodes the format fetches (has_record).
   bool has_record(uint32_t node) const { return record_address_[node] != kNoRecord; }
   uint64_t node_address(uint32_t node) const { return record_address_[node]; }
+  // Its place among the records, which are numbered in address order.
+  uint32_t record_ordinal(uint32_t node) const { return record_ordinal_[node]; }
+  uint64_t record_count() const { return footprint_.node_records; }
   // The boxes the node's record decodes to: its children's (child k is node
   // bvh.nodes[node].index + k), or for OwnBoxFp32 its own box. Only for has_record.
   const Aabb* record_boxes(uint32_t node) const {
@@ -98,6 +101,7 @@ class MemoryImage {
   uint32_t slot_count() const { return uint32_t(slot_triangle_.size()); }
   uint32_t slot_triangle(uint32_t slot) const { return slot_triangle_[slot]; }  // scene index
   uint64_t slot_address(uint32_t slot) const { return slot_address_[slot]; }     // its record
+  const uint64_t* slot_addresses() const { return slot_address_.data(); }
   // Indexed storage: the leaf's prim-ref list (leaf size x 4 bytes).
   uint64_t prim_refs_address(uint32_t leaf) const { return prim_refs_base_ + uint64_t(leaf_first_[leaf]) * 4; }
 

@@ -49,18 +49,19 @@ class CacheTags {
   void clear();
 
  private:
-  struct Way {
-    uint64_t tag = 0;
-    uint64_t last_use = 0;  // 0 = invalid
-    uint64_t ready_ps = 0;  // when the data arrives (timed models)
-    bool dirty = false;
-  };
-  Way* find(uint64_t line);
+  // The ways' fields in separate arrays, so that a lookup scans a set's tags in
+  // one or two host cache lines (a miss scans them twice: lookup, then insert).
+  static constexpr uint64_t kInvalid = ~uint64_t(0);  // no line number is all ones
+  size_t find(uint64_t line) const;  // way index, or npos
+  static constexpr size_t npos = ~size_t(0);
   CacheGeometry geometry_;
   uint32_t sets_;
   uint32_t line_shift_;
   uint64_t clock_ = 0;
-  std::vector<Way> ways_;  // sets_ x geometry_.ways
+  std::vector<uint64_t> tags_;      // sets_ x ways; kInvalid = empty way
+  std::vector<uint64_t> last_use_;  // LRU clock; 0 = empty way
+  std::vector<uint64_t> ready_ps_;  // when the data arrives (timed models)
+  std::vector<uint8_t> dirty_;
 };
 
 }  // namespace rtsim

@@ -96,6 +96,24 @@ struct PackedTriangle {
 // BVH and image must outlive it.
 class TraversalContext {
  public:
+  // The host's copy of a record that holds its children's boxes, laid out for the
+  // hot loop: each child's decoded box beside where it leads (its own record, or
+  // its leaf's triangle slots), records in address order. A node step then reads
+  // two contiguous blocks instead of the tree, the image and its box table, and
+  // the ray can prefetch them as soon as it knows its next node: the engines
+  // interleave many rays, so the prefetch has a whole round to land.
+  struct ChildLink {
+    Aabb box;                  // as the record decodes it
+    uint32_t node;             // the child's node index
+    uint32_t target;           // inner child: its record; leaf: its first triangle slot
+    uint32_t leaf_count;       // 0: inner child
+  };
+  struct RecordHead {
+    uint64_t address;          // of the record in the memory image
+    uint32_t node;             // the node it belongs to
+    uint32_t children;         // boxes it holds (0: a root that is a leaf)
+  };
+
   TraversalContext(const Scene& scene, const Bvh& bvh, const MemoryImage& image,
                    const TraversalConfig& config = {});
   const Scene& scene() const { return *scene_; }
@@ -105,6 +123,11 @@ class TraversalContext {
   // Triangle data by memory slot (see MemoryImage): the leaf's triangles in order.
   const PackedTriangle& slot_data(uint32_t slot) const { return triangles_[slot]; }
   bool own_box_records() const { return own_box_records_; }  // bvh2-32
+  // Child-box formats only: record r's head and its children's links.
+  const RecordHead& record_head(uint32_t r) const { return heads_[r]; }
+  const ChildLink* record_links(uint32_t r) const { return &links_[size_t(r) * links_per_record_]; }
+  uint32_t root_record() const { return root_record_; }
+  size_t record_link_bytes() const { return links_per_record_ * sizeof(ChildLink); }
   // Spill area of ray slot `slot`: past the memory image, kStackAreaEntries entries each.
   static constexpr uint32_t kStackAreaEntries = 256;
   uint64_t stack_area(uint32_t slot) const {
@@ -119,6 +142,9 @@ class TraversalContext {
   bool own_box_records_;
   uint64_t stack_base_;
   std::vector<PackedTriangle> triangles_;  // by slot
+  std::vector<RecordHead> heads_;          // by record (child-box formats)
+  std::vector<ChildLink> links_;           // links_per_record_ per record
+  uint32_t links_per_record_ = 0, root_record_ = 0;
 };
 
 enum class TraversalAction : uint8_t { FetchNode, TestTriangles, Done };
@@ -163,12 +189,13 @@ class RayTraversal {
   uint32_t stack_size() const { return uint32_t(stack_.size()); }
 
  private:
+  // A node to visit later, with where it leads (ChildLink; bvh2-32 uses the node only).
   struct StackEntry {
-    uint32_t node;
+    uint32_t node, target, leaf_count;
     float tnear;
   };
-  void push(uint32_t node, float tnear);
-  void enter(uint32_t node);  // sets action for a node to visit next
+  void push(const StackEntry& entry);
+  void enter(const StackEntry& entry);  // sets action for the node to visit next
   void enter_leaf(uint32_t node);
   void pop_next();            // next non-culled stack entry, or Done
   void process_node();
@@ -189,6 +216,7 @@ class RayTraversal {
   float tfar_ = 0.0f;  // current far limit: tmax, then the closest hit
   RayCounters counters_;
   uint32_t current_node_ = 0;
+  uint32_t current_record_ = 0;  // child-box formats: the FetchNode step's record
   uint32_t leaf_slot_ = 0, leaf_count_ = 0, leaf_cursor_ = 0;
   uint32_t last_tests_ = 0, last_box_tests_ = 0;
   std::vector<StackEntry> stack_;
