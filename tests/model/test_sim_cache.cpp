@@ -126,6 +126,15 @@ TEST(SimCache, PortsServeSoManyAccessesPerCycle) {
   EXPECT_EQ(cache.reserve_port(2000), 2000u);
   EXPECT_EQ(cache.reserve_port(2000), 2500u);
   EXPECT_EQ(cache.reserve_port(5000), 5500u);
+  // Far later (the port's slot record wraps around many times): slots taken long
+  // ago do not block the ones that now fall on the same place in the record
+  // (1'016'384'000 is 32768 slots, the record's length here, after 1'000'000'000).
+  for (uint64_t t : {uint64_t(1'000'000'000), uint64_t(1'016'384'000), uint64_t(1'000'000'000'000)}) {
+    EXPECT_EQ(cache.reserve_port(t), t);
+    EXPECT_EQ(cache.reserve_port(t), t + 500);
+    EXPECT_EQ(cache.reserve_port(t + 500), t + 1000);
+    EXPECT_EQ(cache.reserve_port(t - 500), t - 500) << "a late request still finds its free slot";
+  }
 }
 
 TEST(SimHierarchy, StreamingTwiceOverACacheSizedRegionHitsTheL2TheSecondTime) {

@@ -127,26 +127,43 @@ uint64_t CacheModel::reserve_port(uint64_t t_ps) {
   // Port slots of one interval each. Requests come nearly in time order, but one
   // that waited upstream (an MSHR, say) may come after later ones: it takes the
   // first free slot from its own time on, not the slot after the latest taken.
-  uint64_t slot = t_ps / port_interval_ps_;
-  uint64_t start = t_ps;
-  if (taken_slots_.empty() || slot > taken_slots_.back()) {
-    taken_slots_.push_back(slot);
-  } else {
-    auto it = std::lower_bound(taken_slots_.begin(), taken_slots_.end(), slot);
-    while (it != taken_slots_.end() && *it == slot) ++slot, ++it;
-    if (slot * port_interval_ps_ > start) start = slot * port_interval_ps_;
-    taken_slots_.insert(it, slot);
-  }
-  // Slots long past are never asked for again: dropped in batches (erasing from the
-  // front of the vector on every call would move it each time).
+  // The ring remembers every slot within kHorizonPs (and more) of the newest;
+  // no request comes that late.
   constexpr uint64_t kHorizonPs = 8'000'000;
-  if (taken_slots_.size() >= prune_at_) {
-    const uint64_t newest = taken_slots_.back() * port_interval_ps_;
-    const uint64_t oldest = newest > kHorizonPs ? (newest - kHorizonPs) / port_interval_ps_ : 0;
-    taken_slots_.erase(taken_slots_.begin(),
-                       std::lower_bound(taken_slots_.begin(), taken_slots_.end(), oldest));
-    prune_at_ = std::max<size_t>(4096, 2 * taken_slots_.size());
+  if (taken_bits_.empty()) {
+    ring_slots_ = 64;
+    while (ring_slots_ < 2 * (kHorizonPs / port_interval_ps_ + 1)) ring_slots_ *= 2;
+    taken_bits_.assign(ring_slots_ / 64, 0);
   }
+  const auto bit = [&](uint64_t slot) -> uint64_t& { return taken_bits_[(slot % ring_slots_) / 64]; };
+  const auto mask = [](uint64_t slot) { return uint64_t(1) << (slot % 64); };
+  uint64_t slot = t_ps / port_interval_ps_;
+  if (any_taken_ && slot + ring_slots_ <= newest_slot_) {
+    // Older than the ring: free (the ring is far longer than any request waits).
+    return t_ps;
+  }
+  while (any_taken_ && slot <= newest_slot_ && (bit(slot) & mask(slot))) ++slot;
+  if (!any_taken_ || slot > newest_slot_) {
+    // Slots past the newest come into the ring: clear what they overwrite.
+    const uint64_t from = any_taken_ ? newest_slot_ + 1 : slot;
+    if (slot - from >= ring_slots_) {
+      std::fill(taken_bits_.begin(), taken_bits_.end(), 0);
+    } else {
+      for (uint64_t s = from; s <= slot;) {
+        if (s % 64 == 0 && s + 63 <= slot) {
+          bit(s) = 0;  // a whole word at once
+          s += 64;
+        } else {
+          bit(s) &= ~mask(s);
+          ++s;
+        }
+      }
+    }
+    newest_slot_ = slot;
+    any_taken_ = true;
+  }
+  bit(slot) |= mask(slot);
+  const uint64_t start = std::max(t_ps, slot * port_interval_ps_);
   counters_.port_wait_ps += start - t_ps;
   return start;
 }

@@ -97,8 +97,11 @@ class CacheModel {
   CacheConfig config_;
   CacheTags tags_;
   uint64_t hit_ps_, fill_ps_, port_interval_ps_, cycle_ps_;
-  std::vector<uint64_t> taken_slots_;  // port slots (time / interval) taken, sorted
-  size_t prune_at_ = 4096;
+  // Port slots (time / interval) taken, as a ring of bits over the last
+  // ring_slots_ slots up to the newest taken (a slot older than that is free).
+  std::vector<uint64_t> taken_bits_;
+  uint64_t ring_slots_ = 0, newest_slot_ = 0;
+  bool any_taken_ = false;
   Counters counters_;
   TrafficMatrix requested_, filled_;
   struct Mshr {
