@@ -1,5 +1,7 @@
 #include "weighted_sah_core.h"
 
+#include <rtsim/builder/metrics.h>
+
 #include <rtsim/workloads/error.h>
 
 #include <tbb/concurrent_vector.h>
@@ -42,6 +44,10 @@ constexpr uint32_t kChunk = 16384;
 constexpr uint32_t kParallelRecursion = 4096;
 // Nodes with at most this many references are split by an exact sweep.
 constexpr uint32_t kExactSweepBelow = 32;
+// SBVH, the quality builder, sweeps exactly up to larger nodes: 32 bins cost it
+// 3.5% on foliage against the full sweep, and nodes of <= 256 references recover
+// nearly all of that (docs/build-speed.md, SBVH).
+constexpr uint32_t kExactSweepBelowSpatial = 256;
 
 struct Ref {
   vec3 lo;
@@ -195,6 +201,7 @@ class Builder {
   Bvh run(CoreStats* stats);
 
  private:
+  Bvh run_once(bool spatial_at_root, CoreStats* stats);
   uint32_t build(uint32_t begin, uint32_t count, uint32_t capacity, uint32_t depth);
   NodeInfo node_info(uint32_t begin, uint32_t count) const;
   float split_cost(float area_left, float weight_left, uint32_t visible_left, float area_right,
@@ -210,6 +217,12 @@ class Builder {
                          const NodeInfo& info, uint32_t* left_count, uint32_t* right_count,
                          uint32_t* left_capacity);
   uint32_t partition_median(uint32_t begin, uint32_t count, const NodeInfo& info);
+  double need(uint32_t begin, uint32_t count) const;
+  uint32_t left_share(uint32_t spare, uint32_t begin, uint32_t nl, uint32_t right_begin,
+                      uint32_t nr) const;
+  uint32_t spatial_bins() const {
+    return std::min<uint32_t>(config_.bins == 0 ? 32 : config_.bins, kMaxBins);
+  }
   std::pair<Aabb, Aabb> split_reference(const Ref& ref, int axis, float position) const;
   bool depth_allows(uint32_t depth, uint64_t left, uint64_t right) const {
     return depth + 1 + levels_needed(left, config_.max_leaf_size) <= config_.max_depth &&
@@ -221,6 +234,8 @@ class Builder {
   std::vector<Ref> refs_;
   tbb::concurrent_vector<TempNode> nodes_;
   float root_area_ = 0;
+  bool spatial_at_root_ = true;  // false: the root takes the best object split
+  bool root_split_spatial_ = false;
   std::atomic<uint64_t> spatial_splits_{0}, forced_splits_{0}, median_splits_{0};
 };
 
@@ -448,7 +463,7 @@ std::pair<Aabb, Aabb> Builder::split_reference(const Ref& ref, int axis, float p
 }
 
 Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info) const {
-  const uint32_t bins = std::min<uint32_t>(config_.bins == 0 ? 32 : config_.bins, kMaxBins);
+  const uint32_t bins = spatial_bins();
   const float node_area = info.box.area();
   Split best;
   struct SpatialBin {
@@ -564,10 +579,30 @@ uint32_t Builder::partition_median(uint32_t begin, uint32_t count, const NodeInf
   return half;
 }
 
+// A subtree's need for spare references (SBVH budget): the summed surface area of
+// its reference boxes. A split saves cost in proportion to the area it cuts off,
+// so large triangles are where splits pay; sharing the spare by count left most
+// of it with finely tessellated subtrees that never split (cg57).
+double Builder::need(uint32_t begin, uint32_t count) const {
+  double sum = 0;
+  for (uint32_t i = begin; i < begin + count; ++i) sum += refs_[i].box().area();
+  return sum;
+}
+
+// The left child's part of `spare`, in proportion to the two children's needs (a
+// serial sum in reference order: the same for any thread count).
+uint32_t Builder::left_share(uint32_t spare, uint32_t begin, uint32_t nl, uint32_t right_begin,
+                             uint32_t nr) const {
+  if (spare == 0) return 0;
+  const double l = need(begin, nl), r = need(right_begin, nr);
+  if (!(l + r > 0)) return uint32_t(uint64_t(spare) * nl / (nl + nr));
+  return std::min<uint32_t>(spare, uint32_t(double(spare) * (l / (l + r))));
+}
+
 bool Builder::partition_spatial(const Split& split, uint32_t begin, uint32_t count,
                                 uint32_t capacity, const NodeInfo& info, uint32_t* left_count,
                                 uint32_t* right_count, uint32_t* left_capacity) {
-  const uint32_t bins = std::min<uint32_t>(config_.bins == 0 ? 32 : config_.bins, kMaxBins);
+  const uint32_t bins = spatial_bins();
   const int a = split.axis;
   const SpatialBinning binning(info.box.lo[a], info.box.hi[a], bins);
   std::vector<Ref> left, right;
@@ -627,9 +662,10 @@ bool Builder::partition_spatial(const Split& split, uint32_t begin, uint32_t cou
   if (left.empty() || right.empty() || left.size() + right.size() > capacity) return false;
   const uint32_t nl = uint32_t(left.size()), nr = uint32_t(right.size());
   const uint32_t spare = capacity - nl - nr;
-  const uint32_t cap_left = nl + uint32_t(uint64_t(spare) * nl / (nl + nr));
   std::copy(left.begin(), left.end(), refs_.begin() + begin);
-  std::copy(right.begin(), right.end(), refs_.begin() + begin + cap_left);
+  std::copy(right.begin(), right.end(), refs_.begin() + begin + nl);
+  const uint32_t cap_left = nl + left_share(spare, begin, nl, begin + nl, nr);
+  if (cap_left > nl) std::copy(right.begin(), right.end(), refs_.begin() + begin + cap_left);
   *left_count = nl;
   *right_count = nr;
   *left_capacity = cap_left;
@@ -654,7 +690,8 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
   std::vector<SweepKey> big_order;
   SweepKey* order = small_order;
   Split best;
-  if (config_.bins == 0 || count <= kExactSweepBelow) {
+  const uint32_t sweep_below = config_.spatial_splits ? kExactSweepBelowSpatial : kExactSweepBelow;
+  if (config_.bins == 0 || count <= sweep_below) {
     if (count > kSmallSweep) {
       big_order.resize(count);
       order = big_order.data();
@@ -663,7 +700,8 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
   } else {
     best = find_object_split(begin, count, info);
   }
-  if (config_.spatial_splits && best.valid() && capacity > count) {
+  if (config_.spatial_splits && best.valid() && capacity > count &&
+      (depth > 0 || spatial_at_root_)) {
     const Aabb overlap = Aabb::intersection(best.left_box, best.right_box);
     if (!overlap.empty() && overlap.area() >= config_.sbvh_alpha * root_area_) {
       const Split spatial = find_spatial_split(begin, count, info);
@@ -684,6 +722,7 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
       partitioned = partition_spatial(best, begin, count, capacity, info, &left_count,
                                       &right_count, &left_capacity);
       if (partitioned) spatial_splits_.fetch_add(1);
+      if (partitioned && depth == 0) root_split_spatial_ = true;
     } else {
       left_count = partition_object(best, begin, count, info, order);
       right_count = count - left_count;
@@ -698,9 +737,9 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
     right_count = count - left_count;
   }
   if (left_capacity == 0) {
-    // Share the node's spare references (SBVH budget) in proportion to the counts.
+    // Share the node's spare references (SBVH budget) by the children's needs.
     const uint32_t spare = capacity - left_count - right_count;
-    left_capacity = left_count + uint32_t(uint64_t(spare) * left_count / count);
+    left_capacity = left_count + left_share(spare, begin, left_count, begin + left_count, right_count);
     if (left_capacity > left_count) {
       Ref* first = refs_.data() + begin;
       std::move_backward(first + left_count, first + count, first + left_capacity + right_count);
@@ -738,6 +777,38 @@ Bvh Builder::run(CoreStats* stats) {
   if (config_.visible && config_.visible->size() != n)
     throw InputError("visibility", "one flag per triangle expected");
 
+  if (!config_.spatial_splits) return run_once(true, stats);
+  // The greedy choice at the root can be wrong: a spatial split that is cheaper
+  // by the SAH of one level can give a dearer tree (interior). When the root was
+  // split spatially, build the tree again with an object split at the root and
+  // keep the tree with the lower SAH cost (the builder's own, weighted cost).
+  CoreStats first_stats;
+  Bvh first = run_once(true, &first_stats);
+  if (!root_split_spatial_) {
+    if (stats) *stats = first_stats;
+    return first;
+  }
+  CoreStats second_stats;
+  Bvh second = run_once(false, &second_stats);
+  static const std::vector<float> kNoWeights;
+  const std::vector<float>& w = config_.weights ? *config_.weights : kNoWeights;
+  const bool keep_second =
+      sah_cost(second, config_.t1, config_.t2, w) < sah_cost(first, config_.t1, config_.t2, w);
+  if (stats) {
+    *stats = keep_second ? second_stats : first_stats;
+    stats->working_bytes = std::max(first_stats.working_bytes, second_stats.working_bytes) +
+                           first.nodes.capacity() * sizeof(BvhNode) +
+                           first.prim_refs.capacity() * sizeof(uint32_t);
+  }
+  return keep_second ? second : first;
+}
+
+Bvh Builder::run_once(bool spatial_at_root, CoreStats* stats) {
+  const size_t n = scene_.triangle_count();
+  spatial_at_root_ = spatial_at_root;
+  root_split_spatial_ = false;
+  spatial_splits_ = 0, forced_splits_ = 0, median_splits_ = 0;
+  nodes_.clear();
   const uint64_t capacity64 =
       config_.spatial_splits
           ? std::max<uint64_t>(n, uint64_t(std::floor(double(config_.reference_budget) * double(n))))

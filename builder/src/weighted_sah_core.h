@@ -35,7 +35,7 @@ struct CoreConfig {
   // Policy: spatial splits (SBVH).
   bool spatial_splits = false;
   float sbvh_alpha = 1e-5f;
-  float reference_budget = 1.3f;     // total references <= budget * N
+  float reference_budget = 2.0f;     // total references <= budget * N
   uint32_t split_limit = 7;          // times one reference may be split again (max 7)
 };
 

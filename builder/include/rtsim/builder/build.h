@@ -26,7 +26,7 @@ struct BuildParams {
   uint32_t threads = 0;         // 0 = all cores; never changes the tree
   // sbvh
   float sbvh_alpha = 1e-5f;
-  float sbvh_reference_budget = 1.3f;  // x N triangles
+  float sbvh_reference_budget = 2.0f;  // x N triangles (Embree's embree-sbvh capacity: 2 x N)
   uint32_t sbvh_split_limit = 7;       // times one reference may be split (0..7)
   // osah: P_i = osah_w * V_i / V + (1 - osah_w) * A_i / A in nodes holding both
   // visible and hidden triangles (osah_w = 0: exactly the SAH tree). A faithful
