@@ -303,12 +303,12 @@ std::vector<NodeFormat> make_formats() {
   return {
       format("bvh2-64", 2, 64, BoxEncoding::Fp32, true, false, 15,
              "binary node, both child boxes in fp32 and two 8-byte links (rtsim's default)",
-             "rtsim's own binary node (memory_image.h, NodeLayout::Bvh2Wide64): child boxes at bytes 0 and "
+             "rtsim's own binary node (the offsets in node_format.h): child boxes at bytes 0 and "
              "24 (lo xyz, hi xyz, fp32), 8-byte child links at 48 and 56; the 15-triangle leaf limit is "
              "rtsim's choice of a 4-bit count"),
       format("bvh2-32", 2, 32, BoxEncoding::OwnBoxFp32, false, false, 15,
              "binary tree, one record per node holding its own fp32 box, a link and a count",
-             "rtsim's own single-box node (memory_image.h, NodeLayout::SingleBox32): own box at byte 0 "
+             "rtsim's own single-box node (the offsets in node_format.h): own box at byte 0 "
              "(24 B fp32), 4-byte link at 24, 4-byte triangle count at 28; the 15-triangle leaf limit "
              "is rtsim's choice"),
       format("bvh4-128", 4, 128, BoxEncoding::Fp32, true, false, 4,

@@ -217,9 +217,9 @@ class Builder {
                          const NodeInfo& info, uint32_t* left_count, uint32_t* right_count,
                          uint32_t* left_capacity);
   uint32_t partition_median(uint32_t begin, uint32_t count, const NodeInfo& info);
-  double need(uint32_t begin, uint32_t count) const;
-  uint32_t left_share(uint32_t spare, uint32_t begin, uint32_t nl, uint32_t right_begin,
-                      uint32_t nr) const;
+  static double need(const Ref* refs, uint32_t count);
+  static uint32_t left_share(uint32_t spare, const Ref* left, uint32_t nl, const Ref* right,
+                             uint32_t nr);
   uint32_t spatial_bins() const {
     return std::min<uint32_t>(config_.bins == 0 ? 32 : config_.bins, kMaxBins);
   }
@@ -583,18 +583,18 @@ uint32_t Builder::partition_median(uint32_t begin, uint32_t count, const NodeInf
 // its reference boxes. A split saves cost in proportion to the area it cuts off,
 // so large triangles are where splits pay; sharing the spare by count left most
 // of it with finely tessellated subtrees that never split (cg57).
-double Builder::need(uint32_t begin, uint32_t count) const {
+double Builder::need(const Ref* refs, uint32_t count) {
   double sum = 0;
-  for (uint32_t i = begin; i < begin + count; ++i) sum += refs_[i].box().area();
+  for (uint32_t i = 0; i < count; ++i) sum += refs[i].box().area();
   return sum;
 }
 
 // The left child's part of `spare`, in proportion to the two children's needs (a
 // serial sum in reference order: the same for any thread count).
-uint32_t Builder::left_share(uint32_t spare, uint32_t begin, uint32_t nl, uint32_t right_begin,
-                             uint32_t nr) const {
+uint32_t Builder::left_share(uint32_t spare, const Ref* left, uint32_t nl, const Ref* right,
+                             uint32_t nr) {
   if (spare == 0) return 0;
-  const double l = need(begin, nl), r = need(right_begin, nr);
+  const double l = need(left, nl), r = need(right, nr);
   if (!(l + r > 0)) return uint32_t(uint64_t(spare) * nl / (nl + nr));
   return std::min<uint32_t>(spare, uint32_t(double(spare) * (l / (l + r))));
 }
@@ -662,10 +662,9 @@ bool Builder::partition_spatial(const Split& split, uint32_t begin, uint32_t cou
   if (left.empty() || right.empty() || left.size() + right.size() > capacity) return false;
   const uint32_t nl = uint32_t(left.size()), nr = uint32_t(right.size());
   const uint32_t spare = capacity - nl - nr;
+  const uint32_t cap_left = nl + left_share(spare, left.data(), nl, right.data(), nr);
   std::copy(left.begin(), left.end(), refs_.begin() + begin);
-  std::copy(right.begin(), right.end(), refs_.begin() + begin + nl);
-  const uint32_t cap_left = nl + left_share(spare, begin, nl, begin + nl, nr);
-  if (cap_left > nl) std::copy(right.begin(), right.end(), refs_.begin() + begin + cap_left);
+  std::copy(right.begin(), right.end(), refs_.begin() + begin + cap_left);
   *left_count = nl;
   *right_count = nr;
   *left_capacity = cap_left;
@@ -739,7 +738,8 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
   if (left_capacity == 0) {
     // Share the node's spare references (SBVH budget) by the children's needs.
     const uint32_t spare = capacity - left_count - right_count;
-    left_capacity = left_count + left_share(spare, begin, left_count, begin + left_count, right_count);
+    left_capacity = left_count + left_share(spare, refs_.data() + begin, left_count,
+                                              refs_.data() + begin + left_count, right_count);
     if (left_capacity > left_count) {
       Ref* first = refs_.data() + begin;
       std::move_backward(first + left_count, first + count, first + left_capacity + right_count);

@@ -5,6 +5,11 @@
 
 namespace rtsim::sim {
 
+namespace {
+// How late (behind the newest) a port request may come and still find its slot.
+constexpr uint64_t kPortHorizonPs = 8'000'000;
+}  // namespace
+
 uint64_t TrafficMatrix::total() const {
   uint64_t sum = 0;
   for (auto& row : bytes)
@@ -42,7 +47,11 @@ CacheModel::CacheModel(const CacheConfig& config, const std::string& name, uint6
       hit_ps_(uint64_t(config.hit_latency_cycles) * cycle_ps),
       fill_ps_(uint64_t(config.fill_latency_cycles) * cycle_ps),
       port_interval_ps_(std::max<uint64_t>(1, cycle_ps / std::max<uint32_t>(1, config.ports))),
-      cycle_ps_(cycle_ps) {}
+      cycle_ps_(cycle_ps) {
+  ring_slots_ = 64;
+  while (ring_slots_ < 2 * (kPortHorizonPs / port_interval_ps_ + 1)) ring_slots_ *= 2;
+  taken_bits_.assign(ring_slots_ / 64, 0);
+}
 
 void CacheModel::count(const LineAccess& a, Outcome outcome) {
   ++counters_.accesses;
@@ -127,14 +136,8 @@ uint64_t CacheModel::reserve_port(uint64_t t_ps) {
   // Port slots of one interval each. Requests come nearly in time order, but one
   // that waited upstream (an MSHR, say) may come after later ones: it takes the
   // first free slot from its own time on, not the slot after the latest taken.
-  // The ring remembers every slot within kHorizonPs (and more) of the newest;
-  // no request comes that late.
-  constexpr uint64_t kHorizonPs = 8'000'000;
-  if (taken_bits_.empty()) {
-    ring_slots_ = 64;
-    while (ring_slots_ < 2 * (kHorizonPs / port_interval_ps_ + 1)) ring_slots_ *= 2;
-    taken_bits_.assign(ring_slots_ / 64, 0);
-  }
+  // The ring (sized in the constructor) remembers every slot within
+  // kPortHorizonPs of the newest, and more; no request comes that late.
   const auto bit = [&](uint64_t slot) -> uint64_t& { return taken_bits_[(slot % ring_slots_) / 64]; };
   const auto mask = [](uint64_t slot) { return uint64_t(1) << (slot % 64); };
   uint64_t slot = t_ps / port_interval_ps_;
