@@ -1,35 +1,43 @@
 #include "build_options.h"
 
+#include <rtsim/builder/builder_registry.h>
+
 #include <map>
 #include <string>
 
 namespace rtsim::cli {
 
 void add_build_options(CLI::App* cmd, BuildParams& p) {
-  cmd->add_option("--t1", p.t1, "cost of one ray-node test")->capture_default_str();
-  cmd->add_option("--t2", p.t2, "cost of one ray-triangle test")->capture_default_str();
-  cmd->add_option("--max-leaf-size", p.max_leaf_size, "max triangles per leaf")->capture_default_str();
-  cmd->add_option("--max-depth", p.max_depth, "max leaf depth (root = 0)")->capture_default_str();
-  cmd->add_option("--bins", p.bins, "SAH bins (0 = full sweep)")->capture_default_str();
-  cmd->add_option("--threads", p.threads, "threads (0 = all); never changes the tree")->capture_default_str();
-  cmd->add_option("--sbvh-alpha", p.sbvh_alpha, "sbvh: overlap threshold x root area")->capture_default_str();
-  cmd->add_option("--sbvh-budget", p.sbvh_reference_budget, "sbvh: references <= budget x N")->capture_default_str();
-  cmd->add_option("--osah-w", p.osah_w, "osah: visibility weight in mixed nodes")->capture_default_str();
-  cmd->add_option("--osah-resolution", p.osah_width, "osah: primary rays per side")->capture_default_str();
-  cmd->add_option("--ao-rays", p.ao_rays, "aobvh: AO rays per triangle (K)")->capture_default_str();
-  cmd->add_option("--ao-cutoff", p.ao_cutoff_relative,
-                  "aobvh: AO ray length x scene diagonal (< 0: the scene's setting, default 0.05)")
-      ->capture_default_str();
-  cmd->add_option("--ao-floor", p.ao_weight_floor, "aobvh: weight floor, w = floor + (1-floor) x value")
-      ->capture_default_str();
-  cmd->add_flag("--ao-both-sides", p.ao_both_sides, "aobvh: cast AO rays from both triangle sides");
-  cmd->add_option("--ao-normalise", p.ao_normalise,
-                  "aobvh: on = weights scaled to mean 1 (equal values give the SAH tree); off = the\n"
-                  "patent's literal sum of occlusion values in place of the count, same T2")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, bool>{{"on", true}, {"off", false}}))
-      ->default_str("on");
-  cmd->add_option("--build-seed", p.seed, "seed of the builders' random choices (AO rays; default: --seed)")
-      ->capture_default_str();
+  // One flag per parameter of the registry's table that has one.
+  for (const BuilderParameter& parameter : builder_parameters()) {
+    if (parameter.flag.empty()) continue;
+    std::visit(
+        [&](auto member) {
+          using T = std::decay_t<decltype(p.*member)>;
+          if constexpr (std::is_same_v<T, bool>) {
+            if (parameter.switch_flag) {
+              cmd->add_flag(parameter.flag, p.*member, parameter.description);
+            } else {
+              cmd->add_option(parameter.flag, p.*member, parameter.description)
+                  ->transform(CLI::CheckedTransformer(
+                      std::map<std::string, bool>{{"on", true}, {"off", false}}))
+                  ->default_str(p.*member ? "on" : "off");
+            }
+          } else {
+            cmd->add_option(parameter.flag, p.*member, parameter.description)->capture_default_str();
+          }
+        },
+        parameter.field);
+  }
+  cmd->add_option_function<std::vector<std::string>>(
+         "--build-set",
+         [&p](const std::vector<std::string>& settings) {
+           for (const std::string& s : settings) apply_build_setting(p, s, "--build-set");
+         },
+         "builder parameter KEY=VALUE by its table name (repeatable; docs/builders.md), e.g.\n"
+         "max_leaf_size=8; what a campaign's build.KEY axis passes")
+      ->type_name("KEY=VALUE")
+      ->take_all();
 }
 
 }  // namespace rtsim::cli

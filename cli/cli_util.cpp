@@ -1,5 +1,6 @@
 #include "cli_util.h"
 
+#include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/bvh_file.h>
 #include <rtsim/workloads/config_reader.h>
 #include <rtsim/workloads/error.h>
@@ -136,26 +137,15 @@ std::string builder_list() {
 }
 
 void check_build_flags(const BuildParams& params) {
-  static const std::map<std::string, std::string> kFlagOfField = {
-      {"t1", "--t1"},
-      {"t2", "--t2"},
-      {"max_leaf_size", "--max-leaf-size"},
-      {"max_depth", "--max-depth"},
-      {"bins", "--bins"},
-      {"sbvh_alpha", "--sbvh-alpha"},
-      {"sbvh_reference_budget", "--sbvh-budget"},
-      {"osah_w", "--osah-w"},
-      {"osah_width/osah_height", "--osah-resolution"},
-      {"ao_weight_floor", "--ao-floor"},
-      {"ao_cutoff_relative", "--ao-cutoff"}};
   try {
     check_build_params(params);
   } catch (const InputError& e) {
     const std::string what = e.what();
     const size_t colon = what.find(": ");
-    auto it = colon == std::string::npos ? kFlagOfField.end() : kFlagOfField.find(what.substr(0, colon));
-    if (it == kFlagOfField.end()) throw;
-    throw InputError(typed_flag(it->second) + what.substr(colon));
+    const BuilderParameter* p =
+        colon == std::string::npos ? nullptr : find_builder_parameter(what.substr(0, colon));
+    if (!p || p->flag.empty()) throw;
+    throw InputError(typed_flag(p->flag) + what.substr(colon));
   }
 }
 
@@ -168,7 +158,10 @@ std::string node_format_flag(const std::string& value, const std::string& fallba
 
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
-                   uint64_t shuffle_seed, uint32_t threads, const std::string& node_format) {
+                   uint64_t shuffle_seed, uint32_t threads, const std::string& node_format,
+                   const std::vector<std::string>& build_settings) {
+  if (!bvh_file.empty() && !build_settings.empty())
+    throw InputError("--build-set", "cannot change a saved tree (--bvh); build it with these settings");
   out.scene = load_scene(scene.empty() ? default_scene_name() : scene);
   if (shuffle_seed != 0) shuffle_triangles(out.scene, shuffle_seed);
   out.camera = camera.empty() ? &out.scene.default_camera() : &out.scene.camera(camera);
@@ -177,6 +170,7 @@ void load_workload(Workload& out, const std::string& scene, const std::string& c
   out.params.seed = seed;
   out.params.threads = threads;
   out.params.camera = out.camera->name;
+  for (const std::string& setting : build_settings) apply_build_setting(out.params, setting, "--build-set");
   apply_node_format(out.params, rtsim::node_format(node_format));
   out.report = BuildReport{};
   if (bvh_file.empty()) {

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace rtsim::cli {
 
@@ -109,10 +110,13 @@ struct Workload {
 // check that no result depends on the file's face order. `threads` limits the
 // build too (0: all cores).
 // The tree is built for `node_format` (apply_node_format); a loaded tree must fit it.
+// `build_settings`: builder parameters as KEY=VALUE (--build-set), applied before the
+// node format; not allowed with a saved tree.
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
                    uint64_t shuffle_seed = 0, uint32_t threads = 0,
-                   const std::string& node_format = "bvh2-64");
+                   const std::string& node_format = "bvh2-64",
+                   const std::vector<std::string>& build_settings = {});
 
 // --node-format NAME: checks the name (a message listing the formats, naming the
 // flag) and returns it; empty value: `fallback` (the hardware's memory.node_format).

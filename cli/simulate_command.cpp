@@ -35,6 +35,7 @@ struct SimulateOptions {
   int ao = -1;
   uint32_t spp = 1, bounces = 2, frames = 1;
   uint64_t seed = 1, shuffle_faces = 0;
+  std::vector<std::string> build_settings;  // --build-set KEY=VALUE
   bool json = false;
 };
 
@@ -58,7 +59,7 @@ void run_simulate(const SimulateOptions& o) {
   request.frames = o.frames;
   if (o.frames < 1 || o.frames > 1000) throw InputError("--frames", "must be 1..1000");
   load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, 0,
-                request.config.node_format);
+                request.config.node_format, o.build_settings);
   const Scene& scene = workload.scene;
   const Camera& camera = *workload.camera;
   const BuildParams& params = workload.params;
@@ -106,6 +107,7 @@ void run_simulate(const SimulateOptions& o) {
       {"scene_hash", hex64(scene.content_hash())},
       {"triangles", scene.triangle_count()},
       {"builder", params.builder},
+      {"build", o.bvh_in.empty() ? nlohmann::json::parse(build_params_json(params)) : nlohmann::json()},
       {"bvh_file", o.bvh_in},
       {"bvh_hash", hex64(bvh_content_hash(bvh))},
       {"bvh_nodes", bvh.nodes.size()},
@@ -185,6 +187,10 @@ void add_simulate_command(CLI::App& root) {
   cmd->add_option("--node-format", opts->node_format,
                   "node record format: " + node_format_names("|") +
                       "\n(the tree is built for its width; default: memory.node_format)");
+  cmd->add_option("--build-set", opts->build_settings,
+                  "builder parameter KEY=VALUE by its table name (repeatable), e.g. max_leaf_size=8;\n"
+                  "a campaign's build.KEY axes arrive this way")
+      ->type_name("KEY=VALUE");
   cmd->add_option("--bvh", opts->bvh_in, "replay this saved tree (rtsim build --out) instead of building one");
   cmd->add_flag("--json", opts->json, "print stats.json to stdout");
   cmd->callback([opts] {

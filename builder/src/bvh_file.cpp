@@ -1,3 +1,4 @@
+#include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/bvh_file.h>
 #include <rtsim/builder/validate_bvh.h>
 #include <rtsim/workloads/error.h>
@@ -71,34 +72,18 @@ class Reader {
 }  // namespace
 
 std::string build_params_json(const BuildParams& p) {
+  // Every parameter the builder reads (registry), typed. Binary trees leave the width
+  // out so that they keep their old hashes and job keys.
   nlohmann::json j;
   j["builder"] = p.builder;
-  j["t1"] = p.t1;
-  j["t2"] = p.t2;
-  j["max_leaf_size"] = p.max_leaf_size;
-  j["max_depth"] = p.max_depth;
-  j["bins"] = p.bins;
-  j["seed"] = p.seed;
-  if (p.width != 2) j["width"] = p.width;  // binary trees keep their old job keys
-  if (p.builder == "sbvh" || p.builder == "aosbvh") {
-    j["sbvh_alpha"] = p.sbvh_alpha;
-    j["sbvh_reference_budget"] = p.sbvh_reference_budget;
-    j["sbvh_split_limit"] = p.sbvh_split_limit;
+  for (const BuilderParameter& parameter : builder_parameters()) {
+    if (!parameter.in_tree_identity || !parameter_used_by(parameter, p.builder)) continue;
+    if (parameter.key == "width" && p.width == 2) continue;
+    std::visit([&](auto member) { j[parameter.key] = p.*member; }, parameter.field);
   }
-  if (p.builder == "osah") {
-    j["camera"] = p.camera;
-    j["osah_w"] = p.osah_w;
-    j["osah_width"] = p.osah_width;
-    j["osah_height"] = p.osah_height;
-  }
-  if (p.builder == "aobvh" || p.builder == "aosbvh") {
-    j["ao_rays"] = p.ao_rays;
-    j["ao_cutoff_relative"] = p.ao_cutoff_relative;
-    j["ao_weight_floor"] = p.ao_weight_floor;
-    j["ao_both_sides"] = p.ao_both_sides;
-    j["ao_normalise"] = p.ao_normalise;
+  // Whether the AO pass ran or the caller supplied its values (tests, caches).
+  if (parameter_used_by(*find_builder_parameter("ao_rays"), p.builder))
     j["occlusion_values_supplied"] = !p.occlusion_values.empty();
-  }
   return j.dump();
 }
 

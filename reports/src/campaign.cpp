@@ -2,6 +2,7 @@
 #include <rtsim/reports/campaign.h>
 
 #include <rtsim/builder/build.h>
+#include <rtsim/builder/builder_registry.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/workloads/config_reader.h>
 #include <rtsim/workloads/procedural.h>
@@ -141,6 +142,7 @@ void flatten_overrides(const json& table, const std::string& prefix, const std::
 struct Sweep {
   std::map<std::string, std::vector<json>> axes;       // axis name -> values
   std::map<std::string, std::vector<json>> overrides;  // dotted hardware key -> values
+  std::map<std::string, std::vector<json>> build;      // builder parameter key -> values
 };
 
 // Reads the axes and the `set` table of one [sweep] or [[group]] table.
@@ -154,6 +156,17 @@ void read_sweep(ConfigTable& table, const std::string& section, Sweep& sweep) {
     std::map<std::string, std::vector<json>> flat;
     flatten_overrides(set, "", table.file() + ": key '" + section + ".set.", flat);
     for (auto& [k, v] : flat) sweep.overrides[k] = std::move(v);
+  }
+  // Builder parameters (builder_registry.h) as axes: build.max_leaf_size = [1, 2, 4, 8].
+  if (table.has("build")) {
+    const json& build = table.raw("build");
+    if (!build.is_object()) throw InputError(table.where("build"), "must be a table of builder parameters");
+    for (auto it = build.begin(); it != build.end(); ++it) {
+      const std::string where = table.file() + ": key '" + section + ".build." + it.key() + "'";
+      if (!find_builder_parameter(it.key()) || it.key() == "width" || it.key() == "threads")
+        throw InputError(where, "is not a builder parameter (docs/builders.md lists them)");
+      sweep.build[it.key()] = axis_values(it.value(), where);
+    }
   }
 }
 
@@ -242,6 +255,7 @@ std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir
   if (!node_format.empty()) a.insert(a.end(), {"--node-format", node_format});
   if (hardware_file.empty())
     for (const auto& [k, v] : overrides) a.insert(a.end(), {"--set", k + "=" + v});
+  for (const auto& [k, v] : build_settings) a.insert(a.end(), {"--build-set", k + "=" + v});
   return a;
 }
 
@@ -408,6 +422,7 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
     std::vector<std::pair<std::string, const std::vector<json>*>> dims;
     for (const auto& [k, v] : sweep.axes) dims.emplace_back(k, &v);
     for (const auto& [k, v] : sweep.overrides) dims.emplace_back("set:" + k, &v);
+    for (const auto& [k, v] : sweep.build) dims.emplace_back("build:" + k, &v);
     // Order the named axes the way people read labels.
     auto rank = [](const std::string& k) {
       for (size_t i = 0; i < std::size(kAxes); ++i)
@@ -428,6 +443,7 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
       job.group = group_name;
       json resolved = json::object();
       json overrides = json::object();
+      json build = json::object();
       std::map<std::string, json> typed_overrides;
       for (size_t d = 0; d < dims.size(); ++d) {
         const std::string& name = dims[d].first;
@@ -437,6 +453,14 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
           job.overrides[name.substr(4)] = value;
           overrides[name.substr(4)] = value;
           typed_overrides[name.substr(4)] = (*dims[d].second)[index[d]];
+          continue;
+        }
+        if (name.rfind("build:", 0) == 0) {
+          const std::string key = name.substr(6);
+          BuildParams check;  // the value must parse and lie in range
+          set_build_parameter(check, key, value, fname + ": key 'build.");
+          job.build_settings[key] = value;
+          build[key] = value;
           continue;
         }
         resolved[name] = value;
@@ -493,6 +517,7 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
       if (job.node_format.empty() && job.overrides.count("memory.node_format"))
         job.node_format = job.overrides.at("memory.node_format");
       resolved["set"] = overrides;
+      if (!build.empty()) resolved["build"] = build;  // absent: old campaigns keep their keys
       // The identity is the resolved configuration: the full hardware configuration
       // (preset and overrides applied), not how it was spelt, so "mobile" with
       // l2.size_bytes at its preset value is the same job as plain "mobile".
@@ -510,6 +535,7 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
       if (job.frames > 0) job.label += "/frames" + std::to_string(job.frames);
       if (!job.node_format.empty()) job.label += "/" + job.node_format;
       for (const auto& [k, v] : job.overrides) job.label += "/" + k + "=" + v;
+      for (const auto& [k, v] : job.build_settings) job.label += "/build." + k + "=" + v;
       if (seen.insert(job.key).second) campaign.jobs.push_back(std::move(job));
 
       // Advance the odometer; when every digit wraps, the group is complete.

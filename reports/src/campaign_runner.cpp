@@ -223,7 +223,11 @@ JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, con
   std::string build = shell_quote(binary.string()) + " build --scene " +
                       shell_quote(job.scene_path.empty() ? job.scene : job.scene_path.string()) +
                       " --builder " + shell_quote(job.builder) + " --seed " +
-                      std::to_string(job.seed) + " --out \"$T\"";
+                      (job.build_settings.count("seed") ? job.build_settings.at("seed")
+                                                        : std::to_string(job.seed)) +
+                      " --out \"$T\"";
+  for (const auto& [k, v] : job.build_settings)
+    if (k != "seed") build += " --build-set " + shell_quote(k + "=" + v);
   if (!job.camera.empty()) build += " --camera " + shell_quote(job.camera);
   if (!job.node_format.empty()) build += " --node-format " + shell_quote(job.node_format);
   std::string simulate = "exec " + shell_quote(binary.string());
@@ -313,6 +317,7 @@ fs::path cached_tree(const fs::path& cache, const Campaign& campaign, const Camp
                    {"seed", job.seed},
                    {"revision", campaign.revision}};
   if (!job.node_format.empty()) identity["node_format"] = job.node_format;
+  if (!job.build_settings.empty()) identity["build"] = job.build_settings;
   return cache / (content_hash_hex(identity.dump()) + ".bvh");
 }
 

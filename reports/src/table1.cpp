@@ -1,3 +1,4 @@
+#include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/bvh_file.h>
 #include <rtsim/builder/memory_image.h>
 #include <rtsim/builder/metrics.h>
@@ -161,15 +162,7 @@ std::string percent(double reduction) {
   return buf;
 }
 
-const char* display(const std::string& builder) {
-  if (builder == "median") return "median BVH";
-  if (builder == "sah") return "SAH BVH";
-  if (builder == "sbvh") return "SBVH";
-  if (builder == "osah") return "OSAH";
-  if (builder == "aobvh") return "AO-BVH";
-  if (builder == "aosbvh") return "AO-SBVH";
-  return builder.c_str();
-}
+std::string display(const std::string& builder) { return builder_info(builder).display_name; }
 
 double reduction(double value, double baseline) { return baseline > 0 ? 1.0 - value / baseline : 0.0; }
 
@@ -191,9 +184,9 @@ void add_verdicts(Table1& table) {
                          format_number(sbvh->combined.ops_per_ray) + ")");
       for (const Table1Row* r : {sbvh, osah, ao})
         if (!(r->combined.ops_per_ray < b))
-          broken.push_back(std::string(display(r->builder)) + " (" + format_number(r->combined.ops_per_ray) +
+          broken.push_back(display(r->builder) + " (" + format_number(r->combined.ops_per_ray) +
                            ") is not below the " + display(baseline_name) + " (" + format_number(b) + ")");
-      std::string sentence = camera + ", against the " + std::string(display(baseline_name)) + " (" +
+      std::string sentence = camera + ", against the " + display(baseline_name) + " (" +
                              format_number(b) + " ops/ray): ";
       sentence += "SBVH " + percent(reduction(sbvh->combined.ops_per_ray, b)) + ", OSAH " +
                   percent(reduction(osah->combined.ops_per_ray, b)) + ", AO-BVH " +

@@ -1,3 +1,4 @@
+#include <rtsim/builder/builder_registry.h>
 #include <rtsim/reports/plot_script.h>
 #include <rtsim/reports/table1.h>
 #include <rtsim/reports/text_table.h>
@@ -47,14 +48,10 @@ std::string wrap(const std::string& text, const std::string& indent, size_t widt
 
 std::string num(double value, int digits = 4) { return value < 0 ? "-" : format_number(value, digits); }
 
-const char* display_name(const std::string& builder) {
-  if (builder == "median") return "BVH (median)";
-  if (builder == "sah") return "BVH (SAH)";
-  if (builder == "sbvh") return "SBVH";
-  if (builder == "osah") return "OSAH";
-  if (builder == "aobvh") return "AO-BVH";
-  if (builder == "aosbvh") return "AO-SBVH (ours)";
-  return builder.c_str();
+// The registry's name, marked when the tree is not one of the patent's.
+std::string display_name(const std::string& builder) {
+  const BuilderInfo& info = builder_info(builder);
+  return info.ours ? info.display_name + " (ours)" : info.display_name;
 }
 
 // "cold/warm": DRAM B/ray of the first frame and of the last, "-" without a cycle-level run.

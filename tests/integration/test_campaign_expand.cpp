@@ -241,3 +241,60 @@ TEST(CampaignExpand, BadInputNamesFileAndKey) {
 
 }  // namespace
 }  // namespace rtsim
+
+namespace rtsim {
+namespace {
+
+TEST(CampaignExpand, BuilderParametersAreAxes) {
+  const Campaign c = parse(R"(
+[campaign]
+name = "knobs"
+[sweep]
+scene = "interior"
+builder = ["sah", "aobvh"]
+[sweep.build]
+max_leaf_size = [1, 8]
+seed = [3, 4]
+)");
+  ASSERT_EQ(c.jobs.size(), 2u * 2u * 2u);
+  std::set<std::string> keys;
+  for (const CampaignJob& j : c.jobs) {
+    keys.insert(j.key);
+    ASSERT_EQ(j.build_settings.size(), 2u);
+    EXPECT_NE(j.label.find("/build.max_leaf_size="), std::string::npos) << j.label;
+    const auto args = j.simulate_arguments("out");
+    const std::string leaf = "max_leaf_size=" + j.build_settings.at("max_leaf_size");
+    EXPECT_NE(std::find(args.begin(), args.end(), leaf), args.end()) << j.label;
+    EXPECT_EQ(j.seed, 1u);  // the workload's seed is not the builder's
+  }
+  EXPECT_EQ(keys.size(), c.jobs.size());
+  // Without a build table the keys stay what they were before build axes existed.
+  const Campaign plain = parse("[campaign]\nname = \"p\"\n[sweep]\nscene = \"interior\"\nbuilder = \"sah\"\n");
+  EXPECT_FALSE(plain.jobs.at(0).resolved.contains("build"));
+}
+
+TEST(CampaignExpand, BadBuilderParametersNameFileAndKey) {
+  const std::string unknown = error_of(R"(
+[campaign]
+name = "k"
+[sweep]
+scene = "interior"
+builder = "sah"
+build.leaf = [1]
+)");
+  EXPECT_NE(unknown.find("sweep.build.leaf"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("not a builder parameter"), std::string::npos) << unknown;
+  const std::string range = error_of(R"(
+[campaign]
+name = "k"
+[sweep]
+scene = "interior"
+builder = "sah"
+build.t2 = [0]
+)");
+  EXPECT_NE(range.find("build.t2"), std::string::npos) << range;
+  EXPECT_NE(range.find("positive"), std::string::npos) << range;
+}
+
+}  // namespace
+}  // namespace rtsim

@@ -1,5 +1,6 @@
 #pragma once
-// The one entry point to every BVH builder, selected by name.
+// The one entry point to every BVH builder, selected by name from the registry
+// (builder_registry.h), which also describes every field below as a parameter.
 #include <rtsim/builder/bvh.h>
 #include <rtsim/builder/node_format.h>
 #include <rtsim/builder/validate_bvh.h>
@@ -12,7 +13,7 @@
 namespace rtsim {
 
 struct BuildParams {
-  std::string builder = "sah";  // sah | median | sbvh | osah | aobvh | aosbvh | embree | embree-sbvh
+  std::string builder = "sah";  // a name in builder_registry()
   float t1 = 1.0f;              // cost of one ray-node test
   float t2 = 1.0f;              // cost of one ray-triangle test
   uint32_t max_leaf_size = 4;   // must fit the hardware leaf count field
@@ -84,8 +85,8 @@ BvhLimits limits_for(const BuildParams& params);
 // Throws InputError for unknown builders, bad parameters or an empty scene.
 Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report = nullptr);
 // What build_bvh checks first: InputError naming the BuildParams field (e.g.
-// "sbvh_reference_budget") for a value out of range. The command line calls it
-// right after parsing and names the flag instead.
+// "sbvh_reference_budget") for a value out of the range builder_parameters() gives.
+// The command line calls it right after parsing and names the flag instead.
 void check_build_params(const BuildParams& params);
 std::vector<std::string> builder_names();
 

@@ -28,6 +28,9 @@ struct CampaignJob {
   int64_t frames = -1;      // frames of the same rays (stats of the last), < 1: simulate's default
   std::string node_format;  // node record format the tree is built for; "" = the preset's
   std::map<std::string, std::string> overrides;  // dotted hardware key -> value text
+  // Builder parameters (builder_registry.h) -> value text: --build-set KEY=VALUE. A
+  // "seed" here is the builder's seed; `seed` above stays the workload's.
+  std::map<std::string, std::string> build_settings;
   // The hardware configuration the job runs with when it has overrides: the preset
   // (name or file) merged with the overrides, as TOML; empty without overrides.
   // Validated against the model's parameter table when the campaign is loaded.
