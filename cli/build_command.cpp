@@ -158,6 +158,7 @@ void run_build(const BuildOptions& o) {
       j["parameters"] = nlohmann::json::parse(build_params_json(params));
       if (name == "aobvh" || name == "aosbvh") j["mean_occlusion"] = r.mean_occlusion, j["ao_rays"] = r.ao_rays;
       if (name == "osah") j["visible_triangles"] = r.visible_triangles;
+      if (name == "rdh") j["rdh_rays"] = r.rdh_rays;
       if (o.all ? !out_dir.empty() : !o.out.empty()) {
         const std::filesystem::path file =
             o.all ? std::filesystem::path(out_dir) / (scene.name + "-" + name + ".bvh")

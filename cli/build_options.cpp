@@ -28,6 +28,18 @@ void add_build_options(CLI::App* cmd, BuildParams& p) {
                   "patent's literal sum of occlusion values in place of the count, same T2")
       ->transform(CLI::CheckedTransformer(std::map<std::string, bool>{{"on", true}, {"off", false}}))
       ->default_str("on");
+  cmd->add_option("--rdh-resolution", p.rdh_resolution,
+                  "rdh: sample primary rays per side per camera (0 = none: the SAH tree)")
+      ->capture_default_str();
+  cmd->add_option("--rdh-ao-rays", p.rdh_ao_rays, "rdh: sample AO rays per primary hit")
+      ->capture_default_str();
+  cmd->add_option("--rdh-prior", p.rdh_prior,
+                  "rdh: k pseudo-rays spread by surface area, P_i = (A_i/A + n_i/k) / (1 + n/k)")
+      ->capture_default_str();
+  cmd->add_option("--rdh-cameras", p.rdh_cameras,
+                  "rdh: camera = the run's camera only, all = every camera of the scene")
+      ->check(CLI::IsMember({"camera", "all"}))
+      ->capture_default_str();
   cmd->add_option("--build-seed", p.seed, "seed of the builders' random choices (AO rays; default: --seed)")
       ->capture_default_str();
 }

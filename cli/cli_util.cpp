@@ -147,7 +147,11 @@ void check_build_flags(const BuildParams& params) {
       {"osah_w", "--osah-w"},
       {"osah_width/osah_height", "--osah-resolution"},
       {"ao_weight_floor", "--ao-floor"},
-      {"ao_cutoff_relative", "--ao-cutoff"}};
+      {"ao_cutoff_relative", "--ao-cutoff"},
+      {"rdh_resolution", "--rdh-resolution"},
+      {"rdh_ao_rays", "--rdh-ao-rays"},
+      {"rdh_prior", "--rdh-prior"},
+      {"rdh_cameras", "--rdh-cameras"}};
   try {
     check_build_params(params);
   } catch (const InputError& e) {

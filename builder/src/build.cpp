@@ -3,6 +3,7 @@
 #include <rtsim/builder/build.h>
 #include <rtsim/builder/collapse.h>
 #include <rtsim/builder/occlusion.h>
+#include <rtsim/builder/ray_samples.h>
 #include <rtsim/workloads/embree_scene.h>
 #include <rtsim/workloads/error.h>
 
@@ -59,7 +60,7 @@ void with_threads(uint32_t threads, F&& fn) {
 }  // namespace
 
 std::vector<std::string> builder_names() {
-  return {"sah", "median", "sbvh", "osah", "aobvh", "aosbvh", "embree", "embree-sbvh"};
+  return {"sah", "median", "sbvh", "osah", "aobvh", "aosbvh", "rdh", "embree", "embree-sbvh"};
 }
 
 void apply_node_format(BuildParams& params, const NodeFormat& format) {
@@ -100,6 +101,11 @@ void check_build_params(const BuildParams& p) {
   if (!std::isfinite(p.ao_weight_floor) || p.ao_weight_floor < 0 || p.ao_weight_floor > 1)
     throw InputError("ao_weight_floor", "must be in [0, 1]");
   if (!std::isfinite(p.ao_cutoff_relative)) throw InputError("ao_cutoff_relative", "must be finite");
+  if (p.rdh_resolution > 4096) throw InputError("rdh_resolution", "must be 0..4096 rays per side");
+  if (p.rdh_ao_rays > 256) throw InputError("rdh_ao_rays", "must be 0..256 per primary hit");
+  if (!positive(p.rdh_prior)) throw InputError("rdh_prior", "must be a positive finite number");
+  if (p.rdh_cameras != "camera" && p.rdh_cameras != "all")
+    throw InputError("rdh_cameras", "must be 'camera' or 'all'");
 }
 
 namespace {
@@ -209,6 +215,37 @@ Bvh build_binary_or_embree(const Scene& scene, const BuildParams& params, BuildR
     bvh = detail::build_weighted_sah(scene, config, &stats);
     r.build_seconds = seconds_since(build_start);
     copy_stats(stats, &r);
+  } else if (name == "rdh") {
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<const Camera*> cameras;
+    if (params.rdh_cameras == "all") {
+      for (const Camera& c : scene.cameras) cameras.push_back(&c);
+    } else {
+      cameras.push_back(&scene.camera(params.camera));
+    }
+    RaySampleParams sp;
+    sp.resolution = params.rdh_resolution;
+    sp.ao_rays = params.rdh_ao_rays;
+    const float relative =
+        params.ao_cutoff_relative < 0 ? scene.ao.cutoff_relative : params.ao_cutoff_relative;
+    sp.ao_cutoff = relative * scene.diagonal();
+    sp.seed = params.seed;
+    RaySamples rays;
+    if (sp.resolution > 0) {
+      with_threads(params.threads, [&] {
+        EmbreeScene embree(scene);
+        rays = sample_rays(scene, embree, cameras, sp);
+      });
+    }
+    r.rdh_rays = rays.size();
+    r.estimate_seconds = seconds_since(start);
+    config.rays = &rays;
+    config.rdh_prior = params.rdh_prior;
+    const auto build_start = std::chrono::steady_clock::now();
+    bvh = detail::build_weighted_sah(scene, config, &stats);
+    r.build_seconds = seconds_since(build_start);
+    copy_stats(stats, &r);
+    r.peak_memory_bytes += uint64_t(rays.size()) * 7 * sizeof(float);
   } else if (name == "median") {
     const auto start = std::chrono::steady_clock::now();
     bvh = detail::build_median(scene, params.max_leaf_size);

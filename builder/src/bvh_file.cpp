@@ -91,6 +91,14 @@ std::string build_params_json(const BuildParams& p) {
     j["osah_width"] = p.osah_width;
     j["osah_height"] = p.osah_height;
   }
+  if (p.builder == "rdh") {
+    j["camera"] = p.camera;
+    j["rdh_resolution"] = p.rdh_resolution;
+    j["rdh_ao_rays"] = p.rdh_ao_rays;
+    j["rdh_prior"] = p.rdh_prior;
+    j["rdh_cameras"] = p.rdh_cameras;
+    j["ao_cutoff_relative"] = p.ao_cutoff_relative;
+  }
   if (p.builder == "aobvh" || p.builder == "aosbvh") {
     j["ao_rays"] = p.ao_rays;
     j["ao_cutoff_relative"] = p.ao_cutoff_relative;
