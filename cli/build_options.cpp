@@ -40,6 +40,8 @@ void add_build_options(CLI::App* cmd, BuildParams& p) {
                   "rdh: camera = the run's camera only, all = every camera of the scene")
       ->check(CLI::IsMember({"camera", "all"}))
       ->capture_default_str();
+  cmd->add_flag("--rdh-spatial-splits", p.rdh_spatial_splits,
+               "rdh: also SBVH's spatial splits (--sbvh-alpha, --sbvh-budget), rays counted for them too");
   cmd->add_option("--build-seed", p.seed, "seed of the builders' random choices (AO rays; default: --seed)")
       ->capture_default_str();
 }

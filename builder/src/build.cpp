@@ -74,7 +74,8 @@ BvhLimits limits_for(const BuildParams& params) {
   limits.max_depth = params.max_depth;
   limits.max_width = params.width;
   limits.split_references =
-      params.builder == "sbvh" || params.builder == "aosbvh" || params.builder == "embree-sbvh";
+      params.builder == "sbvh" || params.builder == "aosbvh" || params.builder == "embree-sbvh" ||
+      (params.builder == "rdh" && params.rdh_spatial_splits);
   // embree-sbvh fills up to ~2 x N references (its capacity); ours keeps the budget.
   limits.reference_budget = params.builder == "embree-sbvh" ? 2.0 : params.sbvh_reference_budget;
   return limits;
@@ -241,6 +242,7 @@ Bvh build_binary_or_embree(const Scene& scene, const BuildParams& params, BuildR
     r.estimate_seconds = seconds_since(start);
     config.rays = &rays;
     config.rdh_prior = params.rdh_prior;
+    config.spatial_splits = params.rdh_spatial_splits;
     const auto build_start = std::chrono::steady_clock::now();
     bvh = detail::build_weighted_sah(scene, config, &stats);
     r.build_seconds = seconds_since(build_start);

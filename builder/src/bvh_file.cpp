@@ -97,6 +97,12 @@ std::string build_params_json(const BuildParams& p) {
     j["rdh_ao_rays"] = p.rdh_ao_rays;
     j["rdh_prior"] = p.rdh_prior;
     j["rdh_cameras"] = p.rdh_cameras;
+    if (p.rdh_spatial_splits) {
+      j["rdh_spatial_splits"] = true;
+      j["sbvh_alpha"] = p.sbvh_alpha;
+      j["sbvh_reference_budget"] = p.sbvh_reference_budget;
+      j["sbvh_split_limit"] = p.sbvh_split_limit;
+    }
     j["ao_cutoff_relative"] = p.ao_cutoff_relative;
   }
   if (p.builder == "aobvh" || p.builder == "aosbvh") {

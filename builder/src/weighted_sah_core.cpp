@@ -254,7 +254,8 @@ class Builder {
                           const std::vector<uint32_t>& rays) const;
   Split find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info,
                          SweepKey* best_order, const std::vector<uint32_t>& rays) const;
-  Split find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info) const;
+  Split find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info,
+                           const std::vector<uint32_t>& rays) const;
   uint32_t partition_object(const Split& split, uint32_t begin, uint32_t count,
                             const NodeInfo& info, const SweepKey* sweep_order);
   bool partition_spatial(const Split& split, uint32_t begin, uint32_t count, uint32_t capacity,
@@ -551,7 +552,8 @@ std::pair<Aabb, Aabb> Builder::split_reference(const Ref& ref, int axis, float p
   return {left, right};
 }
 
-Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info) const {
+Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info,
+                                  const std::vector<uint32_t>& rays) const {
   const uint32_t bins = spatial_bins();
   const float node_area = info.box.area();
   Split best;
@@ -563,6 +565,11 @@ Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo
   std::vector<SpatialBin> b(bins);
   std::vector<float> right_area(bins), right_weight(bins);
   std::vector<uint32_t> right_count(bins), right_visible(bins);
+  // RDH: the candidates' child boxes are unions of a prefix and a suffix of the
+  // bins too (nested), so the rays are counted the same way as for object splits.
+  const bool with_rays = !rays.empty();
+  std::vector<Aabb> left_boxes(with_rays ? bins : 0), right_boxes(with_rays ? bins : 0);
+  std::vector<uint32_t> rays_left(with_rays ? bins : 0), rays_right(with_rays ? bins : 0);
   for (int a = 0; a < 3; ++a) {
     const SpatialBinning binning(info.box.lo[a], info.box.hi[a], bins);
     if (!(binning.scale > 0)) continue;
@@ -601,6 +608,16 @@ Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo
       right_weight[i] = acc.exit_weight;
       right_count[i] = acc.exit;
       right_visible[i] = acc.exit_visible;
+      if (with_rays) right_boxes[i - 1] = acc.box;
+    }
+    if (with_rays) {
+      Aabb grow;
+      for (uint32_t i = 0; i + 1 < bins; ++i) {
+        grow.extend(b[i].box);
+        left_boxes[i] = grow;
+      }
+      count_candidate_rays(*config_.rays, rays, left_boxes.data(), right_boxes.data(), bins - 1,
+                           rays_left.data(), rays_right.data());
     }
     SpatialBin left;
     for (uint32_t i = 0; i + 1 < bins; ++i) {
@@ -609,9 +626,11 @@ Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo
       left.enter_weight += b[i].enter_weight;
       left.enter_visible += b[i].enter_visible;
       if (left.enter == 0 || right_count[i + 1] == 0) continue;
+      const RayCounts counts =
+          with_rays ? RayCounts{rays_left[i], rays_right[i], uint32_t(rays.size())} : RayCounts{};
       const float cost =
           split_cost(left.box.area(), left.enter_weight, left.enter_visible, right_area[i + 1],
-                     right_weight[i + 1], right_visible[i + 1], node_area, info);
+                     right_weight[i + 1], right_visible[i + 1], node_area, info, counts);
       if (cost < best.cost) {
         best.kind = Split::Kind::Spatial;
         best.axis = a;
@@ -809,7 +828,7 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
       (depth > 0 || spatial_at_root_)) {
     const Aabb overlap = Aabb::intersection(best.left_box, best.right_box);
     if (!overlap.empty() && overlap.area() >= config_.sbvh_alpha * root_area_) {
-      const Split spatial = find_spatial_split(begin, count, info);
+      const Split spatial = find_spatial_split(begin, count, info, rays);
       if (spatial.valid() && spatial.cost < best.cost &&
           uint64_t(spatial.left_count) + spatial.right_count <= capacity)
         best = spatial;

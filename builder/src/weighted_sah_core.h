@@ -10,7 +10,8 @@
 //     sample rays whose segment meets its box, and P_i = (A_i / A + n_i / k) /
 //     (1 + n / k) for the n rays of the node, n_i of them meeting child box i, and
 //     k = rdh_prior pseudo-rays distributed by surface area (n = 0: exactly the
-//     SAH). Object splits only: spatial candidates keep the surface-area rule.
+//     SAH). Object and spatial candidates alike; reference unsplitting and the
+//     SBVH root rebuild keep their surface-area costs.
 // Split cost: 2*T1 + T2 * (P_L * W_L + P_R * W_R); leaf cost: T2 * W.
 //
 // Determinism: every reduction runs over fixed chunks in a fixed order, partitions

@@ -165,5 +165,29 @@ TEST(Rdh, CheaperThanSahForTheCamerasRaysOnInterior) {
   }
 }
 
+// With spatial splits: a huge prior gives exactly the SBVH tree (the rays count in
+// spatial candidates too, and nowhere else); the tree splits references within
+// the budget and does not depend on the thread count.
+TEST(Rdh, SpatialSplitsGiveTheSbvhTreeWithAHugePriorAndAreThreadCountFree) {
+  const Scene scene = make_procedural_scene("interior");
+  BuildParams sbvh;
+  sbvh.builder = "sbvh";
+  const Bvh reference = build_bvh(scene, sbvh);
+  BuildParams p = rdh_params();
+  p.rdh_spatial_splits = true;
+  p.rdh_prior = 1e30f;
+  EXPECT_TRUE(same_tree(reference, build_bvh(scene, p)));
+  p.rdh_prior = 8.0f;
+  p.threads = 1;
+  BuildReport report;
+  const Bvh one = build_bvh(scene, p, &report);
+  const BvhValidation v = validate_bvh(one, scene, limits_for(p));
+  EXPECT_TRUE(v.ok()) << v.summary();
+  EXPECT_GT(report.spatial_splits, 0u);
+  EXPECT_FALSE(same_tree(reference, one));
+  p.threads = 2;
+  EXPECT_TRUE(same_tree(one, build_bvh(scene, p)));
+}
+
 }  // namespace
 }  // namespace rtsim

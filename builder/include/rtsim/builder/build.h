@@ -59,6 +59,7 @@ struct BuildParams {
   uint32_t rdh_ao_rays = 4;
   float rdh_prior = 8.0f;
   std::string rdh_cameras = "camera";
+  bool rdh_spatial_splits = false;  // rdh with SBVH's spatial splits (sbvh_* parameters)
   // Per-triangle values supplied by the caller instead of casting rays (tests,
   // cached estimates). Empty = estimate with Embree. NaN / infinite / negative
   // entries are sanitised (occlusion: treated as 1 = fully open; counted in
