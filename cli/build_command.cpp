@@ -63,8 +63,8 @@ void print_table(const std::string& scene, const std::vector<BvhMetrics>& all,
   std::printf("scene %s: %llu triangles\n", scene.c_str(),
               (unsigned long long)(all.empty() ? 0 : all.front().triangles));
   auto row = [&](const char* label, auto cell) {
-    std::printf("%-22s", label);
-    for (size_t i = 0; i < all.size(); ++i) std::printf(" %11s", cell(i).c_str());  // 8 builders in 120 columns
+    std::printf("%-20s", label);
+    for (size_t i = 0; i < all.size(); ++i) std::printf(" %10s", cell(i).c_str());  // 9 builders in 120 columns
     std::printf("\n");
   };
   auto num = [](const char* fmt, double v) {
