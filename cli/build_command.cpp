@@ -63,8 +63,8 @@ void print_table(const std::string& scene, const std::vector<BvhMetrics>& all,
   std::printf("scene %s: %llu triangles\n", scene.c_str(),
               (unsigned long long)(all.empty() ? 0 : all.front().triangles));
   auto row = [&](const char* label, auto cell) {
-    std::printf("%-22s", label);
-    for (size_t i = 0; i < all.size(); ++i) std::printf(" %11s", cell(i).c_str());  // 8 builders in 120 columns
+    std::printf("%-18s", label);
+    for (size_t i = 0; i < all.size(); ++i) std::printf(" %9s", cell(i).c_str());  // 10 builders in 120 columns
     std::printf("\n");
   };
   auto num = [](const char* fmt, double v) {
@@ -158,6 +158,7 @@ void run_build(const BuildOptions& o) {
       j["parameters"] = nlohmann::json::parse(build_params_json(params));
       if (name == "aobvh" || name == "aosbvh") j["mean_occlusion"] = r.mean_occlusion, j["ao_rays"] = r.ao_rays;
       if (name == "osah") j["visible_triangles"] = r.visible_triangles;
+      if (name == "rdh" || name == "rdh-sbvh") j["rdh_rays"] = r.rdh_rays;
       if (o.all ? !out_dir.empty() : !o.out.empty()) {
         const std::filesystem::path file =
             o.all ? std::filesystem::path(out_dir) / (scene.name + "-" + name + ".bvh")

@@ -4,6 +4,7 @@
 
 #include "builders/builders.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -13,8 +14,9 @@ namespace rtsim {
 
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
-const std::vector<std::string> kSplitting = {"sbvh", "aosbvh"};
+const std::vector<std::string> kSplitting = {"sbvh", "aosbvh", "rdh-sbvh"};
 const std::vector<std::string> kOcclusion = {"aobvh", "aosbvh"};
+const std::vector<std::string> kRayDistribution = {"rdh", "rdh-sbvh"};
 }  // namespace
 
 const std::vector<BuilderInfo>& builder_registry() {
@@ -44,6 +46,20 @@ const std::vector<BuilderInfo>& builder_registry() {
     {
       BuilderInfo& i = add("aosbvh", "AO-SBVH", "AO-BVH weights with SBVH's spatial splits", build_aosbvh);
       i.ours = true;
+      i.casts_rays = true;
+      i.splits_references = true;
+    }
+    {
+      BuilderInfo& i = add("rdh", "RDH", "SAH with the workload's own sampled ray fractions (Bittner and Havran)",
+                           build_rdh);
+      i.ours = true;
+      i.needs_camera = true;
+      i.casts_rays = true;
+    }
+    {
+      BuilderInfo& i = add("rdh-sbvh", "RDH-SBVH", "rdh with SBVH's spatial splits", build_rdh_sbvh);
+      i.ours = true;
+      i.needs_camera = true;
       i.casts_rays = true;
       i.splits_references = true;
     }
@@ -111,7 +127,8 @@ const std::vector<BuilderParameter>& builder_parameters() {
         &P::sbvh_reference_budget, 1, kInf, kSplitting);
     add("sbvh_split_limit", "--sbvh-split-limit", "splits", "sbvh: times one reference may be split",
         &P::sbvh_split_limit, 0, 7, kSplitting);
-    add("camera", "", "", "the camera the tree is built for (the workload's)", &P::camera, 0, 0, {"osah"});
+    add("camera", "", "", "the camera the tree is built for (the workload's)", &P::camera, 0, 0,
+        {"osah", "rdh", "rdh-sbvh"});
     add("osah_w", "--osah-w", "", "osah: visibility weight in mixed nodes", &P::osah_w, 0, 1, {"osah"});
     add("osah_width", "--osah-resolution", "pixels",
         "osah: primary rays per side (width; the command line sets the height too)", &P::osah_width, 1,
@@ -119,8 +136,8 @@ const std::vector<BuilderParameter>& builder_parameters() {
     add("osah_height", "", "pixels", "osah: primary rays, height", &P::osah_height, 1, 16384, {"osah"});
     add("ao_rays", "--ao-rays", "rays", "aobvh: AO rays per triangle (K)", &P::ao_rays, 1, 65536, kOcclusion);
     add("ao_cutoff_relative", "--ao-cutoff", "x scene diagonal",
-        "aobvh: AO ray length x scene diagonal (< 0: the scene's setting, default 0.05)",
-        &P::ao_cutoff_relative, -kInf, kInf, kOcclusion);
+        "aobvh, rdh: AO ray length x scene diagonal (< 0: the scene's setting, default 0.05)",
+        &P::ao_cutoff_relative, -kInf, kInf, {"aobvh", "aosbvh", "rdh", "rdh-sbvh"});
     add("ao_weight_floor", "--ao-floor", "", "aobvh: weight floor, w = floor + (1-floor) x value",
         &P::ao_weight_floor, 0, 1, kOcclusion);
     add("ao_both_sides", "--ao-both-sides", "", "aobvh: cast AO rays from both triangle sides",
@@ -130,6 +147,19 @@ const std::vector<BuilderParameter>& builder_parameters() {
         "aobvh: on = weights scaled to mean 1 (equal values give the SAH tree); off = the\n"
         "patent's literal sum of occlusion values in place of the count, same T2",
         &P::ao_normalise, 0, 1, kOcclusion);
+    add("rdh_resolution", "--rdh-resolution", "rays per side",
+        "rdh: sample primary rays per side per camera (0 = none: the SAH tree)", &P::rdh_resolution, 0,
+        4096, kRayDistribution);
+    add("rdh_ao_rays", "--rdh-ao-rays", "rays", "rdh: sample AO rays per primary hit", &P::rdh_ao_rays, 0,
+        256, kRayDistribution);
+    add("rdh_prior", "--rdh-prior", "rays",
+        "rdh: k pseudo-rays spread by surface area, P_i = (A_i/A + n_i/k) / (1 + n/k)", &P::rdh_prior, 0,
+        kInf, kRayDistribution)
+        .min_exclusive = true;
+    add("rdh_cameras", "--rdh-cameras", "",
+        "rdh: camera = the run's camera only, all = every camera of the scene", &P::rdh_cameras, 0, 0,
+        kRayDistribution)
+        .choices = {"camera", "all"};
     return t;
   }();
   return kParameters;
@@ -235,6 +265,15 @@ std::string build_parameter_text(const BuildParams& params, const BuilderParamet
 
 void check_build_params(const BuildParams& params) {
   for (const BuilderParameter& p : builder_parameters()) {
+    if (!p.choices.empty()) {
+      const std::string& v = params.*std::get<std::string BuildParams::*>(p.field);
+      if (std::find(p.choices.begin(), p.choices.end(), v) == p.choices.end()) {
+        std::string list;
+        for (const std::string& c : p.choices) list += (list.empty() ? "'" : ", '") + c + "'";
+        throw InputError(p.key, "must be one of " + list + " (got '" + v + "')");
+      }
+      continue;
+    }
     if (p.min == 0 && p.max == 0) continue;  // a name, not a number
     const double v = std::visit(
         [&](auto member) -> double {

@@ -188,6 +188,48 @@ struct SweepKey {
 
 constexpr uint32_t kSmallSweep = 64;
 
+// RDH: how many of a node's sample rays meet a candidate's two child boxes.
+struct RayCounts {
+  uint32_t left = 0, right = 0, node = 0;  // node = 0: no rays, the surface-area rule
+};
+
+// For m candidates whose left boxes grow with the index (left[i] within
+// left[i + 1]) and whose right boxes shrink (right[i + 1] within right[i]) - true
+// of binned and swept object splits, whose children are unions of a prefix and a
+// suffix - a ray meeting left[i] meets every later left box, and the slab test is
+// monotone in the box in floating point too. So the first left box and the last
+// right box a ray meets are found by bisection, and prefix/suffix sums give the
+// exact counts of every candidate: O(n log m) slab tests instead of O(n m).
+void count_candidate_rays(const RaySamples& rays, const std::vector<uint32_t>& ids,
+                          const Aabb* left, const Aabb* right, uint32_t m, uint32_t* n_left,
+                          uint32_t* n_right) {
+  std::fill(n_left, n_left + m, 0u);
+  std::fill(n_right, n_right + m, 0u);
+  if (m == 0) return;
+  for (const uint32_t ray : ids) {
+    if (rays.hits(ray, left[m - 1])) {
+      uint32_t lo = 0, hi = m - 1;  // smallest i meeting left[i]
+      while (lo < hi) {
+        const uint32_t mid = (lo + hi) / 2;
+        if (rays.hits(ray, left[mid])) hi = mid;
+        else lo = mid + 1;
+      }
+      n_left[lo] += 1;
+    }
+    if (rays.hits(ray, right[0])) {
+      uint32_t lo = 0, hi = m - 1;  // largest i meeting right[i]
+      while (lo < hi) {
+        const uint32_t mid = (lo + hi + 1) / 2;
+        if (rays.hits(ray, right[mid])) lo = mid;
+        else hi = mid - 1;
+      }
+      n_right[lo] += 1;
+    }
+  }
+  for (uint32_t i = 1; i < m; ++i) n_left[i] += n_left[i - 1];
+  for (uint32_t i = m - 1; i > 0; --i) n_right[i - 1] += n_right[i];
+}
+
 struct TempNode {
   Aabb box;
   uint32_t left = ~0u, right = ~0u;  // ~0u: leaf
@@ -202,15 +244,18 @@ class Builder {
 
  private:
   Bvh run_once(bool spatial_at_root, CoreStats* stats);
-  uint32_t build(uint32_t begin, uint32_t count, uint32_t capacity, uint32_t depth);
+  uint32_t build(uint32_t begin, uint32_t count, uint32_t capacity, uint32_t depth,
+                 const std::vector<uint32_t>* parent_rays);
   NodeInfo node_info(uint32_t begin, uint32_t count) const;
   float split_cost(float area_left, float weight_left, uint32_t visible_left, float area_right,
                    float weight_right, uint32_t visible_right, float node_area,
-                   const NodeInfo& info) const;
-  Split find_object_split(uint32_t begin, uint32_t count, const NodeInfo& info) const;
+                   const NodeInfo& info, RayCounts rays = RayCounts{}) const;
+  Split find_object_split(uint32_t begin, uint32_t count, const NodeInfo& info,
+                          const std::vector<uint32_t>& rays) const;
   Split find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info,
-                         SweepKey* best_order) const;
-  Split find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info) const;
+                         SweepKey* best_order, const std::vector<uint32_t>& rays) const;
+  Split find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info,
+                           const std::vector<uint32_t>& rays) const;
   uint32_t partition_object(const Split& split, uint32_t begin, uint32_t count,
                             const NodeInfo& info, const SweepKey* sweep_order);
   bool partition_spatial(const Split& split, uint32_t begin, uint32_t count, uint32_t capacity,
@@ -237,6 +282,7 @@ class Builder {
   bool spatial_at_root_ = true;  // false: the root takes the best object split
   bool root_split_spatial_ = false;
   std::atomic<uint64_t> spatial_splits_{0}, forced_splits_{0}, median_splits_{0};
+  std::atomic<uint64_t> ray_node_pairs_{0};
 };
 
 NodeInfo Builder::node_info(uint32_t begin, uint32_t count) const {
@@ -260,13 +306,22 @@ NodeInfo Builder::node_info(uint32_t begin, uint32_t count) const {
 
 float Builder::split_cost(float area_left, float weight_left, uint32_t visible_left,
                           float area_right, float weight_right, uint32_t visible_right,
-                          float node_area, const NodeInfo& info) const {
+                          float node_area, const NodeInfo& info, RayCounts rays) const {
   float p_left = 1.0f, p_right = 1.0f;
   // A node box without area (all vertices on a line or a point) gives no
   // probability information: both children count as certainly visited.
   if (node_area > 0) {
     p_left = area_left / node_area;
     p_right = area_right / node_area;
+  }
+  // RDH: the node's sample rays plus k pseudo-rays spread by surface area. Written
+  // as (a + n_i / k) / (1 + n / k) so that n = 0, or k so large that n / k
+  // vanishes, gives exactly the surface-area ratio a (hence the SAH tree).
+  if (rays.node > 0) {
+    const float k = config_.rdh_prior;
+    const float denominator = 1.0f + float(rays.node) / k;
+    p_left = (p_left + float(rays.left) / k) / denominator;
+    p_right = (p_right + float(rays.right) / k) / denominator;
   }
   // OSAH: only nodes holding both visible and hidden triangles mix in visibility.
   if (config_.visible && info.visible > 0 && info.visible < info.count) {
@@ -278,7 +333,8 @@ float Builder::split_cost(float area_left, float weight_left, uint32_t visible_l
   return 2.0f * config_.t1 + config_.t2 * (p_left * weight_left + p_right * weight_right);
 }
 
-Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo& info) const {
+Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo& info,
+                                 const std::vector<uint32_t>& rays) const {
   const uint32_t bins = config_.bins;
   const CentroidBinning binning(info.centroids, bins);
   Split best;
@@ -312,6 +368,10 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
   const float node_area = info.box.area();
   std::array<float, kMaxBins> right_area, right_weight;
   std::array<uint32_t, kMaxBins> right_count, right_visible;
+  // RDH: candidate i's child boxes (bins 0..i and i+1..bins-1) and their ray counts.
+  std::array<Aabb, kMaxBins> left_boxes, right_boxes;
+  std::array<uint32_t, kMaxBins> rays_left, rays_right;
+  const bool with_rays = !rays.empty();
   for (int a = 0; a < 3; ++a) {
     if (!binning.usable(a)) continue;
     const Bin* axis_bins = b + a * bins;
@@ -322,13 +382,26 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
       right_weight[i] = acc.weight;
       right_count[i] = acc.count;
       right_visible[i] = acc.visible;
+      if (with_rays) right_boxes[i - 1] = acc.box;
+    }
+    if (with_rays) {
+      Aabb grow;
+      for (uint32_t i = 0; i + 1 < bins; ++i) {
+        grow.extend(axis_bins[i].box);
+        left_boxes[i] = grow;
+      }
+      count_candidate_rays(*config_.rays, rays, left_boxes.data(), right_boxes.data(), bins - 1,
+                           rays_left.data(), rays_right.data());
     }
     Bin left;
     for (uint32_t i = 0; i + 1 < bins; ++i) {
       left.add(axis_bins[i]);
       if (left.count == 0 || right_count[i + 1] == 0) continue;
+      const RayCounts counts =
+          with_rays ? RayCounts{rays_left[i], rays_right[i], uint32_t(rays.size())} : RayCounts{};
       const float cost = split_cost(left.box.area(), left.weight, left.visible, right_area[i + 1],
-                                    right_weight[i + 1], right_visible[i + 1], node_area, info);
+                                    right_weight[i + 1], right_visible[i + 1], node_area, info,
+                                    counts);
       if (cost < best.cost) {
         best.kind = Split::Kind::Object;
         best.axis = a;
@@ -371,7 +444,7 @@ void sweep_order(const Scene& scene, const Ref* refs, uint32_t count, int axis, 
 // best_order (count entries) receives the order along the best split's axis, which
 // partition_object then applies without sorting again.
 Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info,
-                                SweepKey* best_order) const {
+                                SweepKey* best_order, const std::vector<uint32_t>& rays) const {
   Split best;
   if (count < 2) return best;
   const float node_area = info.box.area();
@@ -397,6 +470,10 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
     right_visible = big_visible.data();
   }
   const Ref* refs = refs_.data() + begin;
+  // RDH: candidate i's child boxes (slots 0..i and i+1..count-1) and their ray counts.
+  const bool with_rays = !rays.empty();
+  std::vector<Aabb> left_boxes(with_rays ? count : 0), right_boxes(with_rays ? count : 0);
+  std::vector<uint32_t> rays_left(with_rays ? count : 0), rays_right(with_rays ? count : 0);
   for (int a = 0; a < 3; ++a) {
     if (!(info.centroids.hi[a] > info.centroids.lo[a])) continue;
     sweep_order(scene_, refs, count, a, keys);
@@ -406,13 +483,26 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
       right_area[i] = acc.box.area();
       right_weight[i] = acc.weight;
       right_visible[i] = acc.visible;
+      if (with_rays) right_boxes[i - 1] = acc.box;
+    }
+    if (with_rays) {
+      Aabb grow;
+      for (uint32_t i = 0; i + 1 < count; ++i) {
+        grow.extend(refs[keys[i].slot].box());
+        left_boxes[i] = grow;
+      }
+      count_candidate_rays(*config_.rays, rays, left_boxes.data(), right_boxes.data(), count - 1,
+                           rays_left.data(), rays_right.data());
     }
     Bin left;
     const int best_axis_before = best.axis;
     for (uint32_t i = 0; i + 1 < count; ++i) {
       left.add(refs[keys[i].slot]);
+      const RayCounts counts =
+          with_rays ? RayCounts{rays_left[i], rays_right[i], uint32_t(rays.size())} : RayCounts{};
       const float cost = split_cost(left.box.area(), left.weight, left.visible, right_area[i + 1],
-                                    right_weight[i + 1], right_visible[i + 1], node_area, info);
+                                    right_weight[i + 1], right_visible[i + 1], node_area, info,
+                                    counts);
       if (cost < best.cost) {
         best.kind = Split::Kind::Sweep;
         best.axis = a;
@@ -462,7 +552,8 @@ std::pair<Aabb, Aabb> Builder::split_reference(const Ref& ref, int axis, float p
   return {left, right};
 }
 
-Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info) const {
+Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info,
+                                  const std::vector<uint32_t>& rays) const {
   const uint32_t bins = spatial_bins();
   const float node_area = info.box.area();
   Split best;
@@ -474,6 +565,11 @@ Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo
   std::vector<SpatialBin> b(bins);
   std::vector<float> right_area(bins), right_weight(bins);
   std::vector<uint32_t> right_count(bins), right_visible(bins);
+  // RDH: the candidates' child boxes are unions of a prefix and a suffix of the
+  // bins too (nested), so the rays are counted the same way as for object splits.
+  const bool with_rays = !rays.empty();
+  std::vector<Aabb> left_boxes(with_rays ? bins : 0), right_boxes(with_rays ? bins : 0);
+  std::vector<uint32_t> rays_left(with_rays ? bins : 0), rays_right(with_rays ? bins : 0);
   for (int a = 0; a < 3; ++a) {
     const SpatialBinning binning(info.box.lo[a], info.box.hi[a], bins);
     if (!(binning.scale > 0)) continue;
@@ -512,6 +608,16 @@ Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo
       right_weight[i] = acc.exit_weight;
       right_count[i] = acc.exit;
       right_visible[i] = acc.exit_visible;
+      if (with_rays) right_boxes[i - 1] = acc.box;
+    }
+    if (with_rays) {
+      Aabb grow;
+      for (uint32_t i = 0; i + 1 < bins; ++i) {
+        grow.extend(b[i].box);
+        left_boxes[i] = grow;
+      }
+      count_candidate_rays(*config_.rays, rays, left_boxes.data(), right_boxes.data(), bins - 1,
+                           rays_left.data(), rays_right.data());
     }
     SpatialBin left;
     for (uint32_t i = 0; i + 1 < bins; ++i) {
@@ -520,9 +626,11 @@ Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo
       left.enter_weight += b[i].enter_weight;
       left.enter_visible += b[i].enter_visible;
       if (left.enter == 0 || right_count[i + 1] == 0) continue;
+      const RayCounts counts =
+          with_rays ? RayCounts{rays_left[i], rays_right[i], uint32_t(rays.size())} : RayCounts{};
       const float cost =
           split_cost(left.box.area(), left.enter_weight, left.enter_visible, right_area[i + 1],
-                     right_weight[i + 1], right_visible[i + 1], node_area, info);
+                     right_weight[i + 1], right_visible[i + 1], node_area, info, counts);
       if (cost < best.cost) {
         best.kind = Split::Kind::Spatial;
         best.axis = a;
@@ -671,10 +779,27 @@ bool Builder::partition_spatial(const Split& split, uint32_t begin, uint32_t cou
   return true;
 }
 
-uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint32_t depth) {
+uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint32_t depth,
+                        const std::vector<uint32_t>* parent_rays) {
   const NodeInfo info = node_info(begin, count);
   const uint32_t index = uint32_t(nodes_.emplace_back() - nodes_.begin());
   nodes_[index].box = info.box;
+
+  // RDH: the parent's sample rays whose segment meets this node's box, in the
+  // parent's order (sequential: the same list for any thread count). The root
+  // filters all rays.
+  std::vector<uint32_t> rays;
+  if (config_.rays) {
+    const RaySamples& samples = *config_.rays;
+    if (parent_rays) {
+      for (const uint32_t r : *parent_rays)
+        if (samples.hits(r, info.box)) rays.push_back(r);
+    } else {
+      for (uint32_t r = 0; r < uint32_t(samples.size()); ++r)
+        if (samples.hits(r, info.box)) rays.push_back(r);
+    }
+    ray_node_pairs_.fetch_add(rays.size());
+  }
 
   auto make_leaf = [&] {
     nodes_[index].begin = begin;
@@ -695,15 +820,15 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
       big_order.resize(count);
       order = big_order.data();
     }
-    best = find_sweep_split(begin, count, info, order);
+    best = find_sweep_split(begin, count, info, order, rays);
   } else {
-    best = find_object_split(begin, count, info);
+    best = find_object_split(begin, count, info, rays);
   }
   if (config_.spatial_splits && best.valid() && capacity > count &&
       (depth > 0 || spatial_at_root_)) {
     const Aabb overlap = Aabb::intersection(best.left_box, best.right_box);
     if (!overlap.empty() && overlap.area() >= config_.sbvh_alpha * root_area_) {
-      const Split spatial = find_spatial_split(begin, count, info);
+      const Split spatial = find_spatial_split(begin, count, info, rays);
       if (spatial.valid() && spatial.cost < best.cost &&
           uint64_t(spatial.left_count) + spatial.right_count <= capacity)
         best = spatial;
@@ -748,13 +873,16 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
   const uint32_t right_begin = begin + left_capacity;
   const uint32_t right_capacity = capacity - left_capacity;
   uint32_t left_node = 0, right_node = 0;
+  const std::vector<uint32_t>* child_rays = config_.rays ? &rays : nullptr;
   if (count >= kParallelRecursion) {
     tbb::parallel_invoke(
-        [&] { left_node = build(begin, left_count, left_capacity, depth + 1); },
-        [&] { right_node = build(right_begin, right_count, right_capacity, depth + 1); });
+        [&] { left_node = build(begin, left_count, left_capacity, depth + 1, child_rays); },
+        [&] {
+          right_node = build(right_begin, right_count, right_capacity, depth + 1, child_rays);
+        });
   } else {
-    left_node = build(begin, left_count, left_capacity, depth + 1);
-    right_node = build(right_begin, right_count, right_capacity, depth + 1);
+    left_node = build(begin, left_count, left_capacity, depth + 1, child_rays);
+    right_node = build(right_begin, right_count, right_capacity, depth + 1, child_rays);
   }
   nodes_[index].left = left_node;
   nodes_[index].right = right_node;
@@ -776,6 +904,8 @@ Bvh Builder::run(CoreStats* stats) {
     throw InputError("weights", "one weight per triangle expected");
   if (config_.visible && config_.visible->size() != n)
     throw InputError("visibility", "one flag per triangle expected");
+  if (config_.rays && !(std::isfinite(config_.rdh_prior) && config_.rdh_prior > 0))
+    throw InputError("rdh_prior", "must be a positive finite number");
 
   if (!config_.spatial_splits) return run_once(true, stats);
   // The greedy choice at the root can be wrong: a spatial split that is cheaper
@@ -807,7 +937,7 @@ Bvh Builder::run_once(bool spatial_at_root, CoreStats* stats) {
   const size_t n = scene_.triangle_count();
   spatial_at_root_ = spatial_at_root;
   root_split_spatial_ = false;
-  spatial_splits_ = 0, forced_splits_ = 0, median_splits_ = 0;
+  spatial_splits_ = 0, forced_splits_ = 0, median_splits_ = 0, ray_node_pairs_ = 0;
   nodes_.clear();
   const uint64_t capacity64 =
       config_.spatial_splits
@@ -825,7 +955,7 @@ Bvh Builder::run_once(bool spatial_at_root, CoreStats* stats) {
   });
   nodes_.reserve(2 * n / std::max<uint32_t>(1, config_.max_leaf_size) + 16);
   root_area_ = scene_.bounds().area();
-  build(0, uint32_t(n), capacity, 0);
+  build(0, uint32_t(n), capacity, 0, nullptr);
 
   // Depth-first flatten: node indices and prim_ref order depend only on the tree.
   Bvh bvh;
@@ -865,6 +995,7 @@ Bvh Builder::run_once(bool spatial_at_root, CoreStats* stats) {
     stats->spatial_splits = spatial_splits_.load();
     stats->forced_splits = forced_splits_.load();
     stats->median_splits = median_splits_.load();
+    stats->ray_node_pairs = ray_node_pairs_.load();
     stats->working_bytes = refs_.capacity() * sizeof(Ref) + nodes_.size() * sizeof(TempNode) +
                            bvh.nodes.capacity() * sizeof(BvhNode) +
                            bvh.prim_refs.capacity() * sizeof(uint32_t);

@@ -5,7 +5,13 @@
 //     weights (SAH: all 1; AO-BVH: occlusion-derived weights, normalised to mean 1);
 //   - child-probability rule: P_i = A_i / A (surface area), or in OSAH's mixed nodes
 //     (both visible and hidden triangles) P_i = w * V_i / V + (1 - w) * A_i / A;
-//   - optional spatial splits (SBVH) with reference unsplitting and a reference budget.
+//   - optional spatial splits (SBVH) with reference unsplitting and a reference budget;
+//   - optional sample rays (RDH, Bittner & Havran 2009): each node carries the
+//     sample rays whose segment meets its box, and P_i = (A_i / A + n_i / k) /
+//     (1 + n / k) for the n rays of the node, n_i of them meeting child box i, and
+//     k = rdh_prior pseudo-rays distributed by surface area (n = 0: exactly the
+//     SAH). Object and spatial candidates alike; reference unsplitting and the
+//     SBVH root rebuild keep their surface-area costs.
 // Split cost: 2*T1 + T2 * (P_L * W_L + P_R * W_R); leaf cost: T2 * W.
 //
 // Determinism: every reduction runs over fixed chunks in a fixed order, partitions
@@ -13,6 +19,7 @@
 // after the (parallel) recursion. The tree is therefore bit-identical for any
 // thread count.
 #include <rtsim/builder/bvh.h>
+#include <rtsim/builder/ray_samples.h>
 #include <rtsim/workloads/scene.h>
 
 #include <cstdint>
@@ -37,6 +44,9 @@ struct CoreConfig {
   float sbvh_alpha = 1e-5f;
   float reference_budget = 2.0f;     // total references <= budget * N
   uint32_t split_limit = 7;          // times one reference may be split again (max 7)
+  // Policy: sample rays (RDH), nullptr = none; rdh_prior = k pseudo-rays (> 0).
+  const RaySamples* rays = nullptr;
+  float rdh_prior = 8.0f;
 };
 
 struct CoreStats {
@@ -45,6 +55,7 @@ struct CoreStats {
   uint64_t forced_splits = 0;   // nodes over max_leaf_size split although a leaf was cheaper
   uint64_t median_splits = 0;   // object/index-median fallbacks (no usable SAH split or depth limit)
   uint64_t working_bytes = 0;   // peak bytes of the builder's own arrays
+  uint64_t ray_node_pairs = 0;  // rdh: sample rays summed over the nodes they meet
 };
 
 // Throws InputError for an empty scene or parameters that cannot be met.

@@ -18,6 +18,8 @@ Bvh build_median(const Scene& scene, const BuildParams& params, BuildReport& rep
 Bvh build_osah(const Scene& scene, const BuildParams& params, BuildReport& report);
 Bvh build_aobvh(const Scene& scene, const BuildParams& params, BuildReport& report);
 Bvh build_aosbvh(const Scene& scene, const BuildParams& params, BuildReport& report);
+Bvh build_rdh(const Scene& scene, const BuildParams& params, BuildReport& report);
+Bvh build_rdh_sbvh(const Scene& scene, const BuildParams& params, BuildReport& report);
 Bvh build_embree(const Scene& scene, const BuildParams& params, BuildReport& report);
 Bvh build_embree_sbvh(const Scene& scene, const BuildParams& params, BuildReport& report);
 

@@ -51,6 +51,16 @@ struct BuildParams {
   // the 2*T1 node tests. See occlusion_weights().
   bool ao_normalise = true;
   bool ao_both_sides = false;
+  // rdh (ray-distribution heuristic): sample rays cast before the build (see
+  // ray_samples.h) - rdh_resolution^2 primary rays per camera and rdh_ao_rays AO
+  // rays per primary hit; P_i = (A_i / A + n_i / k) / (1 + n / k) with k = rdh_prior.
+  // rdh_cameras: "camera" = `camera` only (the one the workload traces), "all" =
+  // every camera of the scene. rdh_resolution 0 = no sample rays (the SAH tree).
+  // rdh-sbvh: the same with SBVH's spatial splits (sbvh_* parameters).
+  uint32_t rdh_resolution = 64;
+  uint32_t rdh_ao_rays = 4;
+  float rdh_prior = 8.0f;
+  std::string rdh_cameras = "camera";
   // Per-triangle values supplied by the caller instead of casting rays (tests,
   // cached estimates). Empty = estimate with Embree. NaN / infinite / negative
   // entries are sanitised (occlusion: treated as 1 = fully open; counted in
@@ -75,6 +85,7 @@ struct BuildReport {
   uint64_t visible_triangles = 0;  // osah
   double mean_occlusion = 0;    // aobvh: mean occlusion value (1 = open)
   uint64_t ao_rays = 0;         // aobvh: rays cast
+  uint64_t rdh_rays = 0;        // rdh: sample rays cast (primary + AO)
   double collapse_seconds = 0;  // width > 2: the collapse pass (not in build_seconds)
   uint64_t binary_nodes = 0;    // width > 2: nodes of the binary tree collapsed (0 = none)
 };

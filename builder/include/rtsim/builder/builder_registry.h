@@ -43,6 +43,7 @@ struct BuilderParameter {
   double min = 0, max = 0;
   bool min_exclusive = false;
   bool switch_flag = false;  // bool given as a bare flag (--ao-both-sides); else on/off
+  std::vector<std::string> choices;  // a name from this list (empty: any name)
   std::vector<std::string> used_by;  // builders that read it; empty: every builder
   bool in_tree_identity = true;      // written to BVH files and job keys
 };

@@ -1,0 +1,140 @@
+#include <rtsim/builder/ray_samples.h>
+#include <rtsim/workloads/random.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <limits>
+
+namespace rtsim {
+
+namespace {
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+float safe_inverse(float d) {
+  // A zero component would give inf and then 0 * inf = NaN on a slab plane.
+  const float tiny = 1e-30f;
+  if (std::fabs(d) < tiny) d = std::copysign(tiny, d);
+  return 1.0f / d;
+}
+
+// Cosine-weighted direction around unit n (the model's cosine_hemisphere_direction:
+// Malley's method in a Duff et al. 2017 frame).
+vec3 cosine_direction(const vec3& n, float r1, float r2) {
+  const float radius = std::sqrt(r1);
+  const float phi = 6.28318530717958647692f * r2;
+  const float lx = radius * std::cos(phi), ly = radius * std::sin(phi);
+  const float lz = std::sqrt(std::max(0.0f, 1.0f - r1));
+  const float sign = std::copysign(1.0f, n.z);
+  const float a = -1.0f / (sign + n.z);
+  const float b = n.x * n.y * a;
+  const vec3 tangent(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x);
+  const vec3 bitangent(b, sign + n.y * n.y * a, -n.y);
+  return glm::normalize(lx * tangent + ly * bitangent + lz * n);
+}
+
+struct Slot {
+  vec3 origin{0.0f}, direction{0.0f};
+  float t_end = 0;
+  bool used = false;
+};
+}  // namespace
+
+void RaySamples::push(const vec3& origin, const vec3& direction, float t_end) {
+  ox.push_back(origin.x);
+  oy.push_back(origin.y);
+  oz.push_back(origin.z);
+  ix.push_back(safe_inverse(direction.x));
+  iy.push_back(safe_inverse(direction.y));
+  iz.push_back(safe_inverse(direction.z));
+  tmax.push_back(t_end);
+}
+
+RaySamples sample_rays(const Scene& scene, const EmbreeScene& embree,
+                       const std::vector<const Camera*>& cameras, const RaySampleParams& params) {
+  RaySamples out;
+  const uint32_t res = params.resolution;
+  const size_t pixels = size_t(res) * res;
+  const size_t per_camera = pixels;
+  const uint32_t k = (params.ao_cutoff > 0 && std::isfinite(params.ao_cutoff)) ? params.ao_rays : 0;
+  std::vector<Slot> primary(cameras.size() * per_camera);
+  std::vector<Slot> ao(cameras.size() * per_camera * k);
+  const float offset = 1e-5f * std::max(scene.diagonal(), 1e-30f);
+  tbb::parallel_for(size_t(0), cameras.size() * size_t(res), [&](size_t row) {
+    const size_t c = row / res;
+    const uint32_t y = uint32_t(row % res);
+    const Camera& camera = *cameras[c];
+    for (uint32_t x = 0; x < res; ++x) {
+      const size_t pixel = size_t(y) * res + x;
+      const size_t slot = c * per_camera + pixel;
+      const Camera::Ray ray = camera.primary_ray(x, y, res, res);
+      const EmbreeHit hit = embree.intersect(ray.origin, ray.direction, 0.0f, kInf);
+      Slot& p = primary[slot];
+      p.origin = ray.origin;
+      p.direction = ray.direction;
+      p.t_end = hit.hit ? hit.t : kInf;
+      p.used = true;
+      if (!hit.hit || k == 0 || hit.prim >= scene.triangle_count()) continue;
+      const uint32_t tri = hit.prim;
+      const vec3 v0 = scene.vertex(tri, 0), v1 = scene.vertex(tri, 1), v2 = scene.vertex(tri, 2);
+      const vec3 position = (1.0f - hit.u - hit.v) * v0 + hit.u * v1 + hit.v * v2;
+      vec3 normal = glm::cross(v1 - v0, v2 - v0);
+      const float len = glm::length(normal);
+      normal = len > 0 && std::isfinite(len) ? normal / len : -ray.direction;
+      if (glm::dot(normal, ray.direction) > 0.0f) normal = -normal;  // face the viewer
+      const vec3 origin = position + offset * normal;
+      for (uint32_t s = 0; s < k; ++s) {
+        KeyedRng rng(params.seed, {0x52444841ull, c, pixel, s});
+        const float r1 = rng.next_float(), r2 = rng.next_float();
+        const vec3 dir = cosine_direction(normal, r1, r2);
+        const EmbreeHit h = embree.intersect(origin, dir, 0.0f, params.ao_cutoff);
+        Slot& a = ao[slot * k + s];
+        a.origin = origin;
+        a.direction = dir;
+        a.t_end = h.hit ? std::min(h.t, params.ao_cutoff) : params.ao_cutoff;
+        a.used = true;
+      }
+    }
+  });
+  for (const Slot& s : primary)
+    if (s.used) out.push(s.origin, s.direction, s.t_end);
+  out.primary = out.size();
+  for (const Slot& s : ao)
+    if (s.used) out.push(s.origin, s.direction, s.t_end);
+  return out;
+}
+
+double ray_cost(const Bvh& bvh, const RaySamples& rays, float t1, float t2, size_t first,
+                size_t count) {
+  if (bvh.empty() || first >= rays.size()) return 0;
+  const size_t last = count >= rays.size() - first ? rays.size() : first + count;
+  if (last <= first) return 0;
+  // Per-ray costs in fixed slots, summed in ray order: the same for any thread count.
+  std::vector<double> per_ray(last - first, 0.0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(first, last, 256), [&](const tbb::blocked_range<size_t>& r) {
+    std::vector<uint32_t> stack;
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      const uint32_t ray = uint32_t(i);
+      if (!rays.hits(ray, bvh.nodes[0].bounds)) continue;
+      double cost = 0;
+      stack.assign(1, 0u);
+      while (!stack.empty()) {
+        const BvhNode& n = bvh.nodes[stack.back()];
+        stack.pop_back();
+        if (n.is_leaf()) {
+          cost += double(t2) * n.count;
+          continue;
+        }
+        cost += double(t1) * n.children;
+        for (uint32_t c = 0; c < n.children; ++c)
+          if (rays.hits(ray, bvh.nodes[n.index + c].bounds)) stack.push_back(n.index + c);
+      }
+      per_ray[i - first] = cost;
+    }
+  });
+  double total = 0;
+  for (double c : per_ray) total += c;
+  return total / double(last - first);
+}
+
+}  // namespace rtsim
