@@ -18,21 +18,6 @@ float safe_inverse(float d) {
   return 1.0f / d;
 }
 
-// Cosine-weighted direction around unit n (the model's cosine_hemisphere_direction:
-// Malley's method in a Duff et al. 2017 frame).
-vec3 cosine_direction(const vec3& n, float r1, float r2) {
-  const float radius = std::sqrt(r1);
-  const float phi = 6.28318530717958647692f * r2;
-  const float lx = radius * std::cos(phi), ly = radius * std::sin(phi);
-  const float lz = std::sqrt(std::max(0.0f, 1.0f - r1));
-  const float sign = std::copysign(1.0f, n.z);
-  const float a = -1.0f / (sign + n.z);
-  const float b = n.x * n.y * a;
-  const vec3 tangent(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x);
-  const vec3 bitangent(b, sign + n.y * n.y * a, -n.y);
-  return glm::normalize(lx * tangent + ly * bitangent + lz * n);
-}
-
 struct Slot {
   vec3 origin{0.0f}, direction{0.0f};
   float t_end = 0;
@@ -86,7 +71,7 @@ RaySamples sample_rays(const Scene& scene, const EmbreeScene& embree,
       for (uint32_t s = 0; s < k; ++s) {
         KeyedRng rng(params.seed, {0x52444841ull, c, pixel, s});
         const float r1 = rng.next_float(), r2 = rng.next_float();
-        const vec3 dir = cosine_direction(normal, r1, r2);
+        const vec3 dir = cosine_hemisphere_direction(normal, r1, r2);
         const EmbreeHit h = embree.intersect(origin, dir, 0.0f, params.ao_cutoff);
         Slot& a = ao[slot * k + s];
         a.origin = origin;

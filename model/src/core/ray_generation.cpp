@@ -122,22 +122,6 @@ SurfaceHit surface_at(const Scene& scene, const Ray& ray, const HitRecord& hit) 
   return s;
 }
 
-vec3 cosine_hemisphere_direction(const vec3& normal, float r1, float r2) {
-  // Uniform point on the unit disk, lifted to the hemisphere (Malley's method).
-  const float radius = std::sqrt(r1);
-  const float phi = 6.28318530717958647692f * r2;
-  const float lx = radius * std::cos(phi), ly = radius * std::sin(phi);
-  const float lz = std::sqrt(std::max(0.0f, 1.0f - r1));
-  // Orthonormal basis around the normal without a branch on a fixed "up" axis
-  // (Duff et al. 2017).
-  const float sign = std::copysign(1.0f, normal.z);
-  const float a = -1.0f / (sign + normal.z);
-  const float b = normal.x * normal.y * a;
-  const vec3 tangent(1.0f + sign * normal.x * normal.x * a, sign * b, -sign * normal.x);
-  const vec3 bitangent(b, sign + normal.y * normal.y * a, -normal.y);
-  return glm::normalize(lx * tangent + ly * bitangent + lz * normal);
-}
-
 void spawn_secondary_rays(const Scene& scene, const EffectPlan& plan, const EffectSettings& settings,
                           const Ray& ray, uint32_t ray_index, const HitRecord& hit,
                           std::vector<Ray>& out) {

@@ -3,6 +3,7 @@
 #include <glm/glm.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 
@@ -56,6 +57,24 @@ struct Aabb {
 
 inline bool is_finite(const vec3& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+// Cosine-weighted direction over the hemisphere around unit `normal`, from two
+// uniform numbers in [0,1): a uniform point on the unit disk lifted to the
+// hemisphere (Malley's method), in an orthonormal basis built without a branch on
+// a fixed "up" axis (Duff et al. 2017). The model's AO rays and the builders'
+// sample rays both use it, so they follow the same distribution.
+inline vec3 cosine_hemisphere_direction(const vec3& normal, float r1, float r2) {
+  const float radius = std::sqrt(r1);
+  const float phi = 6.28318530717958647692f * r2;
+  const float lx = radius * std::cos(phi), ly = radius * std::sin(phi);
+  const float lz = std::sqrt(std::max(0.0f, 1.0f - r1));
+  const float sign = std::copysign(1.0f, normal.z);
+  const float a = -1.0f / (sign + normal.z);
+  const float b = normal.x * normal.y * a;
+  const vec3 tangent(1.0f + sign * normal.x * normal.x * a, sign * b, -sign * normal.x);
+  const vec3 bitangent(b, sign + normal.y * normal.y * a, -normal.y);
+  return glm::normalize(lx * tangent + ly * bitangent + lz * normal);
 }
 
 }  // namespace rtsim

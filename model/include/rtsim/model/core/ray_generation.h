@@ -59,8 +59,6 @@ void spawn_secondary_rays(const Scene& scene, const EffectPlan& plan, const Effe
                           const Ray& ray, uint32_t ray_index, const HitRecord& hit,
                           std::vector<Ray>& out);
 
-// Cosine-weighted direction over the hemisphere around unit `normal`, from two
-// uniform numbers in [0,1).
-vec3 cosine_hemisphere_direction(const vec3& normal, float r1, float r2);
+// cosine_hemisphere_direction: rtsim/workloads/geometry.h.
 
 }  // namespace rtsim
