@@ -27,9 +27,7 @@ Bvh build_occlusion_weighted(const Scene& scene, const BuildParams& params, Buil
   } else {
     OcclusionParams ao;
     ao.rays = params.ao_rays;
-    const float relative =
-        params.ao_cutoff_relative < 0 ? scene.ao.cutoff_relative : params.ao_cutoff_relative;
-    ao.cutoff = relative * scene.diagonal();
+    ao.cutoff = ao_cutoff(scene, params);
     ao.both_sides = params.ao_both_sides;
     ao.seed = params.seed;
     with_threads(params.threads, [&] {

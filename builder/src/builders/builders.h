@@ -35,6 +35,13 @@ detail::CoreConfig core_config(const BuildParams& params);
 // Runs the core with `config` (the policy already set), timing it into the report.
 Bvh run_core(const Scene& scene, const detail::CoreConfig& config, BuildReport& report);
 
+// The AO ray length in scene units: ao_cutoff_relative x the scene diagonal, or the
+// scene's own setting when the parameter is < 0 (aobvh's AO pass, rdh's sample rays).
+inline float ao_cutoff(const Scene& scene, const BuildParams& params) {
+  const float relative = params.ao_cutoff_relative < 0 ? scene.ao.cutoff_relative : params.ao_cutoff_relative;
+  return relative * scene.diagonal();
+}
+
 // Runs fn inside an arena of the requested size (0 = all cores).
 template <class F>
 void with_threads(uint32_t threads, F&& fn) {

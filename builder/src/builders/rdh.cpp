@@ -24,9 +24,7 @@ Bvh build_ray_distribution(const Scene& scene, const BuildParams& params, BuildR
   RaySampleParams sp;
   sp.resolution = params.rdh_resolution;
   sp.ao_rays = params.rdh_ao_rays;
-  const float relative =
-      params.ao_cutoff_relative < 0 ? scene.ao.cutoff_relative : params.ao_cutoff_relative;
-  sp.ao_cutoff = relative * scene.diagonal();
+  sp.ao_cutoff = ao_cutoff(scene, params);
   sp.seed = params.seed;
   RaySamples rays;
   if (sp.resolution > 0) {
