@@ -6,6 +6,7 @@
 //   bench_simulate [--benchmark_filter=cycle] ; env RTSIM_BENCH_RES=WxH (default 128x128)
 #include <rtsim/builder/build.h>
 #include <rtsim/model/sim/simulator.h>
+#include <rtsim/workloads/fork.h>
 #include <rtsim/workloads/scene_registry.h>
 
 #include <benchmark/benchmark.h>
@@ -50,7 +51,7 @@ Measured run_in_child(Fidelity level) {
   Fixture& f = fixture();
   int fds[2];
   if (pipe(fds) != 0) std::abort();
-  const pid_t pid = fork();
+  const pid_t pid = fork_without_workers();
   if (pid == 0) {
     close(fds[0]);
     SimulationRequest r;

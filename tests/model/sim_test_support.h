@@ -3,13 +3,18 @@
 // level in a child process (SystemC allows one elaboration per process).
 #include <rtsim/builder/build.h>
 #include <rtsim/model/sim/simulator.h>
+#include <rtsim/workloads/fork.h>
 #include <rtsim/workloads/procedural.h>
 
 #include <nlohmann/json.hpp>
 
+#include <poll.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <functional>
 #include <stdexcept>
@@ -38,11 +43,16 @@ struct SmallWorkload {
   }
 };
 
-// Runs fn in a forked child and returns the string it produced.
-inline std::string in_child(const std::function<std::string()>& fn) {
+// Runs fn in a forked child and returns the string it produced. The child is
+// forked without the parent's worker threads (their locks would stay held in it),
+// and one that has not answered within `limit_seconds` is killed and reported, so
+// a stuck child fails its test instead of stalling the suite.
+inline std::string in_child(const std::function<std::string()>& fn, int limit_seconds = 300) {
   int fds[2];
   if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
-  const pid_t pid = fork();
+  std::fflush(nullptr);  // nothing buffered is written twice
+  const pid_t pid = fork_without_workers();
+  if (pid < 0) throw std::runtime_error("fork failed");
   if (pid == 0) {
     close(fds[0]);
     std::string out;
@@ -63,11 +73,29 @@ inline std::string in_child(const std::function<std::string()>& fn) {
   close(fds[1]);
   std::string out;
   char buffer[65536];
-  ssize_t n;
-  while ((n = read(fds[0], buffer, sizeof buffer)) > 0) out.append(buffer, size_t(n));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(limit_seconds);
+  bool timed_out = false;
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now()).count();
+    pollfd p{fds[0], POLLIN, 0};
+    const int ready = left > 0 ? poll(&p, 1, int(left)) : 0;
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready == 0) {
+      timed_out = true;
+      break;
+    }
+    const ssize_t n = read(fds[0], buffer, sizeof buffer);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    out.append(buffer, size_t(n));
+  }
   close(fds[0]);
+  if (timed_out) kill(pid, SIGKILL);
   int status = 0;
   waitpid(pid, &status, 0);
+  if (timed_out)
+    return "ERROR: the child did not finish within " + std::to_string(limit_seconds) + " s (killed)";
   return out;
 }
 

@@ -11,6 +11,7 @@
 #include <zip.h>
 
 #include <rtsim/workloads/files.h>
+#include <rtsim/workloads/fork.h>
 
 #include <algorithm>
 #include <cctype>
@@ -278,7 +279,7 @@ Mesh load_mesh_assimp(const std::filesystem::path& path) {
     throw std::runtime_error(std::string("pipe: ") + std::strerror(errno));
   }
   std::fflush(nullptr);  // nothing buffered is written twice
-  const pid_t child = ::fork();
+  const pid_t child = fork_without_workers();
   if (child < 0) {
     for (int fd : {mesh_pipe[0], mesh_pipe[1], error_pipe[0], error_pipe[1]}) ::close(fd);
     throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
