@@ -8,6 +8,7 @@
 #include <rtsim/builder/bvh_file.h>
 #include <rtsim/builder/memory_image.h>
 #include <rtsim/builder/metrics.h>
+#include <rtsim/workloads/files.h>
 #include <rtsim/builder/validate_bvh.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/progress.h>
@@ -30,6 +31,7 @@ struct BuildOptions {
   std::string camera;
   std::string out;
   std::string out_dir;  // with --all
+  std::string metrics_out;  // the one tree's report as JSON (not with --all)
   std::string load;
   bool json = false;
   bool all = false;
@@ -109,6 +111,10 @@ void run_build(const BuildOptions& o) {
     warn_deprecated("--out (with --all)", "--out-dir");
   if (o.all && !out_dir.empty()) trees_folder.prepare(out_dir, o.out_dir.empty() ? "--out" : "--out-dir");
   if (!o.all && !o.out.empty()) check_output_file(o.out, "--out");
+  if (!o.metrics_out.empty()) {
+    if (o.all) throw InputError("--metrics-out", "names one tree's report; not with --all (use --json)");
+    check_output_file(o.metrics_out, "--metrics-out");
+  }
   const Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene);
   BuildParams base = o.params;
   // OSAH needs a camera; the named one (InputError naming the cameras if absent) or
@@ -159,6 +165,8 @@ void run_build(const BuildOptions& o) {
       if (name == "aobvh" || name == "aosbvh") j["mean_occlusion"] = r.mean_occlusion, j["ao_rays"] = r.ao_rays;
       if (name == "osah") j["visible_triangles"] = r.visible_triangles;
       if (name == "rdh" || name == "rdh-sbvh") j["rdh_rays"] = r.rdh_rays;
+      // Before the tree: a cache that finds the tree finds its report too.
+      if (!o.metrics_out.empty()) write_file_atomic(o.metrics_out, j.dump(2) + "\n");
       if (o.all ? !out_dir.empty() : !o.out.empty()) {
         const std::filesystem::path file =
             o.all ? std::filesystem::path(out_dir) / (scene.name + "-" + name + ".bvh")
@@ -204,6 +212,8 @@ void add_build_command(CLI::App& root) {
   cmd->add_flag("--json", o->json, "print the report as JSON");
   cmd->add_option("--out", o->out, "save the tree to this file");
   cmd->add_option("--out-dir", o->out_dir, "with --all: save every tree in this folder as <scene>-<builder>.bvh");
+  cmd->add_option("--metrics-out", o->metrics_out,
+                  "also write the tree's report (the --json entry) to this file, atomically");
   cmd->add_flag("--all", o->all, "build every builder and print them side by side");
   cmd->add_flag("--list-builders", o->list_builders, "print the builder names, one a line, and stop");
   cmd->add_option("--load", o->load, "load a saved tree (checked against the scene) and report it");

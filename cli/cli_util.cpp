@@ -159,11 +159,12 @@ std::string node_format_flag(const std::string& value, const std::string& fallba
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
                    uint64_t shuffle_seed, uint32_t threads, const std::string& node_format,
-                   const std::vector<std::string>& build_settings) {
+                   const std::vector<std::string>& build_settings, float ao_cutoff_relative) {
   if (!bvh_file.empty() && !build_settings.empty())
     throw InputError("--build-set", "cannot change a saved tree (--bvh); build it with these settings");
   out.scene = load_scene(scene.empty() ? default_scene_name() : scene);
   if (shuffle_seed != 0) shuffle_triangles(out.scene, shuffle_seed);
+  if (ao_cutoff_relative > 0) out.scene.ao.cutoff_relative = ao_cutoff_relative;
   out.camera = camera.empty() ? &out.scene.default_camera() : &out.scene.camera(camera);
   out.params = BuildParams{};
   out.params.builder = builder;

@@ -111,12 +111,15 @@ struct Workload {
 // build too (0: all cores).
 // The tree is built for `node_format` (apply_node_format); a loaded tree must fit it.
 // `build_settings`: builder parameters as KEY=VALUE (--build-set), applied before the
-// node format; not allowed with a saved tree.
+// node format; not allowed with a saved tree. `ao_cutoff_relative` > 0 replaces the
+// scene's AO ray length (x diagonal) before the build: the workload's and the
+// builders' AO rays (simulate --ao-cutoff).
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
                    uint64_t shuffle_seed = 0, uint32_t threads = 0,
                    const std::string& node_format = "bvh2-64",
-                   const std::vector<std::string>& build_settings = {});
+                   const std::vector<std::string>& build_settings = {},
+                   float ao_cutoff_relative = -1);
 
 // --node-format NAME: checks the name (a message listing the formats, naming the
 // flag) and returns it; empty value: `fallback` (the hardware's memory.node_format).

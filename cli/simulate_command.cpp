@@ -33,6 +33,7 @@ struct SimulateOptions {
   std::string scene, builder = "sah", camera, fidelity = "functional", config = "mobile", out_dir;
   std::string resolution = kDefaultResolution, rays_in, bvh_in, node_format;
   int ao = -1;
+  double ao_cutoff = -1;  // AO ray length x scene diagonal; < 0: the scene's
   uint32_t spp = 1, bounces = 2, frames = 1;
   uint64_t seed = 1, shuffle_faces = 0;
   std::vector<std::string> build_settings;  // --build-set KEY=VALUE
@@ -58,8 +59,10 @@ void run_simulate(const SimulateOptions& o) {
   Workload workload;
   request.frames = o.frames;
   if (o.frames < 1 || o.frames > 1000) throw InputError("--frames", "must be 1..1000");
+  if (o.ao_cutoff != -1 && !(o.ao_cutoff > 0 && o.ao_cutoff <= 10))
+    throw InputError("--ao-cutoff", "must be in (0, 10] (x scene diagonal)");
   load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, 0,
-                request.config.node_format, o.build_settings);
+                request.config.node_format, o.build_settings, float(o.ao_cutoff));
   const Scene& scene = workload.scene;
   const Camera& camera = *workload.camera;
   const BuildParams& params = workload.params;
@@ -116,6 +119,7 @@ void run_simulate(const SimulateOptions& o) {
       {"resolution", {request.settings.width, request.settings.height}},
       {"spp", o.spp},
       {"ao", o.ao},
+      {"ao_cutoff_relative", scene.ao.cutoff_relative},
       {"bounces", o.bounces},
       {"frames", o.frames},
       {"shuffle_faces", o.shuffle_faces},
@@ -169,6 +173,9 @@ void add_simulate_command(CLI::App& root) {
   auto* out_old = add_deprecated_option(cmd, "--out", "--out-dir", opts->out_dir);
   out_dir->excludes(out_old);
   cmd->add_option("--res", opts->resolution, "image size WxH")->capture_default_str();
+  cmd->add_option("--ao-cutoff", opts->ao_cutoff,
+                  "AO ray length x scene diagonal (default: the scene's); the builders' AO rays follow\n"
+                  "it unless --build-set ao_cutoff_relative says otherwise");
   cmd->add_option("--ao", opts->ao, "AO rays per primary hit (-1: the scene decides, 0: off)")
       ->capture_default_str();
   cmd->add_option("--spp", opts->spp, "samples per pixel")->capture_default_str();

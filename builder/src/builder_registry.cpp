@@ -117,7 +117,7 @@ const std::vector<BuilderParameter>& builder_parameters() {
     add("width", "", "children", "children per node (set by the node format)", &P::width, 2, kMaxBvhWidth);
     add("bins", "--bins", "bins", "SAH bins (0 = full sweep)", &P::bins, 0, 256);
     add("seed", "--build-seed", "", "seed of the builders' random choices (AO rays; default: --seed)",
-        &P::seed, 0, kInf);
+        &P::seed, 0, kInf, {"aobvh", "aosbvh", "rdh", "rdh-sbvh"});
     add("threads", "--threads", "threads", "threads (0 = all); never changes the tree", &P::threads, 0,
         kInf)
         .in_tree_identity = false;

@@ -30,7 +30,7 @@ constexpr size_t kMaxValuesPerAxis = 10000;
 constexpr size_t kMaxJobs = 200000;
 
 const char* const kAxes[] = {"scene", "builder",    "node_format", "camera", "preset", "fidelity",
-                             "seed",  "resolution", "ao",          "frames"};
+                             "seed",  "resolution", "ao",          "ao_cutoff", "frames"};
 
 // One axis value as the text passed on the command line. Integers stay integers;
 // reals use the shortest text that reads back to the same double.
@@ -251,6 +251,7 @@ std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir
   if (!camera.empty()) a.insert(a.end(), {"--camera", camera});
   if (!resolution.empty()) a.insert(a.end(), {"--res", resolution});
   if (ao_rays >= 0) a.insert(a.end(), {"--ao", std::to_string(ao_rays)});
+  if (!ao_cutoff.empty()) a.insert(a.end(), {"--ao-cutoff", ao_cutoff});
   if (frames > 0) a.insert(a.end(), {"--frames", std::to_string(frames)});
   if (!node_format.empty()) a.insert(a.end(), {"--node-format", node_format});
   if (hardware_file.empty())
@@ -506,12 +507,24 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
           job.node_format = value;
           // The tree and the memory image both follow it: part of the hardware.
           typed_overrides["memory.node_format"] = json(value);
+        } else if (name == "ao_cutoff") {
+          const json& v = (*dims[d].second)[index[d]];
+          if (!v.is_number() || !(v.get<double>() > 0) || v.get<double>() > 10)
+            throw InputError(w, "AO ray lengths must be numbers in (0, 10] (x scene diagonal)");
+          job.ao_cutoff = value;
         } else if (name == "frames") {
           const json& v = (*dims[d].second)[index[d]];
           if (!v.is_number_integer() || v.get<int64_t>() < 1 || v.get<int64_t>() > 1000)
             throw InputError(w, "frames must be integers in [1, 1000]");
           job.frames = v.get<int64_t>();
         }
+      }
+      // The AO ray length is the workload's and, for the builders that cast AO rays,
+      // the tree's (unless the campaign sets the builder's own cutoff).
+      if (!job.ao_cutoff.empty() && !job.build_settings.count("ao_cutoff_relative") &&
+          parameter_used_by(*find_builder_parameter("ao_cutoff_relative"), job.builder)) {
+        job.build_settings["ao_cutoff_relative"] = job.ao_cutoff;
+        build["ao_cutoff_relative"] = job.ao_cutoff;
       }
       // A format set as an override builds the tree for it too, as the axis does.
       if (job.node_format.empty() && job.overrides.count("memory.node_format"))
@@ -532,6 +545,7 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
                   "/" + job.preset + "/" + job.fidelity + "/seed" + std::to_string(job.seed);
       if (!job.resolution.empty()) job.label += "/" + job.resolution;
       if (job.ao_rays >= 0) job.label += "/ao" + std::to_string(job.ao_rays);
+      if (!job.ao_cutoff.empty()) job.label += "/aocut" + job.ao_cutoff;
       if (job.frames > 0) job.label += "/frames" + std::to_string(job.frames);
       if (!job.node_format.empty()) job.label += "/" + job.node_format;
       for (const auto& [k, v] : job.overrides) job.label += "/" + k + "=" + v;

@@ -1,6 +1,7 @@
 // Campaign execution: one child process per job, result files, resume, collect, emit.
 #include <rtsim/reports/campaign_runner.h>
 
+#include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/bvh_file.h>
 
 #include <rtsim/workloads/error.h>
@@ -225,7 +226,7 @@ JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, con
                       " --builder " + shell_quote(job.builder) + " --seed " +
                       (job.build_settings.count("seed") ? job.build_settings.at("seed")
                                                         : std::to_string(job.seed)) +
-                      " --out \"$T\"";
+                      " --out \"$T\" --metrics-out \"$T.metrics.json\"";
   for (const auto& [k, v] : job.build_settings)
     if (k != "seed") build += " --build-set " + shell_quote(k + "=" + v);
   if (!job.camera.empty()) build += " --camera " + shell_quote(job.camera);
@@ -310,14 +311,24 @@ CampaignPaths campaign_paths(const Campaign& campaign, const fs::path& dir_optio
 }
 
 fs::path cached_tree(const fs::path& cache, const Campaign& campaign, const CampaignJob& job) {
+  // What shapes the tree, and nothing else, so that jobs differing only in what the
+  // builder ignores (the workload's seed for sah, the camera for sbvh, an AO knob for
+  // median) share one tree.
+  const BuilderInfo& info = builder_info(job.builder);
   json identity = {{"scene", job.scene},
                    {"scene_files_hash", job.resolved.value("scene_files_hash", "")},
                    {"builder", job.builder},
-                   {"camera", job.camera},
-                   {"seed", job.seed},
                    {"revision", campaign.revision}};
+  if (info.needs_camera) identity["camera"] = job.camera;
+  const BuilderParameter& seed = *find_builder_parameter("seed");
+  if (parameter_used_by(seed, job.builder) && !job.build_settings.count("seed")) identity["seed"] = job.seed;
   if (!job.node_format.empty()) identity["node_format"] = job.node_format;
-  if (!job.build_settings.empty()) identity["build"] = job.build_settings;
+  json build = json::object();
+  for (const auto& [k, v] : job.build_settings) {
+    const BuilderParameter* p = find_builder_parameter(k);
+    if (p && p->in_tree_identity && parameter_used_by(*p, job.builder)) build[k] = v;
+  }
+  if (!build.empty()) identity["build"] = build;
   return cache / (content_hash_hex(identity.dump()) + ".bvh");
 }
 

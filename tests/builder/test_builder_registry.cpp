@@ -101,12 +101,14 @@ TEST(BuilderRegistry, FileMetadataHoldsExactlyTheParametersTheBuilderReads) {
   BuildParams p;
   p.builder = "sah";
   const nlohmann::json sah = nlohmann::json::parse(build_params_json(p));
-  EXPECT_EQ(sah.size(), 7u);  // builder, t1, t2, max_leaf_size, max_depth, bins, seed (no width)
+  EXPECT_EQ(sah.size(), 6u);  // builder, t1, t2, max_leaf_size, max_depth, bins (no width)
+  EXPECT_FALSE(sah.contains("seed"));  // sah draws no random numbers
   EXPECT_FALSE(sah.contains("ao_rays"));
   EXPECT_FALSE(sah.contains("threads"));  // never changes the tree
   p.builder = "aobvh";
   const nlohmann::json ao = nlohmann::json::parse(build_params_json(p));
   EXPECT_EQ(ao.at("ao_rays"), p.ao_rays);
+  EXPECT_EQ(ao.at("seed"), p.seed);  // its AO rays are seeded
   EXPECT_EQ(ao.at("occlusion_values_supplied"), false);
   EXPECT_FALSE(ao.contains("sbvh_alpha"));
   p.builder = "osah";

@@ -2,6 +2,7 @@
 #include "integration/test_campaign_fake.h"
 
 #include <rtsim/reports/campaign.h>
+#include <rtsim/reports/campaign_runner.h>
 #include <rtsim/workloads/error.h>
 
 #include <gtest/gtest.h>
@@ -294,6 +295,44 @@ build.t2 = [0]
 )");
   EXPECT_NE(range.find("build.t2"), std::string::npos) << range;
   EXPECT_NE(range.find("positive"), std::string::npos) << range;
+}
+
+// A cached tree is named by what shapes it: sah on two cameras and two workload
+// seeds is one tree; aobvh's seed and AO ray length make new ones; an AO length
+// reaches the workload of every builder and the tree of those that cast AO rays.
+TEST(CampaignExpand, TreesAreSharedByWhatShapesThemAndTheAoLengthReachesBoth) {
+  const Campaign c = parse(R"(
+[campaign]
+name = "share"
+[sweep]
+scene = "interior"
+builder = ["sah", "aobvh"]
+camera = ["view1", "view2"]
+seed = [1, 2]
+ao_cutoff = [0.02, 0.2]
+)");
+  ASSERT_EQ(c.jobs.size(), 2u * 2u * 2u * 2u);
+  std::set<std::string> sah_trees, ao_trees;
+  for (const CampaignJob& j : c.jobs) {
+    const auto args = j.simulate_arguments("out");
+    const auto at = std::find(args.begin(), args.end(), "--ao-cutoff");
+    ASSERT_NE(at, args.end()) << j.label;
+    EXPECT_EQ(*(at + 1), j.ao_cutoff);
+    const std::string tree = cached_tree("cache", c, j).string();
+    if (j.builder == "sah") {
+      EXPECT_FALSE(j.build_settings.count("ao_cutoff_relative")) << j.label;
+      sah_trees.insert(tree);
+    } else {
+      EXPECT_EQ(j.build_settings.at("ao_cutoff_relative"), j.ao_cutoff) << j.label;
+      ao_trees.insert(tree);
+    }
+  }
+  EXPECT_EQ(sah_trees.size(), 1u);
+  EXPECT_EQ(ao_trees.size(), 2u * 2u);  // seed x AO length; aobvh reads no camera
+  EXPECT_NE(error_of("[campaign]\nname = \"a\"\n[sweep]\nscene = \"interior\"\nbuilder = \"sah\"\n"
+                     "ao_cutoff = [0]\n")
+                .find("ao_cutoff"),
+            std::string::npos);
 }
 
 }  // namespace

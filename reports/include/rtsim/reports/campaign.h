@@ -25,6 +25,7 @@ struct CampaignJob {
   uint64_t seed = 1;
   std::string resolution;   // "WxH" or "" (simulate's default)
   int64_t ao_rays = -1;     // AO rays per primary hit, < 0: simulate's default
+  std::string ao_cutoff;    // AO ray length x scene diagonal (--ao-cutoff); "" = the scene's
   int64_t frames = -1;      // frames of the same rays (stats of the last), < 1: simulate's default
   std::string node_format;  // node record format the tree is built for; "" = the preset's
   std::map<std::string, std::string> overrides;  // dotted hardware key -> value text
