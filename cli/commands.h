@@ -22,5 +22,6 @@ void add_campaign_command(CLI::App& root);
 void add_table1_command(CLI::App& root);
 void add_accuracy_command(CLI::App& root);
 void add_report_command(CLI::App& root);
+void add_claim_command(CLI::App& root);
 
 }  // namespace rtsim::cli

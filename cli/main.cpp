@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   rtsim::cli::add_simulate_command(app);
   rtsim::cli::add_table1_command(app);
   rtsim::cli::add_accuracy_command(app);
+  rtsim::cli::add_claim_command(app);
   // No arguments at all: the list of subcommands, as --help gives it, not an error.
   if (argc <= 1) {
     std::fputs(app.help().c_str(), stdout);

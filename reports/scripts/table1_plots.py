@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 NAMES = {"median": "BVH (median)", "sah": "BVH (SAH)", "sbvh": "SBVH", "osah": "OSAH",
-         "aobvh": "AO-BVH", "aosbvh": "AO-SBVH"}
+         "aobvh": "AO-BVH", "aosbvh": "AO-SBVH", "rdh": "RDH (ours)", "rdh-sbvh": "RDH-SBVH (ours)"}
 
 
 def save(fig, path):

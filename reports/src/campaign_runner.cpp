@@ -231,8 +231,16 @@ JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, con
     if (k != "seed") build += " --build-set " + shell_quote(k + "=" + v);
   if (!job.camera.empty()) build += " --camera " + shell_quote(job.camera);
   if (!job.node_format.empty()) build += " --node-format " + shell_quote(job.node_format);
+  // The builder parameters went to the build; the saved tree carries them (simulate
+  // refuses --build-set with --bvh, which would change nothing).
   std::string simulate = "exec " + shell_quote(binary.string());
-  for (const std::string& a : args) simulate += " " + shell_quote(a);
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--build-set" && i + 1 < args.size()) {
+      ++i;
+      continue;
+    }
+    simulate += " " + shell_quote(args[i]);
+  }
   simulate += " --bvh \"$T\"";
   // Inside flock: "$0" is the tree, "$@" the build command; rebuilt only if still absent.
   const std::string script = "T=" + shell_quote(tree.string()) +

@@ -1,0 +1,632 @@
+// rtsim claim: the conditions map of the patent's relations (claim.h).
+#include <rtsim/reports/claim.h>
+
+#include <rtsim/builder/builder_registry.h>
+#include <rtsim/reports/campaign.h>
+#include <rtsim/reports/campaign_runner.h>
+#include <rtsim/reports/plot_script.h>
+#include <rtsim/reports/results_store.h>
+#include <rtsim/reports/text_table.h>
+#include <rtsim/workloads/error.h>
+#include <rtsim/workloads/fetch.h>
+#include <rtsim/workloads/files.h>
+#include <rtsim/workloads/procedural.h>
+#include <rtsim/workloads/scene_registry.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <numeric>
+#include <set>
+#include <sstream>
+
+namespace rtsim {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+// The measured quantities and the ray mixes they are read for.
+const char* const kMetrics[] = {"ops", "node_fetches", "dram_bytes"};
+const char* const kMetricText[] = {"TRV+IST ops/ray", "node fetches/ray", "DRAM B/ray"};
+const char* const kMixes[] = {"primary", "ao", "all"};
+constexpr size_t kMetricCount = 3, kMixCount = 3;
+
+// A relation "a < b" (a's figure below b's); "all<median": every patent tree below
+// the median BVH at once.
+struct Relation {
+  std::string name, a, b, text;
+};
+
+std::vector<Relation> relations(const ClaimOptions& o) {
+  std::vector<Relation> r = {{"aobvh<sah", "aobvh", "sah", "AO-BVH < SAH BVH"},
+                             {"aobvh<sbvh", "aobvh", "sbvh", "AO-BVH < SBVH"},
+                             {"aobvh<osah", "aobvh", "osah", "AO-BVH < OSAH"},
+                             {"all<median", "", "median", "SAH, SBVH, OSAH, AO-BVH < median BVH"}};
+  const std::set<std::string> extra(o.extra_builders.begin(), o.extra_builders.end());
+  for (const std::string& ours : {std::string("rdh"), std::string("rdh-sbvh")}) {
+    if (!extra.count(ours)) continue;
+    for (const std::string& other : {std::string("sah"), std::string("sbvh"), std::string("aobvh"),
+                                     std::string("aosbvh")})
+      if (other != "aosbvh" || extra.count("aosbvh"))
+        r.push_back({ours + "<" + other, ours, other,
+                     builder_info(ours).display_name + " (ours) < " + builder_info(other).display_name});
+  }
+  return r;
+}
+
+// claim_aobvh-lt-sah.png: the relation's picture (no '<' in a file name or a link).
+std::string picture_name(std::string relation) {
+  const size_t lt = relation.find('<');
+  if (lt != std::string::npos) relation.replace(lt, 1, "-lt-");
+  return "claim_" + relation + ".png";
+}
+
+// A condition: the level of every factor (the centre for all but at most one).
+using Condition = std::map<std::string, std::string>;
+
+std::string condition_name(const Condition& c, const ClaimOptions& o) {
+  for (const ClaimFactor& f : o.factors)
+    if (c.at(f.name) != f.centre) return f.name + "=" + c.at(f.name);
+  return "default";
+}
+
+std::vector<Condition> star_conditions(const ClaimOptions& o) {
+  Condition centre;
+  for (const ClaimFactor& f : o.factors) centre[f.name] = f.centre;
+  std::vector<Condition> out = {centre};
+  for (const ClaimFactor& f : o.factors)
+    for (const std::string& level : f.levels)
+      if (level != f.centre) {
+        Condition c = centre;
+        c[f.name] = level;
+        out.push_back(c);
+      }
+  return out;
+}
+
+json number_text(const std::string& text) { return json::parse(text); }
+
+std::vector<std::string> claim_scenes(const ClaimOptions& o) {
+  if (!o.scenes.empty()) return o.scenes;
+  std::vector<std::string> out = procedural_scene_names();
+  for (const RealSceneInfo& s : real_scene_catalogue())
+    if (fs::exists(scene_cache_dir() / s.name / "scene.toml")) out.push_back(s.name);
+  return out;
+}
+
+// The condition a job runs under, read back from its resolved description.
+Condition job_condition(const CampaignJob& job, const ClaimOptions& o) {
+  auto setting = [&](const char* key) {
+    auto it = job.build_settings.find(key);
+    return it == job.build_settings.end() ? std::string() : it->second;
+  };
+  Condition c;
+  for (const ClaimFactor& f : o.factors) {
+    if (f.name == "leaf") c[f.name] = setting("max_leaf_size");
+    else if (f.name == "t2") c[f.name] = setting("t2");
+    else if (f.name == "format") c[f.name] = job.node_format;
+    else if (f.name == "cutoff") c[f.name] = job.ao_cutoff;
+  }
+  return c;
+}
+
+// One job's figures: [metric][mix]; NaN where the run did not report one.
+struct Figures {
+  double v[kMetricCount][kMixCount];
+};
+
+Figures figures_of(const json& stats) {
+  Figures f;
+  const auto s = flatten_stats(stats);
+  auto get = [&](const std::string& k) {
+    auto it = s.find(k);
+    return it == s.end() ? NAN : it->second;
+  };
+  for (size_t m = 0; m < kMixCount; ++m) {
+    const std::string mix = kMixes[m];
+    if (mix == "all") {
+      const double rays = get("rays.total");
+      f.v[0][m] = (get("ops.trv") + get("ops.ist")) / rays;
+      f.v[1][m] = get("fetches.node") / rays;
+      f.v[2][m] = get("dram.bytes") / rays;
+    } else {
+      const std::string p = "per_type." + mix + ".";
+      const double rays = get(p + "rays");
+      f.v[0][m] = (get(p + "trv_ops") + get(p + "ist_ops")) / rays;
+      f.v[1][m] = get(p + "node_fetches") / rays;
+      double bytes = 0;
+      for (const char* kind : {"node", "triangle", "prim_ref"}) {
+        const double b = get("dram.bytes_by_type." + mix + "." + kind);
+        if (std::isfinite(b)) bytes += b;
+      }
+      f.v[2][m] = rays > 0 ? bytes / rays : NAN;
+    }
+  }
+  return f;
+}
+
+// Mean and 95% t interval of a sample.
+struct Interval {
+  size_t n = 0;
+  double mean = NAN, lo = NAN, hi = NAN;
+};
+
+Interval interval_of(const std::vector<double>& x) {
+  Interval r;
+  std::vector<double> v;
+  for (double d : x)
+    if (std::isfinite(d)) v.push_back(d);
+  r.n = v.size();
+  if (v.empty()) return r;
+  r.mean = std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
+  if (v.size() < 2) return r;
+  double ss = 0;
+  for (double d : v) ss += (d - r.mean) * (d - r.mean);
+  const double half = t_quantile_975(v.size() - 1) * std::sqrt(ss / double(v.size() - 1) / double(v.size()));
+  r.lo = r.mean - half;
+  r.hi = r.mean + half;
+  return r;
+}
+
+std::string verdict(const Interval& i) {
+  if (i.n < 2 || !std::isfinite(i.lo)) return "n/a";
+  if (i.hi < 0) return "holds";
+  if (i.lo > 0) return "reverses";
+  return "noise";
+}
+
+std::string pct(double x) {
+  if (!std::isfinite(x)) return "-";
+  char b[32];
+  std::snprintf(b, sizeof b, "%+.1f%%", x);
+  return b;
+}
+
+std::string interval_text(const Interval& i) {
+  if (!std::isfinite(i.lo)) return pct(i.mean);
+  char b[64];
+  std::snprintf(b, sizeof b, "%+.1f%% [%+.1f, %+.1f]", i.mean, i.lo, i.hi);
+  return b;
+}
+
+// One cell of the map: a relation in one (scene, camera, condition), metric, mix.
+struct Cell {
+  std::string relation, scene, camera, condition, metric, mix;
+  Interval effect;  // % of b's figure (all<median: the least favourable of the four)
+  std::string verdict;
+};
+
+}  // namespace
+
+double t_quantile_975(size_t df) {
+  static const double kTable[] = {0,      12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365,
+                                  2.306,  2.262,  2.228, 2.201, 2.179, 2.160, 2.145, 2.131,
+                                  2.120,  2.110,  2.101, 2.093, 2.086, 2.080, 2.074, 2.069,
+                                  2.064,  2.060,  2.056, 2.052, 2.048, 2.045, 2.042};
+  if (df == 0) return NAN;
+  if (df < std::size(kTable)) return kTable[df];
+  // Beyond the table t is close to linear in 1/df (within 0.001 here).
+  const double inv = 1.0 / double(df);
+  if (df <= 60) return 2.000 + (2.042 - 2.000) * (inv - 1.0 / 60) / (1.0 / 30 - 1.0 / 60);
+  return 1.960 + (2.000 - 1.960) * 60.0 * inv;
+}
+
+double spearman(const std::vector<double>& x, const std::vector<double>& y) {
+  const size_t n = std::min(x.size(), y.size());
+  if (n < 3) return NAN;
+  auto ranks = [n](const std::vector<double>& v) {
+    std::vector<size_t> order(n);
+    std::iota(order.begin(), order.end(), size_t(0));
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return v[a] < v[b]; });
+    std::vector<double> r(n);
+    for (size_t i = 0; i < n;) {
+      size_t j = i;
+      while (j + 1 < n && v[order[j + 1]] == v[order[i]]) ++j;
+      for (size_t k = i; k <= j; ++k) r[order[k]] = 0.5 * double(i + j) + 1;  // ties share the mean rank
+      i = j + 1;
+    }
+    return r;
+  };
+  const std::vector<double> rx = ranks(x), ry = ranks(y);
+  const double mx = std::accumulate(rx.begin(), rx.end(), 0.0) / double(n);
+  const double my = std::accumulate(ry.begin(), ry.end(), 0.0) / double(n);
+  double sxy = 0, sxx = 0, syy = 0;
+  for (size_t i = 0; i < n; ++i) {
+    sxy += (rx[i] - mx) * (ry[i] - my);
+    sxx += (rx[i] - mx) * (rx[i] - mx);
+    syy += (ry[i] - my) * (ry[i] - my);
+  }
+  if (sxx == 0 || syy == 0) return NAN;
+  return sxy / std::sqrt(sxx * syy);
+}
+
+ClaimOptions quick_claim_options(ClaimOptions o) {
+  o.quick = true;
+  if (o.scenes.empty()) o.scenes = {"cornell"};
+  o.extra_builders = {"rdh"};
+  o.factors = {{"leaf", {"4", "8"}, "4"},
+               {"format", {"bvh2-64", "bvh4-128"}, "bvh2-64"},
+               {"cutoff", {"0.05", "0.2"}, "0.05"}};
+  o.replicates = 3;
+  o.resolution = "32x32";
+  return o;
+}
+
+std::string claim_campaign_json(const ClaimOptions& o) {
+  if (o.replicates < 2) throw InputError("--replicates", "needs at least 2 for an interval");
+  for (const ClaimFactor& f : o.factors)
+    if (std::find(f.levels.begin(), f.levels.end(), f.centre) == f.levels.end())
+      throw InputError("claim factor '" + f.name + "'", "its default " + f.centre + " is not one of its levels");
+  json doc;
+  doc["campaign"] = {{"name", "claim"},
+                     {"description", "rtsim claim: the patent's relations over a star design of conditions"}};
+  json seeds = json::array();
+  for (uint32_t r = 1; r <= o.replicates; ++r) seeds.push_back(r);
+  doc["sweep"] = {{"scene", claim_scenes(o)},
+                  {"camera", o.cameras},
+                  {"preset", o.preset},
+                  {"fidelity", "functional"},
+                  {"resolution", o.resolution},
+                  {"ao", o.ao_rays},
+                  {"frames", o.frames},
+                  {"seed", seeds}};
+  json groups = json::array();
+  const std::vector<Condition> conditions = star_conditions(o);
+  for (size_t i = 0; i < conditions.size(); ++i) {
+    const Condition& c = conditions[i];
+    std::vector<std::string> builders = o.builders;
+    if (i == 0) builders.insert(builders.end(), o.extra_builders.begin(), o.extra_builders.end());
+    json g = {{"name", condition_name(c, o)}, {"builder", builders}};
+    if (c.count("format")) g["node_format"] = c.at("format");
+    if (c.count("cutoff")) g["ao_cutoff"] = number_text(c.at("cutoff"));
+    json build = json::object();
+    if (c.count("leaf")) build["max_leaf_size"] = number_text(c.at("leaf"));
+    if (c.count("t2")) build["t2"] = number_text(c.at("t2"));
+    if (!build.empty()) g["build"] = build;
+    groups.push_back(g);
+  }
+  doc["group"] = groups;
+  return doc.dump(2) + "\n";
+}
+
+ClaimSummary run_claim(const ClaimOptions& o) {
+  const auto start = std::chrono::steady_clock::now();
+  fs::create_directories(o.out_dir);
+  const fs::path campaign_file = fs::absolute(o.out_dir) / "claim-campaign.json";
+  write_file_atomic(campaign_file, claim_campaign_json(o));
+  const std::string revision = binary_revision(o.rtsim_binary);
+  const Campaign campaign = load_campaign(campaign_file, revision);
+  const CampaignPaths paths = campaign_paths(campaign, fs::absolute(o.out_dir) / "campaign", {});
+  RunOptions run;
+  run.parallel = o.jobs;
+  run.binary = o.rtsim_binary;
+  run.progress = o.progress;
+  run.tree_cache = o.tree_cache;
+  const RunSummary ran = run_campaign(campaign, paths, run);
+  ClaimSummary summary;
+  if (ran.interrupted) {
+    summary.interrupted = true;
+    return summary;
+  }
+  summary.jobs = campaign.jobs.size();
+  summary.ran = ran.ran;
+
+  // ---- the figures of every ok job, by (scene, camera, condition, builder) -> replicate
+  ResultsStore store(paths.database, ResultsStore::Access::ReadOnly);
+  std::map<std::string, json> stats_by_key;
+  for (const json& row : store.rows(campaign.name)) {
+    if (row.value("status", "") != "ok") continue;
+    if (!row.contains("stats_json") || !row["stats_json"].is_string()) continue;
+    stats_by_key[row["job_key"].get<std::string>()] = json::parse(row["stats_json"].get<std::string>());
+  }
+  using Where = std::tuple<std::string, std::string, std::string>;  // scene, camera, condition
+  std::map<Where, std::map<std::string, std::map<uint64_t, Figures>>> figures;
+  // Tree costs (from the cache's reports) and ops/ray, for the correlations.
+  struct TreePoint {
+    std::string builder, condition;
+    double sah = NAN, weighted = NAN, epo = NAN;
+    Figures measured;
+  };
+  std::map<std::tuple<std::string, std::string, std::string>, std::vector<TreePoint>> tree_points;
+  const std::vector<Condition> conditions = star_conditions(o);
+  std::map<Condition, std::string> names;
+  for (const Condition& c : conditions) names[c] = condition_name(c, o);
+  for (const CampaignJob& job : campaign.jobs) {
+    auto it = stats_by_key.find(job.key);
+    if (it == stats_by_key.end()) {
+      ++summary.failed;
+      continue;
+    }
+    auto name = names.find(job_condition(job, o));
+    if (name == names.end()) continue;
+    const Figures f = figures_of(it->second);
+    figures[{job.scene, job.camera, name->second}][job.builder][job.seed] = f;
+    if (o.tree_cache.empty()) continue;
+    const fs::path report = fs::path(cached_tree(o.tree_cache, campaign, job).string() + ".metrics.json");
+    if (!fs::exists(report)) continue;
+    const json m = json::parse(read_input_file(report, kMaxConfigFileBytes), nullptr, false);
+    if (!m.is_object()) continue;
+    TreePoint p;
+    p.builder = job.builder;
+    p.condition = name->second;
+    p.sah = m.value("sah_cost", NAN);
+    p.weighted = m.value("weighted_cost", NAN);
+    p.epo = m.value("epo", NAN);
+    p.measured = f;
+    // The costs are in units of T1 and T2: one cost scale only where T2/T1 = 1, and
+    // one workload only at the default AO length.
+    const Condition c = job_condition(job, o);
+    bool comparable = true;
+    for (const ClaimFactor& fac : o.factors)
+      if ((fac.name == "t2" || fac.name == "cutoff") && c.at(fac.name) != fac.centre) comparable = false;
+    if (comparable) tree_points[{job.scene, job.camera, std::to_string(job.seed)}].push_back(p);
+  }
+
+  // ---- the cells
+  const std::vector<Relation> rels = relations(o);
+  std::vector<Cell> cells;
+  for (const auto& [where, by_builder] : figures) {
+    const auto& [scene, camera, condition] = where;
+    for (const Relation& rel : rels) {
+      std::vector<std::string> as;
+      if (rel.a.empty()) as = {"sah", "sbvh", "osah", "aobvh"};
+      else as = {rel.a};
+      bool present = by_builder.count(rel.b);
+      for (const std::string& a : as) present = present && by_builder.count(a);
+      if (!present) continue;
+      for (size_t m = 0; m < kMetricCount; ++m)
+        for (size_t x = 0; x < kMixCount; ++x) {
+          Cell cell{rel.name, scene, camera, condition, kMetrics[m], kMixes[x], {}, ""};
+          std::vector<Interval> per_a;
+          for (const std::string& a : as) {
+            std::vector<double> d;
+            for (const auto& [seed, fb] : by_builder.at(rel.b)) {
+              auto fa = by_builder.at(a).find(seed);
+              if (fa == by_builder.at(a).end()) continue;
+              const double vb = fb.v[m][x], va = fa->second.v[m][x];
+              if (std::isfinite(va) && std::isfinite(vb) && vb > 0) d.push_back(100.0 * (va / vb - 1));
+            }
+            per_a.push_back(interval_of(d));
+          }
+          // all<median: holds if every tree holds; reverses if any reverses; the
+          // effect shown is the least favourable tree's.
+          size_t worst = 0;
+          for (size_t k = 1; k < per_a.size(); ++k)
+            if (per_a[k].mean > per_a[worst].mean) worst = k;
+          cell.effect = per_a[worst];
+          bool all_hold = true, any_reverse = false, any_na = false;
+          for (const Interval& i : per_a) {
+            const std::string v = verdict(i);
+            all_hold = all_hold && v == "holds";
+            any_reverse = any_reverse || v == "reverses";
+            any_na = any_na || v == "n/a";
+          }
+          cell.verdict = any_na ? "n/a" : all_hold ? "holds" : any_reverse ? "reverses" : "noise";
+          // DRAM bytes of a scene that fits the caches are ~0: no relation to read.
+          if (std::string(kMetrics[m]) == "dram_bytes") {
+            double b = 0;
+            for (const auto& [seed, fb] : by_builder.at(rel.b)) b = std::max(b, fb.v[m][x]);
+            if (!(b > 0.5)) cell.verdict = "n/a";
+          }
+          cells.push_back(cell);
+        }
+    }
+  }
+  summary.cells = cells.size();
+
+  // ---- correlations: per scene, camera, mix; replicate-averaged points
+  struct Correlation {
+    std::string scene, camera, mix;
+    size_t points = 0;
+    double sah = NAN, weighted = NAN, epo = NAN;
+  };
+  std::vector<Correlation> correlations;
+  {
+    std::map<std::pair<std::string, std::string>, std::map<std::pair<std::string, std::string>, std::vector<const TreePoint*>>> grouped;
+    for (const auto& [k, pts] : tree_points)
+      for (const TreePoint& p : pts) grouped[{std::get<0>(k), std::get<1>(k)}][{p.builder, p.condition}].push_back(&p);
+    for (const auto& [sc, trees] : grouped)
+      for (size_t x = 0; x < kMixCount; ++x) {
+        std::vector<double> sah, weighted, epo, ops;
+        for (const auto& [tree, pts] : trees) {
+          double s = 0, w = 0, e = 0, v = 0;
+          for (const TreePoint* p : pts) s += p->sah, w += p->weighted, e += p->epo, v += p->measured.v[0][x];
+          const double n = double(pts.size());
+          if (!std::isfinite(v)) continue;
+          sah.push_back(s / n), weighted.push_back(w / n), epo.push_back(e / n), ops.push_back(v / n);
+        }
+        Correlation c{sc.first, sc.second, kMixes[x], ops.size(), spearman(sah, ops), spearman(weighted, ops),
+                      NAN};
+        bool have_epo = std::all_of(epo.begin(), epo.end(), [](double d) { return std::isfinite(d); });
+        if (have_epo) c.epo = spearman(epo, ops);
+        correlations.push_back(c);
+      }
+  }
+
+  // ---- sentences: per relation and metric, where it holds and where it reverses
+  std::vector<std::string> sentences;
+  std::ostringstream md;
+  for (const Relation& rel : rels) {
+    for (size_t m = 0; m < kMetricCount; ++m)
+      for (size_t x = 0; x < kMixCount; ++x) {
+        size_t holds = 0, reverses = 0, noise = 0;
+        // Per condition: cells that hold, that reverse, and all cells.
+        std::map<std::string, std::array<size_t, 3>> by_condition;
+        for (const Cell& c : cells) {
+          if (c.relation != rel.name || c.metric != kMetrics[m] || c.mix != kMixes[x] || c.verdict == "n/a") continue;
+          auto& t = by_condition[c.condition];
+          if (c.verdict == "holds") ++holds, ++t[0];
+          else if (c.verdict == "reverses") ++reverses, ++t[1];
+          else ++noise;
+          ++t[2];
+        }
+        const size_t total = holds + reverses + noise;
+        if (total == 0) continue;
+        std::ostringstream s;
+        s << rel.text << ", " << kMetricText[m] << ", " << kMixes[x] << " rays: holds in " << holds << " of "
+          << total << " cells (scene x camera x condition), reverses in " << reverses << ", noise in " << noise
+          << ".";
+        std::string held, reversed;
+        for (const auto& [cond, t] : by_condition) {
+          const std::string of = " " + std::to_string(t[0]) + "/" + std::to_string(t[2]);
+          if (t[0] > 0) held += (held.empty() ? "" : ", ") + cond + of;
+          if (t[1] > 0)
+            reversed += (reversed.empty() ? "" : ", ") + cond + " " + std::to_string(t[1]) + "/" + std::to_string(t[2]);
+        }
+        if (!held.empty()) s << " Holds at " << held << ".";
+        if (!reversed.empty()) s << " Reverses at " << reversed << ".";
+        sentences.push_back(s.str());
+        summary.holds += holds;
+        summary.reverses += reverses;
+      }
+  }
+
+  // ---- outputs
+  json out;
+  out["options"] = {{"scenes", claim_scenes(o)},     {"cameras", o.cameras},
+                    {"builders", o.builders},        {"extra_builders", o.extra_builders},
+                    {"replicates", o.replicates},    {"resolution", o.resolution},
+                    {"ao_rays", o.ao_rays},          {"frames", o.frames},
+                    {"preset", o.preset},            {"quick", o.quick}};
+  json factors = json::array();
+  for (const ClaimFactor& f : o.factors) factors.push_back({{"name", f.name}, {"levels", f.levels}, {"default", f.centre}});
+  out["options"]["factors"] = factors;
+  out["jobs"] = summary.jobs;
+  out["jobs_run_now"] = ran.ran;
+  out["jobs_missing_or_failed"] = summary.failed;
+  out["run_seconds"] = ran.wall_seconds;
+  out["revision"] = revision;
+  json jrels = json::array();
+  for (const Relation& r : rels) jrels.push_back({{"name", r.name}, {"text", r.text}});
+  out["relations"] = jrels;
+  json jcells = json::array();
+  TextTable csv({"relation", "scene", "camera", "condition", "metric", "mix", "n", "mean_pct", "ci_lo_pct",
+                 "ci_hi_pct", "verdict"});
+  auto num = [](double d) { return std::isfinite(d) ? json(d) : json(nullptr); };
+  auto cnum = [](double d) {
+    if (!std::isfinite(d)) return std::string();
+    char b[32];
+    std::snprintf(b, sizeof b, "%.4g", d);
+    return std::string(b);
+  };
+  for (const Cell& c : cells) {
+    jcells.push_back({{"relation", c.relation}, {"scene", c.scene}, {"camera", c.camera},
+                      {"condition", c.condition}, {"metric", c.metric}, {"mix", c.mix},
+                      {"n", c.effect.n}, {"mean_pct", num(c.effect.mean)}, {"ci_lo_pct", num(c.effect.lo)},
+                      {"ci_hi_pct", num(c.effect.hi)}, {"verdict", c.verdict}});
+    csv.add_row({c.relation, c.scene, c.camera, c.condition, c.metric, c.mix, std::to_string(c.effect.n),
+                 cnum(c.effect.mean), cnum(c.effect.lo), cnum(c.effect.hi), c.verdict});
+  }
+  out["cells"] = jcells;
+  json jconds = json::array();
+  for (const Condition& c : conditions) jconds.push_back(names[c]);
+  out["conditions"] = jconds;  // in design order: the default first
+  json jcorr = json::array();
+  for (const Correlation& c : correlations)
+    jcorr.push_back({{"scene", c.scene}, {"camera", c.camera}, {"mix", c.mix}, {"points", c.points},
+                     {"sah_cost", num(c.sah)}, {"weighted_cost", num(c.weighted)}, {"epo", num(c.epo)}});
+  out["cost_model_correlations"] = jcorr;
+  out["sentences"] = sentences;
+
+  // Markdown: the tallies, the sentences, our builders at the default, correlations.
+  md << "# Where the patent's claim holds\n\n"
+     << "Star design around the defaults (";
+  for (size_t i = 0; i < o.factors.size(); ++i)
+    md << (i ? ", " : "") << o.factors[i].name << " " << o.factors[i].centre;
+  md << "), each factor varied alone; " << claim_scenes(o).size() << " scenes x " << o.cameras.size()
+     << " cameras; " << o.replicates << " replicates (seed r: the workload's rays and the builder's "
+     << "AO/sample rays); " << o.resolution << ", " << o.ao_rays << " AO rays per hit, frame " << o.frames
+     << " of " << o.frames << " (warm caches), preset " << o.preset << ", functional level. "
+     << summary.jobs << " jobs.\n\n"
+     << "Effect = mean over replicates of (a / b - 1) in %, with a 95% t interval. "
+     << "**holds**: the interval is below 0; **reverses**: above 0; **noise**: it contains 0. "
+     << "For `all<median` every tree must hold; the effect shown is the least favourable tree's. "
+     << "AO-only and primary-only figures are those ray types' shares of one run (shared caches); "
+     << "DRAM cells of a run under 0.5 B/ray are n/a.\n\n## In sentences\n\n";
+  for (const std::string& s : sentences) md << "- " << s << "\n";
+  md << "\n## Tally per relation (all metrics and mixes)\n\n";
+  {
+    TextTable t({"relation", "holds", "reverses", "noise", "n/a"});
+    for (const Relation& rel : rels) {
+      size_t h = 0, r = 0, n = 0, na = 0;
+      for (const Cell& c : cells)
+        if (c.relation == rel.name)
+          (c.verdict == "holds" ? h : c.verdict == "reverses" ? r : c.verdict == "noise" ? n : na)++;
+      if (h + r + n + na)
+        t.add_row({rel.text, std::to_string(h), std::to_string(r), std::to_string(n), std::to_string(na)});
+    }
+    md << t.markdown() << "\n";
+  }
+  md << "## Ops/ray, all rays, per condition\n\n";
+  for (const Relation& rel : rels) {
+    std::vector<std::string> header = {"scene/camera"};
+    std::vector<std::string> conds;
+    for (const Condition& c : conditions) conds.push_back(names[c]);
+    header.insert(header.end(), conds.begin(), conds.end());
+    TextTable t(header);
+    std::map<std::string, std::map<std::string, const Cell*>> grid;
+    for (const Cell& c : cells)
+      if (c.relation == rel.name && c.metric == std::string("ops") && c.mix == std::string("all"))
+        grid[c.scene + "/" + c.camera][c.condition] = &c;
+    if (grid.empty()) continue;
+    for (const auto& [sc, row] : grid) {
+      std::vector<std::string> r = {sc};
+      for (const std::string& cond : conds) {
+        auto it = row.find(cond);
+        r.push_back(it == row.end() ? "" : interval_text(it->second->effect) +
+                                               (it->second->verdict == "holds"      ? " holds"
+                                                : it->second->verdict == "reverses" ? " REV"
+                                                                                    : ""));
+      }
+      t.add_row(r);
+    }
+    md << "### " << rel.text << "\n\n" << t.markdown() << "\n";
+    md << "![" << rel.name << "](" << picture_name(rel.name) << ")\n\n";
+  }
+  md << "## Does the cost model predict the work?\n\n"
+     << "Spearman rank correlation, across every tree of the map at T2/T1 = 1 and the default AO "
+     << "length (builders x leaf sizes x node formats; replicate means), between the tree's modelled "
+     << "cost and its measured TRV+IST ops/ray.\n\n";
+  {
+    TextTable t({"scene", "camera", "rays", "trees", "SAH cost", "weighted cost", "EPO"});
+    auto r3 = [](double d) {
+      if (!std::isfinite(d)) return std::string("-");
+      char b[16];
+      std::snprintf(b, sizeof b, "%.2f", d);
+      return std::string(b);
+    };
+    for (const Correlation& c : correlations)
+      t.add_row({c.scene, c.camera, c.mix, std::to_string(c.points), r3(c.sah), r3(c.weighted), r3(c.epo)});
+    md << (correlations.empty() ? std::string("(no tree reports: run with the tree cache)\n") : t.markdown())
+       << "\n";
+  }
+  write_file_atomic(o.out_dir / "claim.json", out.dump(2) + "\n");
+  write_file_atomic(o.out_dir / "claim.csv", csv.csv());
+  write_file_atomic(o.out_dir / "claim.md", md.str());
+  std::string plot_note;
+  try {
+    run_plot_script("claim_plots.py", {fs::absolute(o.out_dir).string()});
+  } catch (const std::exception& e) {
+    plot_note = std::string("pictures not drawn: ") + e.what() + "\n";
+  }
+  summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  std::ostringstream text;
+  text << "claim: " << summary.jobs << " jobs (" << ran.ran << " run now, " << summary.failed
+       << " missing or failed), " << summary.cells << " cells: " << summary.holds << " hold, "
+       << summary.reverses << " reverse\n";
+  for (const std::string& s : sentences)
+    if (s.find(", all rays:") != std::string::npos && s.find("TRV+IST") != std::string::npos) text << "  " << s << "\n";
+  text << plot_note;
+  summary.text = text.str();
+  return summary;
+}
+
+}  // namespace rtsim

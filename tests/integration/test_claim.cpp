@@ -1,0 +1,91 @@
+// rtsim claim: the quick map runs end to end, every verdict follows from its
+// interval, a second run resumes (no job runs twice, same cells), bad input is
+// named; and the statistics it rests on (t quantiles, Spearman with ties).
+#include "integration/cli_runner.h"
+#include "integration/test_campaign_fake.h"
+
+#include <rtsim/reports/claim.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+
+namespace rtsim {
+namespace {
+
+using nlohmann::json;
+
+json read_json(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  return json::parse(in);
+}
+
+TEST(Claim, QuickMapGivesVerdictsThatFollowFromTheIntervalsAndResumes) {
+  const auto dir = test::fresh_folder("claim");
+  const std::string args = "claim --quick --out-dir " + (dir / "out").string() + " --tree-cache " +
+                           (dir / "trees").string();
+  const CliResult first = run_rtsim(args);
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const json claim = read_json(dir / "out" / "claim.json");
+  // cornell, 2 cameras, 3 replicates: 4 conditions x 5 builders + rdh at the default.
+  EXPECT_EQ(claim.at("jobs").get<size_t>(), (4u * 5u + 1u) * 2u * 3u);
+  EXPECT_EQ(claim.at("jobs_missing_or_failed").get<size_t>(), 0u);
+  size_t cells = 0, median_cells = 0;
+  for (const json& c : claim.at("cells")) {
+    ++cells;
+    if (c.at("relation") == "all<median") ++median_cells;
+    const std::string v = c.at("verdict");
+    if (c.at("ci_lo_pct").is_null()) {
+      EXPECT_EQ(v, "n/a");
+      continue;
+    }
+    const double lo = c.at("ci_lo_pct"), hi = c.at("ci_hi_pct"), mean = c.at("mean_pct");
+    EXPECT_EQ(c.at("n").get<int>(), 3);
+    EXPECT_LE(lo, mean);
+    EXPECT_GE(hi, mean);
+    if (v == "holds") EXPECT_LT(hi, 0) << c.dump();
+    if (v == "reverses") EXPECT_GT(lo, 0) << c.dump();
+    if (v == "noise" && c.at("relation") != "all<median") EXPECT_TRUE(lo <= 0 && hi >= 0) << c.dump();
+  }
+  EXPECT_GT(cells, 0u);
+  EXPECT_GT(median_cells, 0u);
+  ASSERT_FALSE(claim.at("sentences").empty());
+  ASSERT_FALSE(claim.at("cost_model_correlations").empty());
+  for (const json& c : claim.at("cost_model_correlations")) {
+    EXPECT_GE(c.at("points").get<int>(), 3);
+    if (!c.at("sah_cost").is_null()) EXPECT_LE(std::abs(c.at("sah_cost").get<double>()), 1.0);
+  }
+  for (const char* f : {"claim.md", "claim.csv", "claim-campaign.json"})
+    EXPECT_TRUE(std::filesystem::exists(dir / "out" / f)) << f;
+
+  const CliResult second = run_rtsim(args + " --json");
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+  const json again = read_json(dir / "out" / "claim.json");
+  EXPECT_EQ(again.at("jobs_run_now").get<size_t>(), 0u);  // resumed: nothing ran twice
+  EXPECT_EQ(again.at("cells"), claim.at("cells"));
+}
+
+TEST(Claim, BadInputIsNamed) {
+  const CliResult r = run_rtsim("claim --replicates 1 --out-dir /tmp/rtsim-claim-bad");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--replicates"), std::string::npos) << r.output;
+}
+
+TEST(ClaimStatistics, TQuantilesAndSpearmanWithTies) {
+  EXPECT_NEAR(t_quantile_975(1), 12.706, 1e-3);
+  EXPECT_NEAR(t_quantile_975(4), 2.776, 1e-3);
+  EXPECT_NEAR(t_quantile_975(45), 2.014, 3e-3);
+  EXPECT_NEAR(t_quantile_975(120), 1.980, 1e-3);
+  EXPECT_NEAR(t_quantile_975(100000), 1.960, 1e-3);
+  EXPECT_NEAR(spearman({1, 2, 3, 4}, {10, 20, 25, 100}), 1.0, 1e-12);
+  EXPECT_NEAR(spearman({1, 2, 3, 4}, {4, 3, 2, 1}), -1.0, 1e-12);
+  // Ranks (1, 2.5, 2.5, 4) against (1, 2, 3, 4): 4.5 / sqrt(4.5 * 5).
+  EXPECT_NEAR(spearman({1, 2, 2, 3}, {1, 2, 3, 4}), 4.5 / std::sqrt(4.5 * 5.0), 1e-12);
+  EXPECT_TRUE(std::isnan(spearman({1, 1, 1}, {1, 2, 3})));
+  EXPECT_TRUE(std::isnan(spearman({1, 2}, {1, 2})));
+}
+
+}  // namespace
+}  // namespace rtsim
