@@ -335,6 +335,7 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     Figures measured;
   };
   std::map<std::tuple<std::string, std::string, std::string>, std::vector<TreePoint>> tree_points;
+  std::map<std::pair<std::string, std::string>, std::vector<double>> build_seconds;  // scene, builder
   const std::vector<Condition> conditions = star_conditions(o);
   std::map<Condition, std::string> names;
   for (const Condition& c : conditions) names[c] = condition_name(c, o);
@@ -359,6 +360,8 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     p.sah = m.value("sah_cost", NAN);
     p.weighted = m.value("weighted_cost", NAN);
     p.epo = m.value("epo", NAN);
+    if (name->second == "default")
+      build_seconds[{job.scene, job.builder}].push_back(m.value("build_seconds", NAN));
     p.measured = f;
     // The costs are in units of T1 and T2: one cost scale only where T2/T1 = 1, and
     // one workload only at the default AO length.
@@ -590,6 +593,52 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     md << "### " << rel.text << "\n\n" << t.markdown() << "\n";
     md << "![" << rel.name << "](" << picture_name(rel.name) << ")\n\n";
   }
+  // Every builder at the default condition, absolute figures with their intervals.
+  md << "## Every builder at the default condition\n\n"
+     << "Mean over the replicates and the 95% half-width. Build s: wall seconds of one build "
+     << "(2 threads, beside a running job; the cached tree's own report), mean over the trees of the "
+     << "default condition.\n\n";
+  json defaults = json::array();
+  {
+    TextTable t({"scene/camera", "builder", "ops/ray primary", "ops/ray AO", "node fetches/ray", "DRAM B/ray",
+                 "build s"});
+    auto pm = [](const Interval& i) {
+      if (!std::isfinite(i.mean)) return std::string("-");
+      char b[48];
+      if (std::isfinite(i.hi)) std::snprintf(b, sizeof b, "%.3g +- %.2g", i.mean, i.hi - i.mean);
+      else std::snprintf(b, sizeof b, "%.3g", i.mean);
+      return std::string(b);
+    };
+    for (const auto& [where, by_builder] : figures) {
+      if (std::get<2>(where) != "default") continue;
+      std::vector<std::string> order = o.builders;
+      order.insert(order.end(), o.extra_builders.begin(), o.extra_builders.end());
+      for (const std::string& b : order) {
+        auto it = by_builder.find(b);
+        if (it == by_builder.end()) continue;
+        auto series = [&](size_t m, size_t x) {
+          std::vector<double> v;
+          for (const auto& [seed, f] : it->second) v.push_back(f.v[m][x]);
+          return interval_of(v);
+        };
+        const Interval prim = series(0, 0), ao = series(0, 1), fetch = series(1, 2), dram = series(2, 2);
+        const auto bs = build_seconds.find({std::get<0>(where), b});
+        const double secs = bs == build_seconds.end() ? NAN : interval_of(bs->second).mean;
+        char sb[32];
+        std::snprintf(sb, sizeof sb, "%.3g", secs);
+        const std::string shown = builder_info(b).display_name + (builder_info(b).ours ? " (ours)" : "");
+        t.add_row({std::get<0>(where) + "/" + std::get<1>(where), shown, pm(prim), pm(ao), pm(fetch), pm(dram),
+                   std::isfinite(secs) ? std::string(sb) : "-"});
+        defaults.push_back({{"scene", std::get<0>(where)}, {"camera", std::get<1>(where)}, {"builder", b},
+                            {"ops_per_ray_primary", num(prim.mean)}, {"ops_per_ray_primary_half", num(prim.hi - prim.mean)},
+                            {"ops_per_ray_ao", num(ao.mean)}, {"ops_per_ray_ao_half", num(ao.hi - ao.mean)},
+                            {"node_fetches_per_ray", num(fetch.mean)}, {"dram_bytes_per_ray", num(dram.mean)},
+                            {"dram_bytes_per_ray_half", num(dram.hi - dram.mean)}, {"build_seconds", num(secs)}});
+      }
+    }
+    md << t.markdown() << "\n";
+  }
+  out["default_condition"] = defaults;
   md << "## Does the cost model predict the work?\n\n"
      << "Spearman rank correlation, across every tree of the map at T2/T1 = 1 and the default AO "
      << "length (builders x leaf sizes x node formats; replicate means), between the tree's modelled "
