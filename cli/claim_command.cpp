@@ -19,7 +19,7 @@ namespace {
 struct ClaimCommandOptions {
   ClaimOptions claim;
   bool quick = false, json = false, no_tree_cache = false;
-  std::string tree_cache;
+  std::string tree_cache, binary;
 };
 }  // namespace
 
@@ -44,6 +44,9 @@ void add_claim_command(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--tree-cache", o->tree_cache, "shared trees and their cost reports (default: $RTSIM_CACHE/trees)");
   cmd->add_flag("--no-tree-cache", o->no_tree_cache, "every job builds its own tree (no cost-model correlations)");
+  cmd->add_option("--rtsim", o->binary,
+                  "the rtsim that runs the jobs (default: this one; its revision is part of every key,\n"
+                  "so a newer report can read an older binary's finished map)");
   cmd->add_flag("--quick", o->quick, "a smoke run of a minute or two (cornell, 3 replicates, 32x32)");
   cmd->add_flag("--json", o->json, "print claim.json to stdout instead of the summary");
   cmd->callback([o] {
@@ -51,7 +54,10 @@ void add_claim_command(CLI::App& root) {
     if (options.replicates < 2) throw InputError("--replicates", "needs at least 2 for an interval");
     uint32_t w = 0, h = 0;
     parse_resolution(options.resolution, w, h);
-    options.rtsim_binary = self_executable();
+    options.rtsim_binary = o->binary.empty() ? self_executable() : std::filesystem::absolute(o->binary);
+    // Another binary's trees are shared only where asked (as campaign run does).
+    if (!o->binary.empty() && o->tree_cache.empty() && !o->no_tree_cache)
+      throw InputError("--rtsim", "give --tree-cache (or --no-tree-cache) with another job binary");
     options.progress = Progress::enabled();
     options.tree_cache = o->no_tree_cache       ? std::filesystem::path()
                          : o->tree_cache.empty() ? scene_cache_dir() / "trees"

@@ -460,15 +460,16 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     for (size_t m = 0; m < kMetricCount; ++m)
       for (size_t x = 0; x < kMixCount; ++x) {
         size_t holds = 0, reverses = 0, noise = 0;
-        // Per condition: cells that hold, that reverse, and all cells.
-        std::map<std::string, std::array<size_t, 3>> by_condition;
+        // Per condition and per scene/camera: cells that hold, that reverse, and all cells.
+        std::map<std::string, std::array<size_t, 3>> by_condition, by_view;
         for (const Cell& c : cells) {
           if (c.relation != rel.name || c.metric != kMetrics[m] || c.mix != kMixes[x] || c.verdict == "n/a") continue;
           auto& t = by_condition[c.condition];
-          if (c.verdict == "holds") ++holds, ++t[0];
-          else if (c.verdict == "reverses") ++reverses, ++t[1];
+          auto& u = by_view[c.scene + "/" + c.camera];
+          if (c.verdict == "holds") ++holds, ++t[0], ++u[0];
+          else if (c.verdict == "reverses") ++reverses, ++t[1], ++u[1];
           else ++noise;
-          ++t[2];
+          ++t[2], ++u[2];
         }
         const size_t total = holds + reverses + noise;
         if (total == 0) continue;
@@ -485,6 +486,14 @@ ClaimSummary run_claim(const ClaimOptions& o) {
         }
         if (!held.empty()) s << " Holds at " << held << ".";
         if (!reversed.empty()) s << " Reverses at " << reversed << ".";
+        // Scenes and cameras where it holds (or reverses) in every condition of the map.
+        std::string always, never;
+        for (const auto& [view, u] : by_view) {
+          if (u[0] == u[2]) always += (always.empty() ? "" : ", ") + view;
+          if (u[1] == u[2]) never += (never.empty() ? "" : ", ") + view;
+        }
+        if (!always.empty()) s << " Holds in every condition on " << always << ".";
+        if (!never.empty()) s << " Reverses in every condition on " << never << ".";
         sentences.push_back(s.str());
         summary.holds += holds;
         summary.reverses += reverses;

@@ -71,6 +71,10 @@ TEST(Claim, BadInputIsNamed) {
   const CliResult r = run_rtsim("claim --replicates 1 --out-dir /tmp/rtsim-claim-bad");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--replicates"), std::string::npos) << r.output;
+  const CliResult other = run_rtsim("claim --quick --rtsim " + std::string(RTSIM_BINARY) +
+                                    " --out-dir /tmp/rtsim-claim-bad");
+  EXPECT_EQ(other.exit_code, 2) << other.output;
+  EXPECT_NE(other.output.find("--tree-cache"), std::string::npos) << other.output;
 }
 
 TEST(ClaimStatistics, TQuantilesAndSpearmanWithTies) {
