@@ -281,8 +281,10 @@ std::string claim_campaign_json(const ClaimOptions& o) {
   const std::vector<Condition> conditions = star_conditions(o);
   for (size_t i = 0; i < conditions.size(); ++i) {
     const Condition& c = conditions[i];
-    std::vector<std::string> builders = o.builders;
-    if (i == 0) builders.insert(builders.end(), o.extra_builders.begin(), o.extra_builders.end());
+    std::vector<std::string> builders = o.builders, samplers;
+    if (i == 0)
+      for (const std::string& b : o.extra_builders)
+        (parameter_used_by(*find_builder_parameter("rdh_resolution"), b) ? samplers : builders).push_back(b);
     json g = {{"name", condition_name(c, o)}, {"builder", builders}};
     if (c.count("format")) g["node_format"] = c.at("format");
     if (c.count("cutoff")) g["ao_cutoff"] = number_text(c.at("cutoff"));
@@ -291,6 +293,17 @@ std::string claim_campaign_json(const ClaimOptions& o) {
     if (c.count("t2")) build["t2"] = number_text(c.at("t2"));
     if (!build.empty()) g["build"] = build;
     groups.push_back(g);
+    // The ray-distribution builders sample primary rays through pixel centres: on a
+    // grid of 3/4 the workload's, so that the rays measured are not the rays sampled.
+    if (!samplers.empty()) {
+      uint32_t w = 0, h = 0;
+      std::sscanf(o.resolution.c_str(), "%ux%u", &w, &h);
+      json ours = g;
+      ours["name"] = condition_name(c, o) + "-sampling";
+      ours["builder"] = samplers;
+      ours["build"]["rdh_resolution"] = std::max<uint32_t>(8, w * 3 / 4);
+      groups.push_back(ours);
+    }
   }
   doc["group"] = groups;
   return doc.dump(2) + "\n";
