@@ -42,7 +42,7 @@ def main(out_dir):
         present = set(c["condition"] for c in mine)
         cols = [c for c in claim.get("conditions", []) if c in present] or sorted(present)
         fig, axes = plt.subplots(len(METRICS), len(MIXES), squeeze=False,
-                                 figsize=(3.2 + 0.55 * len(cols) * len(MIXES), 2.4 + (0.8 + 0.3 * len(rows)) * len(METRICS)),
+                                 figsize=(3.2 + max(3.0, 0.55 * len(cols)) * len(MIXES), 2.4 + (0.8 + 0.3 * len(rows)) * len(METRICS)),
                                  gridspec_kw={"hspace": 0.45})
         for i, (metric, metric_text) in enumerate(METRICS):
             for j, mix in enumerate(MIXES):
