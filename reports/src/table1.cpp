@@ -56,9 +56,10 @@ Table1Counts counts_of(const CounterTotals& t) {
   return c;
 }
 
-// OSAH trees depend on the camera; the others are built once per scene.
+// Trees of builders that need a camera (OSAH, RDH) are built per camera; the others
+// once per scene.
 std::string tree_key(const std::string& builder, const std::string& camera) {
-  return builder == "osah" ? builder + "-" + camera : builder;
+  return builder_info(builder).needs_camera ? builder + "-" + camera : builder;
 }
 
 double dram_bytes_of_type(const nlohmann::json& stats, const char* type) {
@@ -271,7 +272,7 @@ Table1 run_table1_checked(const Table1Options& options) {
   {
     std::vector<std::pair<std::string, std::string>> to_build;  // (builder, camera)
     for (const std::string& b : options.builders) {
-      if (b == "osah")
+      if (builder_info(b).needs_camera)
         for (const std::string& c : options.cameras) to_build.push_back({b, c});
       else
         to_build.push_back({b, options.cameras.front()});
