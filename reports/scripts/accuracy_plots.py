@@ -14,15 +14,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter  # noqa: E402
+from plot_files import save  # noqa: E402
 
 LEVEL_STYLE = {"functional": ("#4c72b0", "o"), "lt": ("#dd8452", "s"), "cycle": ("#55a868", "^")}
 
-
-def save(fig, path):
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    os.replace(tmp, path)  # never leave a half-written picture
-    plt.close(fig)
 
 
 def readable_log(ax, which="both"):

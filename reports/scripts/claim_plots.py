@@ -14,16 +14,11 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from plot_files import save  # noqa: E402
 
 METRICS = [("ops", "TRV+IST ops/ray"), ("node_fetches", "node fetches/ray"), ("dram_bytes", "DRAM B/ray")]
 MIXES = ["primary", "ao", "all"]
 
-
-def save(fig, path):
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=100, bbox_inches="tight")
-    os.replace(tmp, path)  # never leave a half-written picture
-    plt.close(fig)
 
 
 def picture_name(relation):
@@ -69,7 +64,7 @@ def main(out_dir):
                 ax.set_title(f"{metric_text}, {mix} rays", fontsize=8)
                 fig.colorbar(im, ax=ax, fraction=0.04, pad=0.02).ax.tick_params(labelsize=6)
         fig.suptitle(f"{rel['text']}: mean difference in % (H: holds, R: reverses, 95% interval)", fontsize=10)
-        save(fig, os.path.join(out_dir, picture_name(rel["name"])))
+        save(fig, os.path.join(out_dir, picture_name(rel["name"])), dpi=100)
 
 
 if __name__ == "__main__":

@@ -15,16 +15,11 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from plot_files import save  # noqa: E402
 
 NAMES = {"median": "BVH (median)", "sah": "BVH (SAH)", "sbvh": "SBVH", "osah": "OSAH",
          "aobvh": "AO-BVH", "aosbvh": "AO-SBVH", "rdh": "RDH (ours)", "rdh-sbvh": "RDH-SBVH (ours)"}
 
-
-def save(fig, path):
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    os.replace(tmp, path)  # never leave a half-written picture
-    plt.close(fig)
 
 
 def main(out_dir):
