@@ -51,7 +51,6 @@ void add_claim_command(CLI::App& root) {
   cmd->add_flag("--json", o->json, "print claim.json to stdout instead of the summary");
   cmd->callback([o] {
     ClaimOptions options = o->quick ? quick_claim_options(o->claim) : o->claim;
-    if (options.replicates < 2) throw InputError("--replicates", "needs at least 2 for an interval");
     uint32_t w = 0, h = 0;
     parse_resolution(options.resolution, w, h);
     options.rtsim_binary = o->binary.empty() ? self_executable() : std::filesystem::absolute(o->binary);

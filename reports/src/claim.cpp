@@ -311,9 +311,10 @@ std::string claim_campaign_json(const ClaimOptions& o) {
 
 ClaimSummary run_claim(const ClaimOptions& o) {
   const auto start = std::chrono::steady_clock::now();
+  const std::string document = claim_campaign_json(o);  // bad options stop here, before any file
   fs::create_directories(o.out_dir);
   const fs::path campaign_file = fs::absolute(o.out_dir) / "claim-campaign.json";
-  write_file_atomic(campaign_file, claim_campaign_json(o));
+  write_file_atomic(campaign_file, document);
   const std::string revision = binary_revision(o.rtsim_binary);
   const Campaign campaign = load_campaign(campaign_file, revision);
   const CampaignPaths paths = campaign_paths(campaign, fs::absolute(o.out_dir) / "campaign", {});
