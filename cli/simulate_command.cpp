@@ -59,7 +59,7 @@ void run_simulate(const SimulateOptions& o) {
   Workload workload;
   request.frames = o.frames;
   if (o.frames < 1 || o.frames > 1000) throw InputError("--frames", "must be 1..1000");
-  if (o.ao_cutoff != -1 && !(o.ao_cutoff > 0 && o.ao_cutoff <= 10))
+  if (o.ao_cutoff != -1 && !(o.ao_cutoff > 0 && o.ao_cutoff <= AoSettings::kMaxCutoffRelative))
     throw InputError("--ao-cutoff", "must be in (0, 10] (x scene diagonal)");
   load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, 0,
                 request.config.node_format, o.build_settings, float(o.ao_cutoff));

@@ -509,7 +509,7 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
           typed_overrides["memory.node_format"] = json(value);
         } else if (name == "ao_cutoff") {
           const json& v = (*dims[d].second)[index[d]];
-          if (!v.is_number() || !(v.get<double>() > 0) || v.get<double>() > 10)
+          if (!v.is_number() || !(v.get<double>() > 0) || v.get<double>() > AoSettings::kMaxCutoffRelative)
             throw InputError(w, "AO ray lengths must be numbers in (0, 10] (x scene diagonal)");
           job.ao_cutoff = value;
         } else if (name == "frames") {

@@ -45,6 +45,8 @@ struct Camera {
 };
 
 struct AoSettings {
+  // The longest AO ray a run may ask for (simulate --ao-cutoff, a campaign's ao_cutoff).
+  static constexpr double kMaxCutoffRelative = 10;
   bool enabled = true;
   float cutoff_relative = 0.05f;  // AO ray length as a fraction of the scene diagonal
   uint32_t samples = 4;           // AO rays per primary hit
