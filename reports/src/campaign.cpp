@@ -170,6 +170,29 @@ void read_sweep(ConfigTable& table, const std::string& section, Sweep& sweep) {
   }
 }
 
+// Camera names: a built-in scene's, or a descriptor's [[camera]] names. Cameras a
+// mesh suggests (spawnN) are only known once the mesh is loaded, so they pass.
+void check_camera(const CampaignJob& job, const std::string& camera, const std::string& where) {
+  std::vector<std::string> names;
+  if (is_procedural_scene(job.scene)) {
+    for (const Camera& c : make_procedural_scene(job.scene).cameras) names.push_back(c.name);
+  } else {
+    const std::vector<fs::path> files =
+        scene_source_files(job.scene_path.empty() ? job.scene : job.scene_path.string());
+    if (files.empty()) return;
+    const json doc = parse_config_file(files.front());
+    if (doc.is_object() && doc.contains("camera") && doc["camera"].is_array())
+      for (const json& c : doc["camera"])
+        if (c.is_object() && c.contains("name") && c["name"].is_string()) names.push_back(c["name"].get<std::string>());
+    if (camera.rfind("spawn", 0) == 0) return;
+  }
+  if (std::find(names.begin(), names.end(), camera) == names.end()) {
+    std::string known;
+    for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
+    throw InputError(where, "scene '" + job.scene + "' has no camera '" + camera + "' (cameras: " + known + ")");
+  }
+}
+
 // Builders, scenes and cameras are checked by name when the campaign is read, so
 // that a typo stops the campaign before its first job, not in every job.
 void check_names(const Campaign& campaign, const std::map<std::string, std::string>& unknown_scenes,
@@ -186,28 +209,12 @@ void check_names(const Campaign& campaign, const std::map<std::string, std::stri
       for (const std::string& b : builders) known += (known.empty() ? "" : ", ") + b;
       throw InputError(fname + ": key 'builder'", "unknown builder '" + job.builder + "' (known: " + known + ")");
     }
-    if (job.camera.empty() || !cameras_checked.insert({job.scene, job.camera}).second) continue;
-    // Camera names: a built-in scene's, or a descriptor's [[camera]] names. Cameras a
-    // mesh suggests (spawnN) are only known once the mesh is loaded, so they pass.
-    std::vector<std::string> names;
-    if (is_procedural_scene(job.scene)) {
-      for (const Camera& c : make_procedural_scene(job.scene).cameras) names.push_back(c.name);
-    } else {
-      const std::vector<fs::path> files =
-          scene_source_files(job.scene_path.empty() ? job.scene : job.scene_path.string());
-      if (files.empty()) continue;
-      const json doc = parse_config_file(files.front());
-      if (doc.is_object() && doc.contains("camera") && doc["camera"].is_array())
-        for (const json& c : doc["camera"])
-          if (c.is_object() && c.contains("name") && c["name"].is_string()) names.push_back(c["name"].get<std::string>());
-      if (job.camera.rfind("spawn", 0) == 0) continue;
-    }
-    if (std::find(names.begin(), names.end(), job.camera) == names.end()) {
-      std::string known;
-      for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
-      throw InputError(fname + ": key 'camera'", "scene '" + job.scene + "' has no camera '" + job.camera +
-                                                     "' (cameras: " + known + ")");
-    }
+    // The workload's camera and the tree's (build.camera), each once per scene.
+    std::vector<std::pair<std::string, std::string>> named;  // camera, key
+    if (!job.camera.empty()) named.push_back({job.camera, "camera"});
+    if (job.build_settings.count("camera")) named.push_back({job.build_settings.at("camera"), "build.camera"});
+    for (const auto& [camera, key] : named)
+      if (cameras_checked.insert({job.scene, camera}).second) check_camera(job, camera, fname + ": key '" + key + "'");
   }
 }
 
@@ -234,6 +241,11 @@ std::string content_hash_hex(const std::string& bytes) {
 
 std::string file_hash_hex(const fs::path& file) {
   return content_hash_hex(read_input_file(file, kMaxDataFileBytes));
+}
+
+const std::string& CampaignJob::tree_camera() const {
+  auto it = build_settings.find("camera");
+  return it == build_settings.end() ? camera : it->second;
 }
 
 std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir,

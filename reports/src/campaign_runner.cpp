@@ -227,9 +227,11 @@ JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, con
                       (job.build_settings.count("seed") ? job.build_settings.at("seed")
                                                         : std::to_string(job.seed)) +
                       " --out \"$T\" --metrics-out \"$T.metrics.json\"";
+  // The seed and the camera have their own flags (--camera after a build.camera
+  // setting would undo it).
   for (const auto& [k, v] : job.build_settings)
-    if (k != "seed") build += " --build-set " + shell_quote(k + "=" + v);
-  if (!job.camera.empty()) build += " --camera " + shell_quote(job.camera);
+    if (k != "seed" && k != "camera") build += " --build-set " + shell_quote(k + "=" + v);
+  if (!job.tree_camera().empty()) build += " --camera " + shell_quote(job.tree_camera());
   if (!job.node_format.empty()) build += " --node-format " + shell_quote(job.node_format);
   // The builder parameters went to the build; the saved tree carries them (simulate
   // refuses --build-set with --bvh, which would change nothing).
@@ -327,14 +329,14 @@ fs::path cached_tree(const fs::path& cache, const Campaign& campaign, const Camp
                    {"scene_files_hash", job.resolved.value("scene_files_hash", "")},
                    {"builder", job.builder},
                    {"revision", campaign.revision}};
-  if (info.needs_camera) identity["camera"] = job.camera;
+  if (info.needs_camera) identity["camera"] = job.tree_camera();
   const BuilderParameter& seed = *find_builder_parameter("seed");
   if (parameter_used_by(seed, job.builder) && !job.build_settings.count("seed")) identity["seed"] = job.seed;
   if (!job.node_format.empty()) identity["node_format"] = job.node_format;
   json build = json::object();
   for (const auto& [k, v] : job.build_settings) {
     const BuilderParameter* p = find_builder_parameter(k);
-    if (p && p->in_tree_identity && parameter_used_by(*p, job.builder)) build[k] = v;
+    if (p && p->in_tree_identity && parameter_used_by(*p, job.builder) && k != "camera") build[k] = v;
   }
   if (!build.empty()) identity["build"] = build;
   return cache / (content_hash_hex(identity.dump()) + ".bvh");

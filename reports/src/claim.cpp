@@ -68,19 +68,39 @@ std::string picture_name(std::string relation) {
   return "claim_" + relation + ".png";
 }
 
-// A condition: the level of every factor (the centre for all but at most one).
+// A condition: the level of every factor (the centre for all but at most one), and
+// whether the camera-dependent trees were built for the camera traced ("") or for
+// another one ("unseen": the default condition otherwise).
 using Condition = std::map<std::string, std::string>;
+const char* const kTreeCamera = "tree_camera";
+const char* const kUnseenName = "camera=unseen";
 
 std::string condition_name(const Condition& c, const ClaimOptions& o) {
+  if (c.at(kTreeCamera) == "unseen") return kUnseenName;
   for (const ClaimFactor& f : o.factors)
     if (c.at(f.name) != f.centre) return f.name + "=" + c.at(f.name);
   return "default";
 }
 
+// The builders whose tree depends on the camera (OSAH, RDH), in the order run.
+std::vector<std::string> camera_builders(const ClaimOptions& o) {
+  std::vector<std::string> out;
+  for (const auto* list : {&o.builders, &o.extra_builders})
+    for (const std::string& b : *list)
+      if (builder_info(b).needs_camera) out.push_back(b);
+  return out;
+}
+
 std::vector<Condition> star_conditions(const ClaimOptions& o) {
   Condition centre;
   for (const ClaimFactor& f : o.factors) centre[f.name] = f.centre;
+  centre[kTreeCamera] = "";
   std::vector<Condition> out = {centre};
+  // Overfitting to the camera sampled is the known risk of a camera-dependent tree.
+  if (o.cameras.size() >= 2 && !camera_builders(o).empty()) {
+    out.push_back(centre);
+    out.back()[kTreeCamera] = "unseen";
+  }
   for (const ClaimFactor& f : o.factors)
     for (const std::string& level : f.levels)
       if (level != f.centre) {
@@ -114,6 +134,7 @@ Condition job_condition(const CampaignJob& job, const ClaimOptions& o) {
     else if (f.name == "format") c[f.name] = job.node_format;
     else if (f.name == "cutoff") c[f.name] = job.ao_cutoff;
   }
+  c[kTreeCamera] = job.tree_camera() != job.camera ? "unseen" : "";
   return c;
 }
 
@@ -279,27 +300,51 @@ std::string claim_campaign_json(const ClaimOptions& o) {
                   {"seed", seeds}};
   json groups = json::array();
   const std::vector<Condition> conditions = star_conditions(o);
+  // One group per condition (and per traced camera where the trees are built for
+  // another); a second one for the ray-distribution builders' own sampling setting.
+  struct Part {
+    Condition condition;
+    std::string name, camera, tree_camera;
+    std::vector<std::string> builders;
+  };
+  std::vector<Part> parts;
   for (size_t i = 0; i < conditions.size(); ++i) {
     const Condition& c = conditions[i];
-    std::vector<std::string> builders = o.builders, samplers;
-    if (i == 0)
-      for (const std::string& b : o.extra_builders)
-        (parameter_used_by(*find_builder_parameter("rdh_resolution"), b) ? samplers : builders).push_back(b);
-    json g = {{"name", condition_name(c, o)}, {"builder", builders}};
+    if (c.at(kTreeCamera) == "unseen") {
+      // Camera k's rays through the trees built for camera k+1: each tree is traced
+      // from the camera it did not sample; the other trees are the default's.
+      for (size_t k = 0; k < o.cameras.size(); ++k)
+        parts.push_back({c, condition_name(c, o) + ":" + o.cameras[k], o.cameras[k],
+                         o.cameras[(k + 1) % o.cameras.size()], camera_builders(o)});
+      continue;
+    }
+    Part p{c, condition_name(c, o), "", "", o.builders};
+    if (i == 0) p.builders.insert(p.builders.end(), o.extra_builders.begin(), o.extra_builders.end());
+    parts.push_back(p);
+  }
+  for (const Part& part : parts) {
+    const Condition& c = part.condition;
+    std::vector<std::string> builders, samplers;
+    for (const std::string& b : part.builders)
+      (parameter_used_by(*find_builder_parameter("rdh_resolution"), b) ? samplers : builders).push_back(b);
+    json g = {{"name", part.name}};
+    if (!builders.empty()) g["builder"] = builders;
+    if (!part.camera.empty()) g["camera"] = part.camera;
     if (c.count("format")) g["node_format"] = c.at("format");
     if (c.count("cutoff")) g["ao_cutoff"] = number_text(c.at("cutoff"));
     json build = json::object();
     if (c.count("leaf")) build["max_leaf_size"] = number_text(c.at("leaf"));
     if (c.count("t2")) build["t2"] = number_text(c.at("t2"));
+    if (!part.tree_camera.empty()) build["camera"] = part.tree_camera;
     if (!build.empty()) g["build"] = build;
-    groups.push_back(g);
+    if (!builders.empty()) groups.push_back(g);
     // The ray-distribution builders sample primary rays through pixel centres: on a
     // grid of 3/4 the workload's, so that the rays measured are not the rays sampled.
     if (!samplers.empty()) {
       uint32_t w = 0, h = 0;
       std::sscanf(o.resolution.c_str(), "%ux%u", &w, &h);
       json ours = g;
-      ours["name"] = condition_name(c, o) + "-sampling";
+      ours["name"] = part.name + "-sampling";
       ours["builder"] = samplers;
       ours["build"]["rdh_resolution"] = std::max<uint32_t>(8, w * 3 / 4);
       groups.push_back(ours);
@@ -383,7 +428,17 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     bool comparable = true;
     for (const ClaimFactor& fac : o.factors)
       if ((fac.name == "t2" || fac.name == "cutoff") && c.at(fac.name) != fac.centre) comparable = false;
+    if (c.at(kTreeCamera) == "unseen") comparable = false;  // a tree's cost is for the camera it sampled
     if (comparable) tree_points[{job.scene, job.camera, std::to_string(job.seed)}].push_back(p);
+  }
+
+  // The unseen-camera condition has only the camera-dependent trees; the others are
+  // the default condition's (the same trees and rays).
+  for (auto& [where, by_builder] : figures) {
+    if (std::get<2>(where) != kUnseenName) continue;
+    auto centre = figures.find({std::get<0>(where), std::get<1>(where), "default"});
+    if (centre == figures.end()) continue;
+    for (const auto& [builder, runs] : centre->second) by_builder.emplace(builder, runs);
   }
 
   // ---- the cells
@@ -625,7 +680,8 @@ ClaimSummary run_claim(const ClaimOptions& o) {
   md << "## Every builder at the default condition\n\n"
      << "Mean over the replicates and the 95% half-width. Build s: wall seconds of one build "
      << "(2 threads, beside a running job; the cached tree's own report), mean over the trees of the "
-     << "default condition.\n\n";
+     << "default condition. \"Built for another camera\": the tree of a camera-dependent builder "
+     << "traced from a camera it did not sample (condition " << kUnseenName << ").\n\n";
   json defaults = json::array();
   {
     TextTable t({"scene/camera", "builder", "ops/ray primary", "ops/ray AO", "node fetches/ray", "DRAM B/ray",
@@ -637,11 +693,18 @@ ClaimSummary run_claim(const ClaimOptions& o) {
       else std::snprintf(b, sizeof b, "%.3g", i.mean);
       return std::string(b);
     };
-    for (const auto& [where, by_builder] : figures) {
+    // Every builder at the default, then the camera-dependent ones on the camera they
+    // were not built for.
+    std::vector<std::pair<std::string, bool>> order;  // builder, unseen
+    for (const auto* list : {&o.builders, &o.extra_builders})
+      for (const std::string& b : *list) order.push_back({b, false});
+    for (const std::string& b : camera_builders(o)) order.push_back({b, true});
+    for (const auto& [where, by_default] : figures) {
       if (std::get<2>(where) != "default") continue;
-      std::vector<std::string> order = o.builders;
-      order.insert(order.end(), o.extra_builders.begin(), o.extra_builders.end());
-      for (const std::string& b : order) {
+      for (const auto& [b, unseen] : order) {
+        const auto other = figures.find({std::get<0>(where), std::get<1>(where), kUnseenName});
+        if (unseen && other == figures.end()) continue;
+        const auto& by_builder = unseen ? other->second : by_default;
         auto it = by_builder.find(b);
         if (it == by_builder.end()) continue;
         auto series = [&](size_t m, size_t x) {
@@ -654,10 +717,12 @@ ClaimSummary run_claim(const ClaimOptions& o) {
         const double secs = bs == build_seconds.end() ? NAN : interval_of(bs->second).mean;
         char sb[32];
         std::snprintf(sb, sizeof sb, "%.3g", secs);
-        const std::string shown = builder_info(b).display_name + (builder_info(b).ours ? " (ours)" : "");
+        const std::string shown = builder_info(b).display_name + (builder_info(b).ours ? " (ours)" : "") +
+                                  (unseen ? ", built for another camera" : "");
         t.add_row({std::get<0>(where) + "/" + std::get<1>(where), shown, pm(prim), pm(ao), pm(fetch), pm(dram),
                    std::isfinite(secs) ? std::string(sb) : "-"});
         defaults.push_back({{"scene", std::get<0>(where)}, {"camera", std::get<1>(where)}, {"builder", b},
+                            {"tree_camera", unseen ? "other" : "same"},
                             {"ops_per_ray_primary", num(prim.mean)}, {"ops_per_ray_primary_half", num(prim.hi - prim.mean)},
                             {"ops_per_ray_ao", num(ao.mean)}, {"ops_per_ray_ao_half", num(ao.hi - ao.mean)},
                             {"node_fetches_per_ray", num(fetch.mean)}, {"dram_bytes_per_ray", num(dram.mean)},

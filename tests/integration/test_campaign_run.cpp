@@ -3,14 +3,17 @@
 // parallel path) giving the same database as a local run, CSV export.
 #include "integration/test_campaign_fake.h"
 
+#include <rtsim/reports/campaign.h>
 #include <rtsim/reports/campaign_report.h>
 #include <rtsim/reports/campaign_runner.h>
 #include <rtsim/reports/plot_script.h>
 #include <rtsim/reports/results_store.h>
+#include <rtsim/workloads/error.h>
 
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <map>
 #include <set>
 
 namespace rtsim {
@@ -235,6 +238,53 @@ TEST(CampaignRun, SharedTreesAreBuiltOnceAndChangeNoResult) {
     EXPECT_EQ(a[i]["stats_json"], b[i]["stats_json"]) << a[i]["label"];
     const json config = json::parse(a[i]["config_json"].get<std::string>());
     EXPECT_EQ(fs::path(config["inputs"]["bvh_file"].get<std::string>()).parent_path(), dir / "cache");
+  }
+}
+
+// build.camera: view1's rays through the tree built for view2 use view2's tree (the
+// cache shares it, and the build is not handed the workload's camera instead), with
+// or without the cache.
+TEST(CampaignRun, ATreeBuiltForAnotherCameraIsThatCamerasTree) {
+  const fs::path dir = test::fresh_folder("unseen");
+  const fs::path campaign = test::write_text(
+      dir / "c.toml",
+      "[campaign]\nname = \"unseen\"\n[sweep]\nscene = \"cornell\"\nbuilder = \"rdh\"\n"
+      "resolution = \"12x12\"\nbuild.rdh_resolution = 8\n"
+      "[[group]]\nname = \"own\"\ncamera = \"view2\"\n"
+      "[[group]]\nname = \"unseen\"\ncamera = \"view1\"\nbuild.camera = \"view2\"\n"
+      "[[group]]\nname = \"seen\"\ncamera = \"view1\"\n");
+  const std::string rtsim = shell_quote(RTSIM_BINARY) + " campaign run " + shell_quote(campaign.string());
+  ASSERT_EQ(shell(rtsim + " -j 2 --out-dir " + shell_quote((dir / "shared").string()) +
+                  " --tree-cache " + shell_quote((dir / "cache").string()) + " >/dev/null"), 0);
+  ASSERT_EQ(shell(rtsim + " -j 2 --no-tree-cache --out-dir " + shell_quote((dir / "own").string()) +
+                  " >/dev/null"), 0);
+  size_t trees = 0;
+  for (const auto& e : fs::directory_iterator(dir / "cache")) trees += e.path().extension() == ".bvh";
+  EXPECT_EQ(trees, 2u);  // view2's tree (twice) and view1's
+  ResultsStore shared(dir / "shared" / "results.sqlite"), own(dir / "own" / "results.sqlite");
+  const auto a = shared.rows("unseen"), b = own.rows("unseen");
+  ASSERT_EQ(a.size(), 3u);
+  ASSERT_EQ(b.size(), 3u);
+  std::map<std::string, std::string> tree_of;  // group -> tree hash
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i]["stats_json"], b[i]["stats_json"]) << a[i]["label"];
+    const json shared_in = json::parse(a[i]["config_json"].get<std::string>())["inputs"];
+    const json own_in = json::parse(b[i]["config_json"].get<std::string>())["inputs"];
+    EXPECT_EQ(shared_in["bvh_hash"], own_in["bvh_hash"]) << a[i]["label"];
+    tree_of[a[i]["group_name"].get<std::string>()] = shared_in["bvh_hash"].get<std::string>();
+  }
+  EXPECT_EQ(tree_of.at("unseen"), tree_of.at("own"));
+  EXPECT_NE(tree_of.at("unseen"), tree_of.at("seen"));
+  // A camera the scene lacks is named with its key.
+  test::write_text(dir / "bad.toml",
+                   "[campaign]\nname = \"b\"\n[sweep]\nscene = \"cornell\"\nbuilder = \"rdh\"\n"
+                   "build.camera = \"view9\"\n");
+  try {
+    load_campaign(dir / "bad.toml", "rev");
+    ADD_FAILURE() << "view9 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("build.camera"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("view9"), std::string::npos) << e.what();
   }
 }
 

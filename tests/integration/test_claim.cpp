@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 
 namespace rtsim {
 namespace {
@@ -29,8 +30,9 @@ TEST(Claim, QuickMapGivesVerdictsThatFollowFromTheIntervalsAndResumes) {
   const CliResult first = run_rtsim(args);
   ASSERT_EQ(first.exit_code, 0) << first.output;
   const json claim = read_json(dir / "out" / "claim.json");
-  // cornell, 2 cameras, 3 replicates: 4 conditions x 5 builders + rdh at the default.
-  EXPECT_EQ(claim.at("jobs").get<size_t>(), (4u * 5u + 1u) * 2u * 3u);
+  // cornell, 2 cameras, 3 replicates: 4 conditions x 5 builders + rdh at the default,
+  // and osah and rdh traced from the camera they were not built for.
+  EXPECT_EQ(claim.at("jobs").get<size_t>(), (4u * 5u + 1u + 2u) * 2u * 3u);
   EXPECT_EQ(claim.at("jobs_missing_or_failed").get<size_t>(), 0u);
   size_t cells = 0, median_cells = 0;
   for (const json& c : claim.at("cells")) {
@@ -57,6 +59,22 @@ TEST(Claim, QuickMapGivesVerdictsThatFollowFromTheIntervalsAndResumes) {
     EXPECT_GE(c.at("points").get<int>(), 3);
     if (!c.at("sah_cost").is_null()) EXPECT_LE(std::abs(c.at("sah_cost").get<double>()), 1.0);
   }
+  // On the camera it did not sample, rdh traces the other camera's tree: other figures
+  // than on its own camera, where the camera-free trees give the same ones.
+  std::map<std::string, json> rows;  // camera/builder/tree_camera -> row
+  for (const json& r : claim.at("default_condition"))
+    rows[r.at("camera").get<std::string>() + "/" + r.at("builder").get<std::string>() + "/" +
+         r.at("tree_camera").get<std::string>()] = r;
+  for (const char* camera : {"view1", "view2"}) {
+    const std::string c = camera;
+    ASSERT_TRUE(rows.count(c + "/rdh/other") && rows.count(c + "/osah/other")) << c;
+    EXPECT_FALSE(rows.count(c + "/sah/other"));
+    EXPECT_NE(rows.at(c + "/rdh/other").at("ops_per_ray_ao"), rows.at(c + "/rdh/same").at("ops_per_ray_ao"));
+  }
+  bool unseen_cells = false;
+  for (const json& c : claim.at("cells"))
+    unseen_cells = unseen_cells || (c.at("condition") == "camera=unseen" && c.at("relation") == "rdh<sah");
+  EXPECT_TRUE(unseen_cells);
   for (const char* f : {"claim.md", "claim.csv", "claim-campaign.json"})
     EXPECT_TRUE(std::filesystem::exists(dir / "out" / f)) << f;
 

@@ -42,6 +42,10 @@ struct CampaignJob {
 
   nlohmann::json resolved;  // canonical description hashed into config_hash
 
+  // The camera the tree is built for: the builder's `camera` setting (build.camera,
+  // e.g. to trace a tree from a camera it was not built for) or else the workload's.
+  const std::string& tree_camera() const;
+
   // Arguments after the binary: simulate --scene ... --out DIR. With `hardware_file`
   // (hardware_toml written there) it is the --config; without, overrides go as --set k=v.
   std::vector<std::string> simulate_arguments(const std::filesystem::path& out_dir,
