@@ -157,9 +157,10 @@ const std::vector<BuilderParameter>& builder_parameters() {
         kInf, kRayDistribution)
         .min_exclusive = true;
     add("rdh_cameras", "--rdh-cameras", "",
-        "rdh: camera = the run's camera only, all = every camera of the scene", &P::rdh_cameras, 0, 0,
-        kRayDistribution)
-        .choices = {"camera", "all"};
+        "rdh: camera = the run's camera only, all = every camera of the scene, none = no camera:\n"
+        "AO rays from points spread by area over every triangle, either side (view-independent)",
+        &P::rdh_cameras, 0, 0, kRayDistribution)
+        .choices = {"camera", "all", "none"};
     return t;
   }();
   return kParameters;
@@ -176,6 +177,12 @@ bool parameter_used_by(const BuilderParameter& parameter, const std::string& bui
   for (const std::string& b : parameter.used_by)
     if (b == builder) return true;
   return false;
+}
+
+bool tree_depends_on_camera(const BuildParams& params) {
+  if (!builder_info(params.builder).needs_camera) return false;
+  return !parameter_used_by(*find_builder_parameter("rdh_cameras"), params.builder) ||
+         params.rdh_cameras == "camera";
 }
 
 namespace {

@@ -4,6 +4,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <limits>
 
 namespace rtsim {
@@ -23,6 +24,59 @@ struct Slot {
   float t_end = 0;
   bool used = false;
 };
+
+// `count` AO rays from `position` over the hemisphere of `normal` (unit), into slots.
+void cast_ao(const EmbreeScene& embree, const vec3& position, const vec3& normal, float offset,
+             const RaySampleParams& params, uint64_t key0, uint64_t key1, uint64_t key2, Slot* slots,
+             uint32_t count) {
+  const vec3 origin = position + offset * normal;
+  for (uint32_t s = 0; s < count; ++s) {
+    KeyedRng rng(params.seed, {key0, key1, key2, s});
+    const float r1 = rng.next_float(), r2 = rng.next_float();
+    const vec3 dir = cosine_hemisphere_direction(normal, r1, r2);
+    const EmbreeHit h = embree.intersect(origin, dir, 0.0f, params.ao_cutoff);
+    Slot& a = slots[s];
+    a.origin = origin;
+    a.direction = dir;
+    a.t_end = h.hit ? std::min(h.t, params.ao_cutoff) : params.ao_cutoff;
+    a.used = true;
+  }
+}
+
+// The view-independent set: AO rays from points spread over the surface by area.
+RaySamples surface_rays(const Scene& scene, const EmbreeScene& embree, const RaySampleParams& params,
+                        uint32_t k, float offset) {
+  RaySamples out;
+  const size_t points = size_t(params.resolution) * params.resolution;
+  // Cumulative triangle areas, summed serially: the same points for any thread count.
+  std::vector<double> cumulative(scene.triangle_count());
+  double total = 0;
+  for (uint32_t t = 0; t < scene.triangle_count(); ++t) {
+    const vec3 v0 = scene.vertex(t, 0), v1 = scene.vertex(t, 1), v2 = scene.vertex(t, 2);
+    const double a = 0.5 * double(glm::length(glm::cross(v1 - v0, v2 - v0)));
+    total += std::isfinite(a) ? a : 0.0;
+    cumulative[t] = total;
+  }
+  if (!(total > 0) || k == 0) return out;
+  std::vector<Slot> ao(points * k);
+  tbb::parallel_for(size_t(0), points, [&](size_t point) {
+    KeyedRng rng(params.seed, {0x53555246ull, point});
+    const double pick = double(rng.next_float()) * total;
+    const uint32_t tri = uint32_t(std::min<size_t>(
+        std::upper_bound(cumulative.begin(), cumulative.end(), pick) - cumulative.begin(), cumulative.size() - 1));
+    float u = rng.next_float(), v = rng.next_float();
+    if (u + v > 1.0f) u = 1.0f - u, v = 1.0f - v;  // uniform over the triangle
+    const vec3 v0 = scene.vertex(tri, 0), v1 = scene.vertex(tri, 1), v2 = scene.vertex(tri, 2);
+    vec3 normal = glm::normalize(glm::cross(v1 - v0, v2 - v0));
+    if (rng.next_float() < 0.5f) normal = -normal;
+    if (!std::isfinite(normal.x + normal.y + normal.z)) return;  // a sliver: no AO rays
+    cast_ao(embree, (1.0f - u - v) * v0 + u * v1 + v * v2, normal, offset, params, 0x53555246ull, point, 1,
+            &ao[point * k], k);
+  });
+  for (const Slot& s : ao)
+    if (s.used) out.push(s.origin, s.direction, s.t_end);
+  return out;
+}
 }  // namespace
 
 void RaySamples::push(const vec3& origin, const vec3& direction, float t_end) {
@@ -42,9 +96,10 @@ RaySamples sample_rays(const Scene& scene, const EmbreeScene& embree,
   const size_t pixels = size_t(res) * res;
   const size_t per_camera = pixels;
   const uint32_t k = (params.ao_cutoff > 0 && std::isfinite(params.ao_cutoff)) ? params.ao_rays : 0;
+  const float offset = 1e-5f * std::max(scene.diagonal(), 1e-30f);
+  if (cameras.empty()) return surface_rays(scene, embree, params, k, offset);
   std::vector<Slot> primary(cameras.size() * per_camera);
   std::vector<Slot> ao(cameras.size() * per_camera * k);
-  const float offset = 1e-5f * std::max(scene.diagonal(), 1e-30f);
   tbb::parallel_for(size_t(0), cameras.size() * size_t(res), [&](size_t row) {
     const size_t c = row / res;
     const uint32_t y = uint32_t(row % res);
@@ -67,18 +122,7 @@ RaySamples sample_rays(const Scene& scene, const EmbreeScene& embree,
       const float len = glm::length(normal);
       normal = len > 0 && std::isfinite(len) ? normal / len : -ray.direction;
       if (glm::dot(normal, ray.direction) > 0.0f) normal = -normal;  // face the viewer
-      const vec3 origin = position + offset * normal;
-      for (uint32_t s = 0; s < k; ++s) {
-        KeyedRng rng(params.seed, {0x52444841ull, c, pixel, s});
-        const float r1 = rng.next_float(), r2 = rng.next_float();
-        const vec3 dir = cosine_hemisphere_direction(normal, r1, r2);
-        const EmbreeHit h = embree.intersect(origin, dir, 0.0f, params.ao_cutoff);
-        Slot& a = ao[slot * k + s];
-        a.origin = origin;
-        a.direction = dir;
-        a.t_end = h.hit ? std::min(h.t, params.ao_cutoff) : params.ao_cutoff;
-        a.used = true;
-      }
+      cast_ao(embree, position, normal, offset, params, 0x52444841ull, c, pixel, &ao[slot * k], k);
     }
   });
   for (const Slot& s : primary)

@@ -324,12 +324,14 @@ fs::path cached_tree(const fs::path& cache, const Campaign& campaign, const Camp
   // What shapes the tree, and nothing else, so that jobs differing only in what the
   // builder ignores (the workload's seed for sah, the camera for sbvh, an AO knob for
   // median) share one tree.
-  const BuilderInfo& info = builder_info(job.builder);
   json identity = {{"scene", job.scene},
                    {"scene_files_hash", job.resolved.value("scene_files_hash", "")},
                    {"builder", job.builder},
                    {"revision", campaign.revision}};
-  if (info.needs_camera) identity["camera"] = job.tree_camera();
+  BuildParams params;
+  params.builder = job.builder;
+  for (const auto& [k, v] : job.build_settings) set_build_parameter(params, k, v);  // checked on load
+  if (tree_depends_on_camera(params)) identity["camera"] = job.tree_camera();
   const BuilderParameter& seed = *find_builder_parameter("seed");
   if (parameter_used_by(seed, job.builder) && !job.build_settings.count("seed")) identity["seed"] = job.seed;
   if (!job.node_format.empty()) identity["node_format"] = job.node_format;

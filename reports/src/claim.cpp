@@ -69,37 +69,50 @@ std::string picture_name(std::string relation) {
 }
 
 // A condition: the level of every factor (the centre for all but at most one), and
-// whether the camera-dependent trees were built for the camera traced ("") or for
-// another one ("unseen": the default condition otherwise).
+// which rays the camera-dependent and ray-sampling trees were built from ("": the
+// camera traced). Two conditions are the default for every tree but those:
+// "unseen", OSAH and RDH built for another camera than the one traced (overfitting
+// to the camera sampled is their known risk), and "surfaces", RDH from AO rays
+// spread over the whole surface (rdh_cameras = none, view-independent).
 using Condition = std::map<std::string, std::string>;
-const char* const kTreeCamera = "tree_camera";
+const char* const kTrees = "trees";
 const char* const kUnseenName = "camera=unseen";
+const char* const kSurfacesName = "rdh-rays=surfaces";
+// AO sample points of the view-independent RDH: 128^2 (x 4 AO rays), as many rays as
+// a 128x128 camera's; interior gains 1-5% on AO rays over 48^2 and saturates by 256^2.
+constexpr uint32_t kSurfaceResolution = 128;
 
 std::string condition_name(const Condition& c, const ClaimOptions& o) {
-  if (c.at(kTreeCamera) == "unseen") return kUnseenName;
+  if (c.at(kTrees) == "unseen") return kUnseenName;
+  if (c.at(kTrees) == "surfaces") return kSurfacesName;
   for (const ClaimFactor& f : o.factors)
     if (c.at(f.name) != f.centre) return f.name + "=" + c.at(f.name);
   return "default";
 }
 
-// The builders whose tree depends on the camera (OSAH, RDH), in the order run.
-std::vector<std::string> camera_builders(const ClaimOptions& o) {
+bool samples_rays(const std::string& builder) {
+  return parameter_used_by(*find_builder_parameter("rdh_resolution"), builder);
+}
+
+// The builders a tree-only condition rebuilds, in the order run: the camera-dependent
+// ones (OSAH, RDH) for "unseen", the ray-sampling ones (RDH) for "surfaces".
+std::vector<std::string> condition_builders(const ClaimOptions& o, const std::string& trees) {
   std::vector<std::string> out;
   for (const auto* list : {&o.builders, &o.extra_builders})
     for (const std::string& b : *list)
-      if (builder_info(b).needs_camera) out.push_back(b);
+      if (trees == "unseen" ? builder_info(b).needs_camera : samples_rays(b)) out.push_back(b);
   return out;
 }
 
 std::vector<Condition> star_conditions(const ClaimOptions& o) {
   Condition centre;
   for (const ClaimFactor& f : o.factors) centre[f.name] = f.centre;
-  centre[kTreeCamera] = "";
+  centre[kTrees] = "";
   std::vector<Condition> out = {centre};
-  // Overfitting to the camera sampled is the known risk of a camera-dependent tree.
-  if (o.cameras.size() >= 2 && !camera_builders(o).empty()) {
+  for (const char* trees : {"unseen", "surfaces"}) {
+    if (condition_builders(o, trees).empty() || (trees == std::string("unseen") && o.cameras.size() < 2)) continue;
     out.push_back(centre);
-    out.back()[kTreeCamera] = "unseen";
+    out.back()[kTrees] = trees;
   }
   for (const ClaimFactor& f : o.factors)
     for (const std::string& level : f.levels)
@@ -134,7 +147,7 @@ Condition job_condition(const CampaignJob& job, const ClaimOptions& o) {
     else if (f.name == "format") c[f.name] = job.node_format;
     else if (f.name == "cutoff") c[f.name] = job.ao_cutoff;
   }
-  c[kTreeCamera] = job.tree_camera() != job.camera ? "unseen" : "";
+  c[kTrees] = setting("rdh_cameras") == "none" ? "surfaces" : job.tree_camera() != job.camera ? "unseen" : "";
   return c;
 }
 
@@ -162,11 +175,11 @@ Figures figures_of(const json& stats) {
       const double rays = get(p + "rays");
       f.v[0][m] = (get(p + "trv_ops") + get(p + "ist_ops")) / rays;
       f.v[1][m] = get(p + "node_fetches") / rays;
+      // Every kind the ray type read (nodes, prim refs, triangles, stack).
       double bytes = 0;
-      for (const char* kind : {"node", "triangle", "prim_ref"}) {
-        const double b = get("dram.bytes_by_type." + mix + "." + kind);
-        if (std::isfinite(b)) bytes += b;
-      }
+      const std::string prefix = "dram.bytes_by_type." + mix + ".";
+      for (auto it = s.lower_bound(prefix); it != s.end() && it->first.compare(0, prefix.size(), prefix) == 0; ++it)
+        if (std::isfinite(it->second)) bytes += it->second;
       f.v[2][m] = rays > 0 ? bytes / rays : NAN;
     }
   }
@@ -310,12 +323,16 @@ std::string claim_campaign_json(const ClaimOptions& o) {
   std::vector<Part> parts;
   for (size_t i = 0; i < conditions.size(); ++i) {
     const Condition& c = conditions[i];
-    if (c.at(kTreeCamera) == "unseen") {
+    if (c.at(kTrees) == "unseen") {
       // Camera k's rays through the trees built for camera k+1: each tree is traced
       // from the camera it did not sample; the other trees are the default's.
       for (size_t k = 0; k < o.cameras.size(); ++k)
         parts.push_back({c, condition_name(c, o) + ":" + o.cameras[k], o.cameras[k],
-                         o.cameras[(k + 1) % o.cameras.size()], camera_builders(o)});
+                         o.cameras[(k + 1) % o.cameras.size()], condition_builders(o, "unseen")});
+      continue;
+    }
+    if (c.at(kTrees) == "surfaces") {
+      parts.push_back({c, condition_name(c, o), "", "", condition_builders(o, "surfaces")});
       continue;
     }
     Part p{c, condition_name(c, o), "", "", o.builders};
@@ -325,8 +342,7 @@ std::string claim_campaign_json(const ClaimOptions& o) {
   for (const Part& part : parts) {
     const Condition& c = part.condition;
     std::vector<std::string> builders, samplers;
-    for (const std::string& b : part.builders)
-      (parameter_used_by(*find_builder_parameter("rdh_resolution"), b) ? samplers : builders).push_back(b);
+    for (const std::string& b : part.builders) (samples_rays(b) ? samplers : builders).push_back(b);
     json g = {{"name", part.name}};
     if (!builders.empty()) g["builder"] = builders;
     if (!part.camera.empty()) g["camera"] = part.camera;
@@ -347,6 +363,11 @@ std::string claim_campaign_json(const ClaimOptions& o) {
       ours["name"] = part.name + "-sampling";
       ours["builder"] = samplers;
       ours["build"]["rdh_resolution"] = std::max<uint32_t>(8, w * 3 / 4);
+      if (c.at(kTrees) == "surfaces") {  // no camera grid: points over the surface
+        ours["name"] = part.name;
+        ours["build"]["rdh_cameras"] = "none";
+        ours["build"]["rdh_resolution"] = kSurfaceResolution;
+      }
       groups.push_back(ours);
     }
   }
@@ -394,7 +415,8 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     Figures measured;
   };
   std::map<std::tuple<std::string, std::string, std::string>, std::vector<TreePoint>> tree_points;
-  std::map<std::pair<std::string, std::string>, std::vector<double>> build_seconds;  // scene, builder
+  // scene, builder, condition (the default and the tree-only ones) -> build seconds
+  std::map<std::tuple<std::string, std::string, std::string>, std::vector<double>> build_seconds;
   const std::vector<Condition> conditions = star_conditions(o);
   std::map<Condition, std::string> names;
   for (const Condition& c : conditions) names[c] = condition_name(c, o);
@@ -419,8 +441,8 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     p.sah = m.value("sah_cost", NAN);
     p.weighted = m.value("weighted_cost", NAN);
     p.epo = m.value("epo", NAN);
-    if (name->second == "default")
-      build_seconds[{job.scene, job.builder}].push_back(m.value("build_seconds", NAN));
+    if (name->second == "default" || name->second == kSurfacesName)
+      build_seconds[{job.scene, job.builder, name->second}].push_back(m.value("build_seconds", NAN));
     p.measured = f;
     // The costs are in units of T1 and T2: one cost scale only where T2/T1 = 1, and
     // one workload only at the default AO length.
@@ -428,14 +450,14 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     bool comparable = true;
     for (const ClaimFactor& fac : o.factors)
       if ((fac.name == "t2" || fac.name == "cutoff") && c.at(fac.name) != fac.centre) comparable = false;
-    if (c.at(kTreeCamera) == "unseen") comparable = false;  // a tree's cost is for the camera it sampled
+    if (c.at(kTrees) != "") comparable = false;  // the default's trees, or costs for rays not traced
     if (comparable) tree_points[{job.scene, job.camera, std::to_string(job.seed)}].push_back(p);
   }
 
-  // The unseen-camera condition has only the camera-dependent trees; the others are
-  // the default condition's (the same trees and rays).
+  // The tree-only conditions have only the trees they rebuild; the others are the
+  // default condition's (the same trees and rays).
   for (auto& [where, by_builder] : figures) {
-    if (std::get<2>(where) != kUnseenName) continue;
+    if (std::get<2>(where) != kUnseenName && std::get<2>(where) != kSurfacesName) continue;
     auto centre = figures.find({std::get<0>(where), std::get<1>(where), "default"});
     if (centre == figures.end()) continue;
     for (const auto& [builder, runs] : centre->second) by_builder.emplace(builder, runs);
@@ -681,7 +703,9 @@ ClaimSummary run_claim(const ClaimOptions& o) {
      << "Mean over the replicates and the 95% half-width. Build s: wall seconds of one build "
      << "(2 threads, beside a running job; the cached tree's own report), mean over the trees of the "
      << "default condition. \"Built for another camera\": the tree of a camera-dependent builder "
-     << "traced from a camera it did not sample (condition " << kUnseenName << ").\n\n";
+     << "traced from a camera it did not sample (condition " << kUnseenName << "); \"from surface AO "
+     << "rays\": RDH from " << kSurfaceResolution << "^2 points over the whole surface, no camera (condition "
+     << kSurfacesName << ").\n\n";
   json defaults = json::array();
   {
     TextTable t({"scene/camera", "builder", "ops/ray primary", "ops/ray AO", "node fetches/ray", "DRAM B/ray",
@@ -693,18 +717,24 @@ ClaimSummary run_claim(const ClaimOptions& o) {
       else std::snprintf(b, sizeof b, "%.3g", i.mean);
       return std::string(b);
     };
-    // Every builder at the default, then the camera-dependent ones on the camera they
-    // were not built for.
-    std::vector<std::pair<std::string, bool>> order;  // builder, unseen
+    // Every builder at the default, then the trees of the tree-only conditions.
+    struct Shown {
+      std::string builder, condition, trees, suffix;
+    };
+    std::vector<Shown> order;
     for (const auto* list : {&o.builders, &o.extra_builders})
-      for (const std::string& b : *list) order.push_back({b, false});
-    for (const std::string& b : camera_builders(o)) order.push_back({b, true});
+      for (const std::string& b : *list) order.push_back({b, "default", "default", ""});
+    for (const std::string& b : condition_builders(o, "unseen"))
+      order.push_back({b, kUnseenName, "unseen", ", built for another camera"});
+    for (const std::string& b : condition_builders(o, "surfaces"))
+      order.push_back({b, kSurfacesName, "surfaces", ", from surface AO rays"});
     for (const auto& [where, by_default] : figures) {
       if (std::get<2>(where) != "default") continue;
-      for (const auto& [b, unseen] : order) {
-        const auto other = figures.find({std::get<0>(where), std::get<1>(where), kUnseenName});
-        if (unseen && other == figures.end()) continue;
-        const auto& by_builder = unseen ? other->second : by_default;
+      for (const Shown& row : order) {
+        const std::string& b = row.builder;
+        const auto other = figures.find({std::get<0>(where), std::get<1>(where), row.condition});
+        if (other == figures.end()) continue;
+        const auto& by_builder = other->second;
         auto it = by_builder.find(b);
         if (it == by_builder.end()) continue;
         auto series = [&](size_t m, size_t x) {
@@ -713,16 +743,15 @@ ClaimSummary run_claim(const ClaimOptions& o) {
           return interval_of(v);
         };
         const Interval prim = series(0, 0), ao = series(0, 1), fetch = series(1, 2), dram = series(2, 2);
-        const auto bs = build_seconds.find({std::get<0>(where), b});
+        const auto bs = build_seconds.find({std::get<0>(where), b, row.condition});
         const double secs = bs == build_seconds.end() ? NAN : interval_of(bs->second).mean;
         char sb[32];
         std::snprintf(sb, sizeof sb, "%.3g", secs);
-        const std::string shown = builder_info(b).display_name + (builder_info(b).ours ? " (ours)" : "") +
-                                  (unseen ? ", built for another camera" : "");
+        const std::string shown = builder_info(b).display_name + (builder_info(b).ours ? " (ours)" : "") + row.suffix;
         t.add_row({std::get<0>(where) + "/" + std::get<1>(where), shown, pm(prim), pm(ao), pm(fetch), pm(dram),
                    std::isfinite(secs) ? std::string(sb) : "-"});
         defaults.push_back({{"scene", std::get<0>(where)}, {"camera", std::get<1>(where)}, {"builder", b},
-                            {"tree_camera", unseen ? "other" : "same"},
+                            {"trees", row.trees},
                             {"ops_per_ray_primary", num(prim.mean)}, {"ops_per_ray_primary_half", num(prim.hi - prim.mean)},
                             {"ops_per_ray_ao", num(ao.mean)}, {"ops_per_ray_ao_half", num(ao.hi - ao.mean)},
                             {"node_fetches_per_ray", num(fetch.mean)}, {"dram_bytes_per_ray", num(dram.mean)},

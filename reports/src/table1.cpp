@@ -6,6 +6,8 @@
 #include <rtsim/model/sim/config.h>
 #include <rtsim/reports/child_process.h>
 #include <rtsim/reports/table1.h>
+
+#include <rtsim/reports/results_store.h>
 #include <rtsim/reports/text_table.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
@@ -56,18 +58,22 @@ Table1Counts counts_of(const CounterTotals& t) {
   return c;
 }
 
-// Trees of builders that need a camera (OSAH, RDH) are built per camera; the others
-// once per scene.
-std::string tree_key(const std::string& builder, const std::string& camera) {
-  return builder_info(builder).needs_camera ? builder + "-" + camera : builder;
+// Trees that depend on the camera (OSAH's, RDH's from one camera) are built per
+// camera; the others once per scene.
+bool camera_dependent(const std::string& builder, BuildParams build) {
+  build.builder = builder;
+  return tree_depends_on_camera(build);
+}
+std::string tree_key(const std::string& builder, const std::string& camera, const BuildParams& build) {
+  return camera_dependent(builder, build) ? builder + "-" + camera : builder;
 }
 
+// Every kind of data the ray type read from DRAM (nodes, prim refs, triangles, stack).
 double dram_bytes_of_type(const nlohmann::json& stats, const char* type) {
   double sum = 0;
-  for (const char* kind : {"node", "triangle", "other"}) {
-    const double v = stat_value(stats, {"dram", "bytes_by_type", type, kind});
-    if (v > 0) sum += v;
-  }
+  const std::string prefix = std::string("dram.bytes_by_type.") + type + ".";
+  for (const auto& [key, value] : flatten_stats(stats))
+    if (key.compare(0, prefix.size(), prefix) == 0 && value > 0) sum += value;
   return sum;
 }
 
@@ -95,7 +101,7 @@ void run_cycle_level(Table1& table, const std::map<std::string, std::filesystem:
     std::snprintf(res, sizeof res, "%ux%u", o.width, o.height);
     job.command = shell_quote(o.rtsim_binary.string()) + " simulate --scene " + shell_quote(o.scene) +
                   " --builder " + shell_quote(row.builder) + " --bvh " +
-                  shell_quote(tree_files.at(tree_key(row.builder, row.camera)).string()) +
+                  shell_quote(tree_files.at(tree_key(row.builder, row.camera, o.build)).string()) +
                   " --camera " + shell_quote(row.camera) + " --fidelity cycle --config " +
                   shell_quote(o.hardware) + " --node-format " + shell_quote(o.node_format) +
                   " --res " + res + " --ao " + std::to_string(o.ao_samples) +
@@ -272,7 +278,7 @@ Table1 run_table1_checked(const Table1Options& options) {
   {
     std::vector<std::pair<std::string, std::string>> to_build;  // (builder, camera)
     for (const std::string& b : options.builders) {
-      if (builder_info(b).needs_camera)
+      if (camera_dependent(b, options.build))
         for (const std::string& c : options.cameras) to_build.push_back({b, c});
       else
         to_build.push_back({b, options.cameras.front()});
@@ -290,7 +296,7 @@ Table1 run_table1_checked(const Table1Options& options) {
       Tree tree;
       tree.bvh = build_bvh(scene, params, &tree.report);
       tree.sah_cost = sah_cost(tree.bvh, params.t1, params.t2);
-      const std::string key = tree_key(builder, camera);
+      const std::string key = tree_key(builder, camera, options.build);
       tree_files[key] = options.out_dir / "trees" / (key + ".bvh");
       save_bvh(tree_files[key], tree.bvh, scene, params);
       trees.emplace(key, std::move(tree));
@@ -304,7 +310,7 @@ Table1 run_table1_checked(const Table1Options& options) {
     for (const std::string& camera_name : options.cameras) {
       const Camera& camera = scene.camera(camera_name);
       for (const std::string& builder : options.builders) {
-        const Tree& tree = trees.at(tree_key(builder, camera_name));
+        const Tree& tree = trees.at(tree_key(builder, camera_name, options.build));
         MemoryLayoutConfig layout;
         layout.node_format = options.node_format;
         const MemoryImage image(scene, tree.bvh, layout);

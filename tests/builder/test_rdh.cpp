@@ -3,6 +3,7 @@
 // probabilities). Equivalence to SAH without rays, thread-count determinism,
 // validity, and that the sample rays really make the tree cheaper for them.
 #include <rtsim/builder/build.h>
+#include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/metrics.h>
 #include <rtsim/builder/ray_samples.h>
 #include <rtsim/builder/validate_bvh.h>
@@ -67,7 +68,7 @@ TEST(Rdh, AHugePriorGivesExactlyTheSahTree) {
 TEST(Rdh, BitIdenticalForAnyThreadCount) {
   const Scene scenes[] = {make_procedural_scene("interior"), test::triangle_soup(40000, 5, 0.08f)};
   for (const Scene& scene : scenes) {
-    for (const char* cameras : {"camera", "all"}) {
+    for (const char* cameras : {"camera", "all", "none"}) {
       BuildParams p = rdh_params();
       p.rdh_cameras = cameras;
       p.threads = 1;
@@ -143,6 +144,52 @@ TEST(Rdh, ParametersAreChecked) {
   p = rdh_params();
   p.rdh_ao_rays = 100000;
   expect_field(p, "rdh_ao_rays");
+}
+
+// rdh_cameras = none: AO rays from points spread over the whole surface, no primary
+// rays, so one tree serves every camera; it is cheaper than SAH for other such rays.
+TEST(Rdh, SurfaceRaysNeedNoCameraAndMakeOneTreeForEveryCamera) {
+  const Scene scene = make_procedural_scene("interior");
+  EmbreeScene embree(scene);
+  RaySampleParams sp;
+  sp.resolution = 32;
+  sp.ao_rays = 4;
+  sp.ao_cutoff = scene.ao_cutoff();
+  const RaySamples rays = sample_rays(scene, embree, {}, sp);
+  EXPECT_EQ(rays.primary, 0u);
+  EXPECT_EQ(rays.size(), 32u * 32u * 4u);
+  const Aabb bounds = scene.bounds();
+  const float slack = 1e-3f * scene.diagonal();
+  for (size_t i = 0; i < rays.size(); ++i) {
+    EXPECT_TRUE(rays.tmax[i] >= 0.0f && rays.tmax[i] <= sp.ao_cutoff) << i;
+    EXPECT_TRUE(rays.ox[i] >= bounds.lo.x - slack && rays.ox[i] <= bounds.hi.x + slack) << i;
+    EXPECT_TRUE(rays.oy[i] >= bounds.lo.y - slack && rays.oy[i] <= bounds.hi.y + slack) << i;
+  }
+  BuildParams p = rdh_params();
+  p.rdh_cameras = "none";
+  p.rdh_resolution = 48;
+  p.camera = "view1";
+  const Bvh view1 = build_bvh(scene, p);
+  p.camera = "view2";
+  EXPECT_TRUE(same_tree(view1, build_bvh(scene, p)));
+  EXPECT_FALSE(tree_depends_on_camera(p));
+  p.rdh_cameras = "all";
+  EXPECT_FALSE(tree_depends_on_camera(p));
+  p.rdh_cameras = "camera";
+  EXPECT_TRUE(tree_depends_on_camera(p));
+  EXPECT_FALSE(same_tree(view1, build_bvh(scene, BuildParams{})));
+  // With spatial splits it is cheaper than SBVH for other surface rays (another seed,
+  // more points). Object splits alone are not cheaper than SAH for them: counting
+  // rays that start on the surface weights children by the triangle area inside,
+  // not by the box a crossing ray meets (docs/rdh.md).
+  p.builder = "rdh-sbvh";
+  p.rdh_cameras = "none";
+  BuildParams sbvh;
+  sbvh.builder = "sbvh";
+  sp.seed = 77;
+  sp.resolution = 64;
+  const RaySamples fresh = sample_rays(scene, embree, {}, sp);
+  EXPECT_LT(ray_cost(build_bvh(scene, p), fresh, 1, 1), 0.95 * ray_cost(build_bvh(scene, sbvh), fresh, 1, 1));
 }
 
 // The property the heuristic is for: on an occluded scene the tree is cheaper for

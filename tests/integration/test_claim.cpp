@@ -31,8 +31,9 @@ TEST(Claim, QuickMapGivesVerdictsThatFollowFromTheIntervalsAndResumes) {
   ASSERT_EQ(first.exit_code, 0) << first.output;
   const json claim = read_json(dir / "out" / "claim.json");
   // cornell, 2 cameras, 3 replicates: 4 conditions x 5 builders + rdh at the default,
-  // and osah and rdh traced from the camera they were not built for.
-  EXPECT_EQ(claim.at("jobs").get<size_t>(), (4u * 5u + 1u + 2u) * 2u * 3u);
+  // osah and rdh traced from the camera they were not built for, and rdh from surface
+  // AO rays.
+  EXPECT_EQ(claim.at("jobs").get<size_t>(), (4u * 5u + 1u + 2u + 1u) * 2u * 3u);
   EXPECT_EQ(claim.at("jobs_missing_or_failed").get<size_t>(), 0u);
   size_t cells = 0, median_cells = 0;
   for (const json& c : claim.at("cells")) {
@@ -59,17 +60,19 @@ TEST(Claim, QuickMapGivesVerdictsThatFollowFromTheIntervalsAndResumes) {
     EXPECT_GE(c.at("points").get<int>(), 3);
     if (!c.at("sah_cost").is_null()) EXPECT_LE(std::abs(c.at("sah_cost").get<double>()), 1.0);
   }
-  // On the camera it did not sample, rdh traces the other camera's tree: other figures
-  // than on its own camera, where the camera-free trees give the same ones.
-  std::map<std::string, json> rows;  // camera/builder/tree_camera -> row
+  // On the camera it did not sample, rdh traces the other camera's tree, and from
+  // surface AO rays a tree of no camera: other figures than its own camera's tree.
+  std::map<std::string, json> rows;  // camera/builder/trees -> row
   for (const json& r : claim.at("default_condition"))
     rows[r.at("camera").get<std::string>() + "/" + r.at("builder").get<std::string>() + "/" +
-         r.at("tree_camera").get<std::string>()] = r;
+         r.at("trees").get<std::string>()] = r;
   for (const char* camera : {"view1", "view2"}) {
     const std::string c = camera;
-    ASSERT_TRUE(rows.count(c + "/rdh/other") && rows.count(c + "/osah/other")) << c;
-    EXPECT_FALSE(rows.count(c + "/sah/other"));
-    EXPECT_NE(rows.at(c + "/rdh/other").at("ops_per_ray_ao"), rows.at(c + "/rdh/same").at("ops_per_ray_ao"));
+    ASSERT_TRUE(rows.count(c + "/rdh/unseen") && rows.count(c + "/osah/unseen") && rows.count(c + "/rdh/surfaces"))
+        << c;
+    EXPECT_FALSE(rows.count(c + "/sah/unseen") || rows.count(c + "/osah/surfaces"));
+    for (const char* trees : {"/rdh/unseen", "/rdh/surfaces"})
+      EXPECT_NE(rows.at(c + trees).at("ops_per_ray_ao"), rows.at(c + "/rdh/default").at("ops_per_ray_ao")) << trees;
   }
   bool unseen_cells = false;
   for (const json& c : claim.at("cells"))

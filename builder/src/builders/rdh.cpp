@@ -18,9 +18,9 @@ Bvh build_ray_distribution(const Scene& scene, const BuildParams& params, BuildR
   std::vector<const Camera*> cameras;
   if (params.rdh_cameras == "all") {
     for (const Camera& c : scene.cameras) cameras.push_back(&c);
-  } else {
+  } else if (params.rdh_cameras == "camera") {
     cameras.push_back(&scene.camera(params.camera));
-  }
+  }  // "none": no camera, AO rays from the whole surface (ray_samples.h)
   RaySampleParams sp;
   sp.resolution = params.rdh_resolution;
   sp.ao_rays = params.rdh_ao_rays;

@@ -56,6 +56,11 @@ const std::vector<BuilderParameter>& builder_parameters();
 const BuilderParameter* find_builder_parameter(const std::string& key);  // nullptr if none
 bool parameter_used_by(const BuilderParameter& parameter, const std::string& builder);
 
+// Whether params' tree depends on the camera the workload traces (params.camera):
+// OSAH's visibility, RDH's sample rays from that camera (not with rdh_cameras = all
+// or none, which sample every camera or none).
+bool tree_depends_on_camera(const BuildParams& params);
+
 // Sets params.KEY from text ("0.25", "8", "on"/"off"/"true"/"false", a name); InputError
 // naming `where` + key for an unknown key or a value that does not parse or lies out
 // of range.

@@ -11,6 +11,10 @@
 // the cutoff for AO rays), because a ray costs work only in the nodes its segment
 // reaches. Deterministic: the AO directions come from KeyedRng(seed, {camera,
 // pixel, k}) and results are written to fixed slots, then compacted in slot order.
+//
+// Without cameras (view-independent): resolution x resolution points spread over
+// the scene's surface by area, each on a side chosen at random (the viewer's side
+// is unknown), and `ao_rays` AO rays from each; no primary rays.
 #include <rtsim/builder/bvh.h>
 #include <rtsim/workloads/embree_scene.h>
 #include <rtsim/workloads/scene.h>
