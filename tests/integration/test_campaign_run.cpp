@@ -212,23 +212,30 @@ TEST(CampaignRun, ReportHasEveryFigureWithCaptionAndTheFailedJobs) {
                std::exception);
 }
 
+// Runs the campaign in DIR/c.toml twice, with a tree cache (DIR/cache) into
+// DIR/shared and without into DIR/own; returns the number of cached trees.
+size_t run_with_and_without_tree_cache(const fs::path& dir, const std::string& text) {
+  const fs::path campaign = test::write_text(dir / "c.toml", text);
+  const std::string rtsim = shell_quote(RTSIM_BINARY) + " campaign run " + shell_quote(campaign.string());
+  EXPECT_EQ(shell(rtsim + " -j 2 --out-dir " + shell_quote((dir / "shared").string()) +
+                  " --tree-cache " + shell_quote((dir / "cache").string()) + " >/dev/null"), 0);
+  EXPECT_EQ(shell(rtsim + " -j 2 --no-tree-cache --out-dir " + shell_quote((dir / "own").string()) +
+                  " >/dev/null"), 0);
+  size_t trees = 0;
+  if (fs::is_directory(dir / "cache"))
+    for (const auto& e : fs::directory_iterator(dir / "cache")) trees += e.path().extension() == ".bvh";
+  return trees;
+}
+
 // With the real simulator: jobs sharing a tree build it once (rtsim build --out into the
 // cache, simulate --bvh) and give byte-identical stats to jobs that build their own.
 TEST(CampaignRun, SharedTreesAreBuiltOnceAndChangeNoResult) {
   const fs::path dir = test::fresh_folder("trees");
-  const fs::path campaign = test::write_text(
-      dir / "c.toml",
-      "[campaign]\nname = \"trees\"\n[sweep]\nscene = \"cornell\"\nbuilder = \"sah\"\n"
-      "preset = [\"mobile\", \"desktop\"]\nresolution = \"12x12\"\n"
-      "set.l2.size_bytes = [131072, 262144]\n");
-  const std::string rtsim = shell_quote(RTSIM_BINARY) + " campaign run " + shell_quote(campaign.string());
-  ASSERT_EQ(shell(rtsim + " -j 2 --out-dir " + shell_quote((dir / "shared").string()) +
-                  " --tree-cache " + shell_quote((dir / "cache").string()) + " >/dev/null"), 0);
-  ASSERT_EQ(shell(rtsim + " -j 2 --no-tree-cache --out-dir " + shell_quote((dir / "own").string()) +
-                  " >/dev/null"), 0);
-  size_t trees = 0;
-  for (const auto& e : fs::directory_iterator(dir / "cache")) trees += e.path().extension() == ".bvh";
-  EXPECT_EQ(trees, 1u);  // 4 jobs, one (scene, builder, camera, seed)
+  EXPECT_EQ(run_with_and_without_tree_cache(
+                dir, "[campaign]\nname = \"trees\"\n[sweep]\nscene = \"cornell\"\nbuilder = \"sah\"\n"
+                     "preset = [\"mobile\", \"desktop\"]\nresolution = \"12x12\"\n"
+                     "set.l2.size_bytes = [131072, 262144]\n"),
+            1u);  // 4 jobs, one (scene, builder, camera, seed)
   ResultsStore shared(dir / "shared" / "results.sqlite"), own(dir / "own" / "results.sqlite");
   const auto a = shared.rows("trees"), b = own.rows("trees");
   ASSERT_EQ(a.size(), 4u);
@@ -246,21 +253,13 @@ TEST(CampaignRun, SharedTreesAreBuiltOnceAndChangeNoResult) {
 // or without the cache.
 TEST(CampaignRun, ATreeBuiltForAnotherCameraIsThatCamerasTree) {
   const fs::path dir = test::fresh_folder("unseen");
-  const fs::path campaign = test::write_text(
-      dir / "c.toml",
-      "[campaign]\nname = \"unseen\"\n[sweep]\nscene = \"cornell\"\nbuilder = \"rdh\"\n"
-      "resolution = \"12x12\"\nbuild.rdh_resolution = 8\n"
-      "[[group]]\nname = \"own\"\ncamera = \"view2\"\n"
-      "[[group]]\nname = \"unseen\"\ncamera = \"view1\"\nbuild.camera = \"view2\"\n"
-      "[[group]]\nname = \"seen\"\ncamera = \"view1\"\n");
-  const std::string rtsim = shell_quote(RTSIM_BINARY) + " campaign run " + shell_quote(campaign.string());
-  ASSERT_EQ(shell(rtsim + " -j 2 --out-dir " + shell_quote((dir / "shared").string()) +
-                  " --tree-cache " + shell_quote((dir / "cache").string()) + " >/dev/null"), 0);
-  ASSERT_EQ(shell(rtsim + " -j 2 --no-tree-cache --out-dir " + shell_quote((dir / "own").string()) +
-                  " >/dev/null"), 0);
-  size_t trees = 0;
-  for (const auto& e : fs::directory_iterator(dir / "cache")) trees += e.path().extension() == ".bvh";
-  EXPECT_EQ(trees, 2u);  // view2's tree (twice) and view1's
+  EXPECT_EQ(run_with_and_without_tree_cache(
+                dir, "[campaign]\nname = \"unseen\"\n[sweep]\nscene = \"cornell\"\nbuilder = \"rdh\"\n"
+                     "resolution = \"12x12\"\nbuild.rdh_resolution = 8\n"
+                     "[[group]]\nname = \"own\"\ncamera = \"view2\"\n"
+                     "[[group]]\nname = \"unseen\"\ncamera = \"view1\"\nbuild.camera = \"view2\"\n"
+                     "[[group]]\nname = \"seen\"\ncamera = \"view1\"\n"),
+            2u);  // view2's tree (twice) and view1's
   ResultsStore shared(dir / "shared" / "results.sqlite"), own(dir / "own" / "results.sqlite");
   const auto a = shared.rows("unseen"), b = own.rows("unseen");
   ASSERT_EQ(a.size(), 3u);
