@@ -1,12 +1,12 @@
 // rtsim claim: the conditions map of the patent's relations (claim.h).
 #include <rtsim/reports/claim.h>
 
+#include "claim_internal.h"
+
 #include <rtsim/builder/builder_registry.h>
 #include <rtsim/reports/campaign.h>
 #include <rtsim/reports/campaign_runner.h>
-#include <rtsim/reports/plot_script.h>
 #include <rtsim/reports/results_store.h>
-#include <rtsim/reports/text_table.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/fetch.h>
 #include <rtsim/workloads/files.h>
@@ -30,19 +30,71 @@ namespace rtsim {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
+using namespace claim_detail;
+
+namespace claim_detail {
+
+std::string picture_name(std::string relation) {
+  const size_t lt = relation.find('<');
+  if (lt != std::string::npos) relation.replace(lt, 1, "-lt-");
+  return "claim_" + relation + ".png";
+}
+
+std::vector<std::string> claim_scenes(const ClaimOptions& o) {
+  if (!o.scenes.empty()) return o.scenes;
+  std::vector<std::string> out = procedural_scene_names();
+  for (const RealSceneInfo& s : real_scene_catalogue())
+    if (fs::exists(scene_cache_dir() / s.name / "scene.toml")) out.push_back(s.name);
+  return out;
+}
+
 namespace {
+bool samples_rays(const std::string& builder) {
+  return parameter_used_by(*find_builder_parameter("rdh_resolution"), builder);
+}
+}  // namespace
 
-// The measured quantities and the ray mixes they are read for.
-const char* const kMetrics[] = {"ops", "node_fetches", "dram_bytes"};
-const char* const kMetricText[] = {"TRV+IST ops/ray", "node fetches/ray", "DRAM B/ray"};
-const char* const kMixes[] = {"primary", "ao", "all"};
-constexpr size_t kMetricCount = 3, kMixCount = 3;
+// The camera-dependent builders (OSAH, RDH) for "unseen", the ray-sampling ones (RDH)
+// for "surfaces", in the order run.
+std::vector<std::string> condition_builders(const ClaimOptions& o, const std::string& trees) {
+  std::vector<std::string> out;
+  for (const auto* list : {&o.builders, &o.extra_builders})
+    for (const std::string& b : *list)
+      if (trees == "unseen" ? builder_info(b).needs_camera : samples_rays(b)) out.push_back(b);
+  return out;
+}
 
-// A relation "a < b" (a's figure below b's); "all<median": every patent tree below
-// the median BVH at once.
-struct Relation {
-  std::string name, a, b, text;
-};
+Interval interval_of(const std::vector<double>& x) {
+  Interval r;
+  std::vector<double> v;
+  for (double d : x)
+    if (std::isfinite(d)) v.push_back(d);
+  r.n = v.size();
+  if (v.empty()) return r;
+  r.mean = std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
+  if (v.size() < 2) return r;
+  double ss = 0;
+  for (double d : v) ss += (d - r.mean) * (d - r.mean);
+  const double half = t_quantile_975(v.size() - 1) * std::sqrt(ss / double(v.size() - 1) / double(v.size()));
+  r.lo = r.mean - half;
+  r.hi = r.mean + half;
+  return r;
+}
+
+std::string interval_text(const Interval& i) {
+  char b[64];
+  if (!std::isfinite(i.lo)) {
+    if (!std::isfinite(i.mean)) return "-";
+    std::snprintf(b, sizeof b, "%+.1f%%", i.mean);
+    return b;
+  }
+  std::snprintf(b, sizeof b, "%+.1f%% [%+.1f, %+.1f]", i.mean, i.lo, i.hi);
+  return b;
+}
+
+}  // namespace claim_detail
+
+namespace {
 
 std::vector<Relation> relations(const ClaimOptions& o) {
   std::vector<Relation> r = {{"aobvh<sah", "aobvh", "sah", "AO-BVH < SAH BVH"},
@@ -61,12 +113,6 @@ std::vector<Relation> relations(const ClaimOptions& o) {
   return r;
 }
 
-// claim_aobvh-lt-sah.png: the relation's picture (no '<' in a file name or a link).
-std::string picture_name(std::string relation) {
-  const size_t lt = relation.find('<');
-  if (lt != std::string::npos) relation.replace(lt, 1, "-lt-");
-  return "claim_" + relation + ".png";
-}
 
 // A condition: the level of every factor (the centre for all but at most one), and
 // which rays the camera-dependent and ray-sampling trees were built from ("": the
@@ -76,12 +122,6 @@ std::string picture_name(std::string relation) {
 // spread over the whole surface (rdh_cameras = none, view-independent).
 using Condition = std::map<std::string, std::string>;
 const char* const kTrees = "trees";
-const char* const kUnseenName = "camera=unseen";
-const char* const kSurfacesName = "rdh-rays=surfaces";
-// AO sample points of the view-independent RDH: 128^2 (x 4 AO rays), as many rays as
-// a 128x128 camera's (the modelled cost of fresh surface rays on interior: 30.0 at
-// 48^2, 29.1 at 128^2, 28.7 at 256^2 for twice the build time).
-constexpr uint32_t kSurfaceResolution = 128;
 
 std::string condition_name(const Condition& c, const ClaimOptions& o) {
   if (c.at(kTrees) == "unseen") return kUnseenName;
@@ -91,19 +131,6 @@ std::string condition_name(const Condition& c, const ClaimOptions& o) {
   return "default";
 }
 
-bool samples_rays(const std::string& builder) {
-  return parameter_used_by(*find_builder_parameter("rdh_resolution"), builder);
-}
-
-// The builders a tree-only condition rebuilds, in the order run: the camera-dependent
-// ones (OSAH, RDH) for "unseen", the ray-sampling ones (RDH) for "surfaces".
-std::vector<std::string> condition_builders(const ClaimOptions& o, const std::string& trees) {
-  std::vector<std::string> out;
-  for (const auto* list : {&o.builders, &o.extra_builders})
-    for (const std::string& b : *list)
-      if (trees == "unseen" ? builder_info(b).needs_camera : samples_rays(b)) out.push_back(b);
-  return out;
-}
 
 std::vector<Condition> star_conditions(const ClaimOptions& o) {
   Condition centre;
@@ -127,13 +154,6 @@ std::vector<Condition> star_conditions(const ClaimOptions& o) {
 
 json number_text(const std::string& text) { return json::parse(text); }
 
-std::vector<std::string> claim_scenes(const ClaimOptions& o) {
-  if (!o.scenes.empty()) return o.scenes;
-  std::vector<std::string> out = procedural_scene_names();
-  for (const RealSceneInfo& s : real_scene_catalogue())
-    if (fs::exists(scene_cache_dir() / s.name / "scene.toml")) out.push_back(s.name);
-  return out;
-}
 
 // The condition a job runs under, read back from its resolved description.
 Condition job_condition(const CampaignJob& job, const ClaimOptions& o) {
@@ -152,10 +172,6 @@ Condition job_condition(const CampaignJob& job, const ClaimOptions& o) {
   return c;
 }
 
-// One job's figures: [metric][mix]; NaN where the run did not report one.
-struct Figures {
-  double v[kMetricCount][kMixCount];
-};
 
 Figures figures_of(const json& stats) {
   Figures f;
@@ -187,28 +203,6 @@ Figures figures_of(const json& stats) {
   return f;
 }
 
-// Mean and 95% t interval of a sample.
-struct Interval {
-  size_t n = 0;
-  double mean = NAN, lo = NAN, hi = NAN;
-};
-
-Interval interval_of(const std::vector<double>& x) {
-  Interval r;
-  std::vector<double> v;
-  for (double d : x)
-    if (std::isfinite(d)) v.push_back(d);
-  r.n = v.size();
-  if (v.empty()) return r;
-  r.mean = std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
-  if (v.size() < 2) return r;
-  double ss = 0;
-  for (double d : v) ss += (d - r.mean) * (d - r.mean);
-  const double half = t_quantile_975(v.size() - 1) * std::sqrt(ss / double(v.size() - 1) / double(v.size()));
-  r.lo = r.mean - half;
-  r.hi = r.mean + half;
-  return r;
-}
 
 std::string verdict(const Interval& i) {
   if (i.n < 2 || !std::isfinite(i.lo)) return "n/a";
@@ -217,26 +211,6 @@ std::string verdict(const Interval& i) {
   return "noise";
 }
 
-std::string pct(double x) {
-  if (!std::isfinite(x)) return "-";
-  char b[32];
-  std::snprintf(b, sizeof b, "%+.1f%%", x);
-  return b;
-}
-
-std::string interval_text(const Interval& i) {
-  if (!std::isfinite(i.lo)) return pct(i.mean);
-  char b[64];
-  std::snprintf(b, sizeof b, "%+.1f%% [%+.1f, %+.1f]", i.mean, i.lo, i.hi);
-  return b;
-}
-
-// One cell of the map: a relation in one (scene, camera, condition), metric, mix.
-struct Cell {
-  std::string relation, scene, camera, condition, metric, mix;
-  Interval effect;  // % of b's figure (all<median: the least favourable of the four)
-  std::string verdict;
-};
 
 }  // namespace
 
@@ -407,8 +381,7 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     if (!row.contains("stats_json") || !row["stats_json"].is_string()) continue;
     stats_by_key[row["job_key"].get<std::string>()] = json::parse(row["stats_json"].get<std::string>());
   }
-  using Where = std::tuple<std::string, std::string, std::string>;  // scene, camera, condition
-  std::map<Where, std::map<std::string, std::map<uint64_t, Figures>>> figures;
+  FiguresByWhere figures;
   // Tree costs (from the cache's reports) and ops/ray, for the correlations.
   struct TreePoint {
     std::string builder, condition;
@@ -416,8 +389,7 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     Figures measured;
   };
   std::map<std::tuple<std::string, std::string, std::string>, std::vector<TreePoint>> tree_points;
-  // scene, builder, condition (the default and the tree-only ones) -> build seconds
-  std::map<std::tuple<std::string, std::string, std::string>, std::vector<double>> build_seconds;
+  BuildSeconds build_seconds;  // the default condition's trees and the tree-only ones
   const std::vector<Condition> conditions = star_conditions(o);
   std::map<Condition, std::string> names;
   for (const Condition& c : conditions) names[c] = condition_name(c, o);
@@ -531,11 +503,6 @@ ClaimSummary run_claim(const ClaimOptions& o) {
   // Two sets of trees: every tree of the map (leaf sizes and formats spread the costs
   // wide), and the default condition's trees without the median BVH (does the cost
   // rank the good trees?).
-  struct Correlation {
-    std::string scene, camera, mix, trees;
-    size_t points = 0;
-    double sah = NAN, weighted = NAN, epo = NAN;
-  };
   std::vector<Correlation> correlations;
   {
     std::map<std::pair<std::string, std::string>, std::map<std::pair<std::string, std::string>, std::vector<const TreePoint*>>> grouped;
@@ -563,7 +530,6 @@ ClaimSummary run_claim(const ClaimOptions& o) {
 
   // ---- sentences: per relation and metric, where it holds and where it reverses
   std::vector<std::string> sentences;
-  std::ostringstream md;
   for (const Relation& rel : rels) {
     for (size_t m = 0; m < kMetricCount; ++m)
       for (size_t x = 0; x < kMixCount; ++x) {
@@ -609,200 +575,11 @@ ClaimSummary run_claim(const ClaimOptions& o) {
   }
 
   // ---- outputs
-  json out;
-  out["options"] = {{"scenes", claim_scenes(o)},     {"cameras", o.cameras},
-                    {"builders", o.builders},        {"extra_builders", o.extra_builders},
-                    {"replicates", o.replicates},    {"resolution", o.resolution},
-                    {"ao_rays", o.ao_rays},          {"frames", o.frames},
-                    {"preset", o.preset},            {"quick", o.quick}};
-  json factors = json::array();
-  for (const ClaimFactor& f : o.factors) factors.push_back({{"name", f.name}, {"levels", f.levels}, {"default", f.centre}});
-  out["options"]["factors"] = factors;
-  out["jobs"] = summary.jobs;
-  out["jobs_run_now"] = ran.ran;
-  out["jobs_missing_or_failed"] = summary.failed;
-  out["run_seconds"] = ran.wall_seconds;
-  out["revision"] = revision;
-  json jrels = json::array();
-  for (const Relation& r : rels) jrels.push_back({{"name", r.name}, {"text", r.text}});
-  out["relations"] = jrels;
-  json jcells = json::array();
-  TextTable csv({"relation", "scene", "camera", "condition", "metric", "mix", "n", "mean_pct", "ci_lo_pct",
-                 "ci_hi_pct", "verdict"});
-  auto num = [](double d) { return std::isfinite(d) ? json(d) : json(nullptr); };
-  auto cnum = [](double d) {
-    if (!std::isfinite(d)) return std::string();
-    char b[32];
-    std::snprintf(b, sizeof b, "%.4g", d);
-    return std::string(b);
-  };
-  for (const Cell& c : cells) {
-    jcells.push_back({{"relation", c.relation}, {"scene", c.scene}, {"camera", c.camera},
-                      {"condition", c.condition}, {"metric", c.metric}, {"mix", c.mix},
-                      {"n", c.effect.n}, {"mean_pct", num(c.effect.mean)}, {"ci_lo_pct", num(c.effect.lo)},
-                      {"ci_hi_pct", num(c.effect.hi)}, {"verdict", c.verdict}});
-    csv.add_row({c.relation, c.scene, c.camera, c.condition, c.metric, c.mix, std::to_string(c.effect.n),
-                 cnum(c.effect.mean), cnum(c.effect.lo), cnum(c.effect.hi), c.verdict});
-  }
-  out["cells"] = jcells;
-  json jconds = json::array();
-  for (const Condition& c : conditions) jconds.push_back(names[c]);
-  out["conditions"] = jconds;  // in design order: the default first
-  json jcorr = json::array();
-  for (const Correlation& c : correlations)
-    jcorr.push_back({{"scene", c.scene}, {"camera", c.camera}, {"mix", c.mix}, {"trees", c.trees}, {"points", c.points},
-                     {"sah_cost", num(c.sah)}, {"weighted_cost", num(c.weighted)}, {"epo", num(c.epo)}});
-  out["cost_model_correlations"] = jcorr;
-  out["sentences"] = sentences;
-
-  // Markdown: the tallies, the sentences, our builders at the default, correlations.
-  md << "# Where the patent's claim holds\n\n"
-     << "Star design around the defaults (";
-  for (size_t i = 0; i < o.factors.size(); ++i)
-    md << (i ? ", " : "") << o.factors[i].name << " " << o.factors[i].centre;
-  md << "), each factor varied alone; " << claim_scenes(o).size() << " scenes x " << o.cameras.size()
-     << " cameras; " << o.replicates << " replicates (seed r: the workload's rays and the builder's "
-     << "AO/sample rays); " << o.resolution << ", " << o.ao_rays << " AO rays per hit, frame " << o.frames
-     << " of " << o.frames << " (warm caches), preset " << o.preset << ", functional level. "
-     << summary.jobs << " jobs.\n\n"
-     << "Effect = mean over replicates of (a / b - 1) in %, with a 95% t interval. "
-     << "**holds**: the interval is below 0; **reverses**: above 0; **noise**: it contains 0. "
-     << "For `all<median` every tree must hold; the effect shown is the least favourable tree's. "
-     << "AO-only and primary-only figures are those ray types' shares of one run (shared caches); "
-     << "DRAM cells of a run under 0.5 B/ray are n/a.\n\n## In sentences\n\n";
-  for (const std::string& s : sentences) md << "- " << s << "\n";
-  md << "\n## Tally per relation (all metrics and mixes)\n\n";
-  {
-    TextTable t({"relation", "holds", "reverses", "noise", "n/a"});
-    for (const Relation& rel : rels) {
-      size_t h = 0, r = 0, n = 0, na = 0;
-      for (const Cell& c : cells)
-        if (c.relation == rel.name)
-          (c.verdict == "holds" ? h : c.verdict == "reverses" ? r : c.verdict == "noise" ? n : na)++;
-      if (h + r + n + na)
-        t.add_row({rel.text, std::to_string(h), std::to_string(r), std::to_string(n), std::to_string(na)});
-    }
-    md << t.markdown() << "\n";
-  }
-  md << "## Ops/ray, all rays, per condition\n\n";
-  for (const Relation& rel : rels) {
-    std::vector<std::string> header = {"scene/camera"};
-    std::vector<std::string> conds;
-    for (const Condition& c : conditions) conds.push_back(names[c]);
-    header.insert(header.end(), conds.begin(), conds.end());
-    TextTable t(header);
-    std::map<std::string, std::map<std::string, const Cell*>> grid;
-    for (const Cell& c : cells)
-      if (c.relation == rel.name && c.metric == std::string("ops") && c.mix == std::string("all"))
-        grid[c.scene + "/" + c.camera][c.condition] = &c;
-    if (grid.empty()) continue;
-    for (const auto& [sc, row] : grid) {
-      std::vector<std::string> r = {sc};
-      for (const std::string& cond : conds) {
-        auto it = row.find(cond);
-        r.push_back(it == row.end() ? "" : interval_text(it->second->effect) +
-                                               (it->second->verdict == "holds"      ? " holds"
-                                                : it->second->verdict == "reverses" ? " REV"
-                                                                                    : ""));
-      }
-      t.add_row(r);
-    }
-    md << "### " << rel.text << "\n\n" << t.markdown() << "\n";
-    md << "![" << rel.name << "](" << picture_name(rel.name) << ")\n\n";
-  }
-  // Every builder at the default condition, absolute figures with their intervals.
-  md << "## Every builder at the default condition\n\n"
-     << "Mean over the replicates and the 95% half-width. Build s: wall seconds of one build "
-     << "(2 threads, beside a running job; the cached tree's own report), mean over the trees of the "
-     << "default condition. \"Built for another camera\": the tree of a camera-dependent builder "
-     << "traced from a camera it did not sample (condition " << kUnseenName << "); \"from surface AO "
-     << "rays\": RDH from " << kSurfaceResolution << "^2 points over the whole surface, no camera (condition "
-     << kSurfacesName << ").\n\n";
-  json defaults = json::array();
-  {
-    TextTable t({"scene/camera", "builder", "ops/ray primary", "ops/ray AO", "node fetches/ray", "DRAM B/ray",
-                 "build s"});
-    auto pm = [](const Interval& i) {
-      if (!std::isfinite(i.mean)) return std::string("-");
-      char b[48];
-      if (std::isfinite(i.hi)) std::snprintf(b, sizeof b, "%.3g +- %.2g", i.mean, i.hi - i.mean);
-      else std::snprintf(b, sizeof b, "%.3g", i.mean);
-      return std::string(b);
-    };
-    // Every builder at the default, then the trees of the tree-only conditions.
-    struct Shown {
-      std::string builder, condition, trees, suffix;
-    };
-    std::vector<Shown> order;
-    for (const auto* list : {&o.builders, &o.extra_builders})
-      for (const std::string& b : *list) order.push_back({b, "default", "default", ""});
-    for (const std::string& b : condition_builders(o, "unseen"))
-      order.push_back({b, kUnseenName, "unseen", ", built for another camera"});
-    for (const std::string& b : condition_builders(o, "surfaces"))
-      order.push_back({b, kSurfacesName, "surfaces", ", from surface AO rays"});
-    for (const auto& entry : figures) {
-      const auto& where = entry.first;
-      if (std::get<2>(where) != "default") continue;
-      for (const Shown& row : order) {
-        const std::string& b = row.builder;
-        const auto other = figures.find({std::get<0>(where), std::get<1>(where), row.condition});
-        if (other == figures.end()) continue;
-        const auto& by_builder = other->second;
-        auto it = by_builder.find(b);
-        if (it == by_builder.end()) continue;
-        auto series = [&](size_t m, size_t x) {
-          std::vector<double> v;
-          for (const auto& [seed, f] : it->second) v.push_back(f.v[m][x]);
-          return interval_of(v);
-        };
-        const Interval prim = series(0, 0), ao = series(0, 1), fetch = series(1, 2), dram = series(2, 2);
-        const auto bs = build_seconds.find({std::get<0>(where), b, row.condition});
-        const double secs = bs == build_seconds.end() ? NAN : interval_of(bs->second).mean;
-        char sb[32];
-        std::snprintf(sb, sizeof sb, "%.3g", secs);
-        const std::string shown = builder_info(b).display_name + (builder_info(b).ours ? " (ours)" : "") + row.suffix;
-        t.add_row({std::get<0>(where) + "/" + std::get<1>(where), shown, pm(prim), pm(ao), pm(fetch), pm(dram),
-                   std::isfinite(secs) ? std::string(sb) : "-"});
-        defaults.push_back({{"scene", std::get<0>(where)}, {"camera", std::get<1>(where)}, {"builder", b},
-                            {"trees", row.trees},
-                            {"ops_per_ray_primary", num(prim.mean)}, {"ops_per_ray_primary_half", num(prim.hi - prim.mean)},
-                            {"ops_per_ray_ao", num(ao.mean)}, {"ops_per_ray_ao_half", num(ao.hi - ao.mean)},
-                            {"node_fetches_per_ray", num(fetch.mean)}, {"dram_bytes_per_ray", num(dram.mean)},
-                            {"dram_bytes_per_ray_half", num(dram.hi - dram.mean)}, {"build_seconds", num(secs)}});
-      }
-    }
-    md << t.markdown() << "\n";
-  }
-  out["default_condition"] = defaults;
-  md << "## Does the cost model predict the work?\n\n"
-     << "Spearman rank correlation between the tree's modelled cost and its measured TRV+IST ops/ray "
-     << "(replicate means), over two sets of trees: **all**, every tree of the map at T2/T1 = 1 and "
-     << "the default AO length (builders x leaf sizes x node formats: the costs spread wide), and "
-     << "**default, no median**, the default condition's trees without the median BVH (does the cost "
-     << "rank the good trees?). The weighted cost is in each builder's own units (AO-BVH's weight "
-     << "sums), so across builders it is not one scale.\n\n";
-  {
-    TextTable t({"trees", "scene", "camera", "rays", "n", "SAH cost", "weighted cost", "EPO"});
-    auto r3 = [](double d) {
-      if (!std::isfinite(d)) return std::string("-");
-      char b[16];
-      std::snprintf(b, sizeof b, "%.2f", d);
-      return std::string(b);
-    };
-    for (const Correlation& c : correlations)
-      t.add_row({c.trees, c.scene, c.camera, c.mix, std::to_string(c.points), r3(c.sah), r3(c.weighted), r3(c.epo)});
-    md << (correlations.empty() ? std::string("(no tree reports: run with the tree cache)\n") : t.markdown())
-       << "\n";
-  }
-  write_file_atomic(o.out_dir / "claim.json", out.dump(2) + "\n");
-  write_file_atomic(o.out_dir / "claim.csv", csv.csv());
-  write_file_atomic(o.out_dir / "claim.md", md.str());
-  std::string plot_note;
-  try {
-    run_plot_script("claim_plots.py", {fs::absolute(o.out_dir).string()});
-  } catch (const std::exception& e) {
-    plot_note = std::string("pictures not drawn: ") + e.what() + "\n";
-  }
+  ClaimAnalysis analysis{rels, {}, std::move(figures), std::move(build_seconds), std::move(cells),
+                         std::move(correlations), sentences};
+  for (const Condition& c : conditions) analysis.conditions.push_back(names[c]);
+  const std::string plot_note =
+      write_claim_report(o, analysis, ClaimRun{summary.jobs, ran.ran, summary.failed, ran.wall_seconds, revision});
   summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   std::ostringstream text;
