@@ -188,6 +188,15 @@ struct SweepKey {
 
 constexpr uint32_t kSmallSweep = 64;
 
+// A node's references sorted along each axis (slots relative to the node's first).
+// A swept node passes its children their parts of its three orders, still sorted, so
+// that a small subtree sorts once instead of at every level (the order is a strict
+// total order, so a sorted subset is the subset sorted).
+struct SweepOrders {
+  SweepKey* keys[3] = {nullptr, nullptr, nullptr};
+  bool sorted[3] = {false, false, false};
+};
+
 // RDH: how many of a node's sample rays meet a candidate's two child boxes.
 struct RayCounts {
   uint32_t left = 0, right = 0, node = 0;  // node = 0: no rays, the surface-area rule
@@ -245,15 +254,15 @@ class Builder {
  private:
   Bvh run_once(bool spatial_at_root, CoreStats* stats);
   uint32_t build(uint32_t begin, uint32_t count, uint32_t capacity, uint32_t depth,
-                 const std::vector<uint32_t>* parent_rays);
+                 const std::vector<uint32_t>* parent_rays, const SweepOrders* presorted = nullptr);
   NodeInfo node_info(uint32_t begin, uint32_t count) const;
   float split_cost(float area_left, float weight_left, uint32_t visible_left, float area_right,
                    float weight_right, uint32_t visible_right, float node_area,
                    const NodeInfo& info, RayCounts rays = RayCounts{}) const;
   Split find_object_split(uint32_t begin, uint32_t count, const NodeInfo& info,
                           const std::vector<uint32_t>& rays) const;
-  Split find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info,
-                         SweepKey* best_order, const std::vector<uint32_t>& rays) const;
+  Split find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info, SweepOrders& orders,
+                         const std::vector<uint32_t>& rays) const;
   Split find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info,
                            const std::vector<uint32_t>& rays) const;
   uint32_t partition_object(const Split& split, uint32_t begin, uint32_t count,
@@ -441,30 +450,25 @@ void sweep_order(const Scene& scene, const Ref* refs, uint32_t count, int axis, 
   }
 }
 
-// best_order (count entries) receives the order along the best split's axis, which
-// partition_object then applies without sorting again.
-Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info,
-                                SweepKey* best_order, const std::vector<uint32_t>& rays) const {
+// orders (count entries per axis) are sorted here where they are not yet; the best
+// split's axis order is what partition_object then applies without sorting again.
+Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info, SweepOrders& orders,
+                                const std::vector<uint32_t>& rays) const {
   Split best;
   if (count < 2) return best;
   const float node_area = info.box.area();
   // Small nodes (the vast majority) sweep on the stack; large ones on the heap.
-  SweepKey small_keys[kSmallSweep];
   float small_area[kSmallSweep], small_weight[kSmallSweep];
   uint32_t small_visible[kSmallSweep];
-  std::vector<SweepKey> big_keys;
   std::vector<float> big_area, big_weight;
   std::vector<uint32_t> big_visible;
-  SweepKey* keys = small_keys;
   float* right_area = small_area;
   float* right_weight = small_weight;
   uint32_t* right_visible = small_visible;
   if (count > kSmallSweep) {
-    big_keys.resize(count);
     big_area.resize(count);
     big_weight.resize(count);
     big_visible.resize(count);
-    keys = big_keys.data();
     right_area = big_area.data();
     right_weight = big_weight.data();
     right_visible = big_visible.data();
@@ -476,7 +480,9 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
   std::vector<uint32_t> rays_left(with_rays ? count : 0), rays_right(with_rays ? count : 0);
   for (int a = 0; a < 3; ++a) {
     if (!(info.centroids.hi[a] > info.centroids.lo[a])) continue;
-    sweep_order(scene_, refs, count, a, keys);
+    SweepKey* keys = orders.keys[a];
+    if (!orders.sorted[a]) sweep_order(scene_, refs, count, a, keys);
+    orders.sorted[a] = true;
     Bin acc;
     for (uint32_t i = count - 1; i > 0; --i) {
       acc.add(refs[keys[i].slot]);
@@ -495,7 +501,6 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
                            rays_left.data(), rays_right.data());
     }
     Bin left;
-    const int best_axis_before = best.axis;
     for (uint32_t i = 0; i + 1 < count; ++i) {
       left.add(refs[keys[i].slot]);
       const RayCounts counts =
@@ -513,12 +518,11 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
         best.left_box = left.box;
       }
     }
-    if (best.axis == a && best_axis_before != a) std::copy(keys, keys + count, best_order);
   }
   if (best.valid() && config_.spatial_splits) {
     // The right box is needed by the SBVH overlap test only.
     Aabb right;
-    for (uint32_t i = best.bin + 1; i < count; ++i) right.extend(refs[best_order[i].slot].box());
+    for (uint32_t i = best.bin + 1; i < count; ++i) right.extend(refs[orders.keys[best.axis][i].slot].box());
     best.right_box = right;
   }
   return best;
@@ -780,7 +784,7 @@ bool Builder::partition_spatial(const Split& split, uint32_t begin, uint32_t cou
 }
 
 uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint32_t depth,
-                        const std::vector<uint32_t>* parent_rays) {
+                        const std::vector<uint32_t>* parent_rays, const SweepOrders* presorted) {
   const NodeInfo info = node_info(begin, count);
   const uint32_t index = uint32_t(nodes_.emplace_back() - nodes_.begin());
   nodes_[index].box = info.box;
@@ -810,17 +814,20 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
 
   // Small nodes take the exact sweep even in binned mode: it is cheaper than
   // filling and sweeping 3 x bins bins there, and never worse.
-  SweepKey small_order[kSmallSweep];
-  std::vector<SweepKey> big_order;
-  SweepKey* order = small_order;
+  SweepKey small_keys[3][kSmallSweep];
+  std::vector<SweepKey> big_keys;
+  SweepOrders orders;
   Split best;
   const uint32_t sweep_below = config_.spatial_splits ? kExactSweepBelowSpatial : kExactSweepBelow;
   if (config_.bins == 0 || count <= sweep_below) {
-    if (count > kSmallSweep) {
-      big_order.resize(count);
-      order = big_order.data();
+    if (presorted) {
+      orders = *presorted;
+    } else {
+      if (count > kSmallSweep) big_keys.resize(3 * size_t(count));
+      for (int a = 0; a < 3; ++a)
+        orders.keys[a] = count > kSmallSweep ? big_keys.data() + size_t(a) * count : small_keys[a];
     }
-    best = find_sweep_split(begin, count, info, order, rays);
+    best = find_sweep_split(begin, count, info, orders, rays);
   } else {
     best = find_object_split(begin, count, info, rays);
   }
@@ -848,7 +855,7 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
       if (partitioned) spatial_splits_.fetch_add(1);
       if (partitioned && depth == 0) root_split_spatial_ = true;
     } else {
-      left_count = partition_object(best, begin, count, info, order);
+      left_count = partition_object(best, begin, count, info, orders.keys[best.axis]);
       right_count = count - left_count;
       partitioned = left_count > 0 && right_count > 0;
     }
@@ -874,6 +881,32 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
   const uint32_t right_capacity = capacity - left_capacity;
   uint32_t left_node = 0, right_node = 0;
   const std::vector<uint32_t>* child_rays = config_.rays ? &rays : nullptr;
+  // A small swept node hands its children their parts of its orders (slot i of the
+  // best axis's order is now slot i of the node); spatial splits change the
+  // references, so their children sort again.
+  SweepKey child_keys[2][3][kSmallSweep];
+  SweepOrders child_orders[2];
+  const bool presort_children = partitioned && best.kind == Split::Kind::Sweep && !config_.spatial_splits &&
+                                count <= kSmallSweep && left_capacity == left_count;
+  if (presort_children) {
+    uint8_t position[kSmallSweep];
+    const SweepKey* by_best = orders.keys[best.axis];
+    for (uint32_t i = 0; i < count; ++i) position[by_best[i].slot] = uint8_t(i);
+    for (int a = 0; a < 3; ++a) {
+      if (!orders.sorted[a]) continue;  // a flat axis: the children's are flat too
+      uint32_t nl = 0, nr = 0;
+      for (uint32_t i = 0; i < count; ++i) {
+        const uint32_t p = position[orders.keys[a][i].slot];
+        if (p < left_count) child_keys[0][a][nl++] = SweepKey{orders.keys[a][i].key, p};
+        else child_keys[1][a][nr++] = SweepKey{orders.keys[a][i].key, p - left_count};
+      }
+      for (int c = 0; c < 2; ++c) child_orders[c].sorted[a] = true;
+    }
+    for (int c = 0; c < 2; ++c)
+      for (int a = 0; a < 3; ++a) child_orders[c].keys[a] = child_keys[c][a];
+  }
+  const SweepOrders* left_sorted = presort_children ? &child_orders[0] : nullptr;
+  const SweepOrders* right_sorted = presort_children ? &child_orders[1] : nullptr;
   if (count >= kParallelRecursion) {
     tbb::parallel_invoke(
         [&] { left_node = build(begin, left_count, left_capacity, depth + 1, child_rays); },
@@ -881,8 +914,8 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
           right_node = build(right_begin, right_count, right_capacity, depth + 1, child_rays);
         });
   } else {
-    left_node = build(begin, left_count, left_capacity, depth + 1, child_rays);
-    right_node = build(right_begin, right_count, right_capacity, depth + 1, child_rays);
+    left_node = build(begin, left_count, left_capacity, depth + 1, child_rays, left_sorted);
+    right_node = build(right_begin, right_count, right_capacity, depth + 1, child_rays, right_sorted);
   }
   nodes_[index].left = left_node;
   nodes_[index].right = right_node;
