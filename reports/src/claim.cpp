@@ -52,6 +52,12 @@ namespace {
 bool samples_rays(const std::string& builder) {
   return parameter_used_by(*find_builder_parameter("rdh_resolution"), builder);
 }
+// With the builder's defaults, as the claim builds it (RDH from the traced camera).
+bool depends_on_camera(const std::string& builder) {
+  BuildParams params;
+  params.builder = builder;
+  return tree_depends_on_camera(params);
+}
 }  // namespace
 
 // The camera-dependent builders (OSAH, RDH) for "unseen", the ray-sampling ones (RDH)
@@ -60,7 +66,7 @@ std::vector<std::string> condition_builders(const ClaimOptions& o, const std::st
   std::vector<std::string> out;
   for (const auto* list : {&o.builders, &o.extra_builders})
     for (const std::string& b : *list)
-      if (trees == "unseen" ? builder_info(b).needs_camera : samples_rays(b)) out.push_back(b);
+      if (trees == "unseen" ? depends_on_camera(b) : samples_rays(b)) out.push_back(b);
   return out;
 }
 
@@ -124,8 +130,8 @@ using Condition = std::map<std::string, std::string>;
 const char* const kTrees = "trees";
 
 std::string condition_name(const Condition& c, const ClaimOptions& o) {
-  if (c.at(kTrees) == "unseen") return kUnseenName;
-  if (c.at(kTrees) == "surfaces") return kSurfacesName;
+  for (const TreeOnlyCondition& t : kTreeOnlyConditions)
+    if (c.at(kTrees) == t.level) return t.name;
   for (const ClaimFactor& f : o.factors)
     if (c.at(f.name) != f.centre) return f.name + "=" + c.at(f.name);
   return "default";
@@ -137,10 +143,10 @@ std::vector<Condition> star_conditions(const ClaimOptions& o) {
   for (const ClaimFactor& f : o.factors) centre[f.name] = f.centre;
   centre[kTrees] = "";
   std::vector<Condition> out = {centre};
-  for (const char* trees : {"unseen", "surfaces"}) {
-    if (condition_builders(o, trees).empty() || (trees == std::string("unseen") && o.cameras.size() < 2)) continue;
+  for (const TreeOnlyCondition& t : kTreeOnlyConditions) {
+    if (condition_builders(o, t.level).empty() || (t.name == kUnseenName && o.cameras.size() < 2)) continue;
     out.push_back(centre);
-    out.back()[kTrees] = trees;
+    out.back()[kTrees] = t.level;
   }
   for (const ClaimFactor& f : o.factors)
     for (const std::string& level : f.levels)
@@ -429,8 +435,11 @@ ClaimSummary run_claim(const ClaimOptions& o) {
 
   // The tree-only conditions have only the trees they rebuild; the others are the
   // default condition's (the same trees and rays).
+  std::map<std::string, std::set<std::string>> rebuilt;  // tree-only condition name -> builders
+  for (const TreeOnlyCondition& t : kTreeOnlyConditions)
+    for (const std::string& b : condition_builders(o, t.level)) rebuilt[t.name].insert(b);
   for (auto& [where, by_builder] : figures) {
-    if (std::get<2>(where) != kUnseenName && std::get<2>(where) != kSurfacesName) continue;
+    if (!rebuilt.count(std::get<2>(where))) continue;
     auto centre = figures.find({std::get<0>(where), std::get<1>(where), "default"});
     if (centre == figures.end()) continue;
     for (const auto& [builder, runs] : centre->second) by_builder.emplace(builder, runs);
@@ -440,10 +449,6 @@ ClaimSummary run_claim(const ClaimOptions& o) {
   const std::vector<Relation> rels = relations(o);
   // In a tree-only condition a relation of trees it did not rebuild is the default's
   // cell again: counting it twice would inflate the tallies.
-  std::map<std::string, std::set<std::string>> rebuilt;  // condition name -> builders
-  for (const auto& [name, trees] : {std::pair<const char*, const char*>{kUnseenName, "unseen"},
-                                    std::pair<const char*, const char*>{kSurfacesName, "surfaces"}})
-    for (const std::string& b : condition_builders(o, trees)) rebuilt[name].insert(b);
   std::vector<Cell> cells;
   for (const auto& [where, by_builder] : figures) {
     const auto& [scene, camera, condition] = where;

@@ -19,10 +19,18 @@ inline const char* const kMetricText[] = {"TRV+IST ops/ray", "node fetches/ray",
 inline const char* const kMixes[] = {"primary", "ao", "all"};
 constexpr size_t kMetricCount = 3, kMixCount = 3;
 
-// The two tree-only conditions: the default for every tree but the camera-dependent
+// The tree-only conditions: the default for every tree but the camera-dependent
 // (unseen) or ray-sampling (surfaces) ones, which are built from other rays.
-inline const char* const kUnseenName = "camera=unseen";
-inline const char* const kSurfacesName = "rdh-rays=surfaces";
+struct TreeOnlyCondition {
+  const char* level;   // the condition's "trees" value
+  const char* name;    // as the report names it
+  const char* suffix;  // after a builder's name in the table of absolute figures
+};
+inline const TreeOnlyCondition kTreeOnlyConditions[] = {
+    {"unseen", "camera=unseen", ", built for another camera"},
+    {"surfaces", "rdh-rays=surfaces", ", from surface AO rays"}};
+inline const char* const kUnseenName = kTreeOnlyConditions[0].name;
+inline const char* const kSurfacesName = kTreeOnlyConditions[1].name;
 // AO sample points of the view-independent RDH: 128^2 (x 4 AO rays), as many rays as
 // a 128x128 camera's (the modelled cost of fresh surface rays on interior: 30.0 at
 // 48^2, 29.1 at 128^2, 28.7 at 256^2 for twice the build time).

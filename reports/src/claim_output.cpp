@@ -150,10 +150,8 @@ std::string write_claim_report(const ClaimOptions& o, const ClaimAnalysis& a, co
     std::vector<Shown> order;
     for (const auto* list : {&o.builders, &o.extra_builders})
       for (const std::string& b : *list) order.push_back({b, "default", "default", ""});
-    for (const std::string& b : condition_builders(o, "unseen"))
-      order.push_back({b, kUnseenName, "unseen", ", built for another camera"});
-    for (const std::string& b : condition_builders(o, "surfaces"))
-      order.push_back({b, kSurfacesName, "surfaces", ", from surface AO rays"});
+    for (const TreeOnlyCondition& t : kTreeOnlyConditions)
+      for (const std::string& b : condition_builders(o, t.level)) order.push_back({b, t.name, t.level, t.suffix});
     for (const auto& entry : figures) {
       const auto& where = entry.first;
       if (std::get<2>(where) != "default") continue;

@@ -5,9 +5,8 @@
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/reports/child_process.h>
-#include <rtsim/reports/table1.h>
-
 #include <rtsim/reports/results_store.h>
+#include <rtsim/reports/table1.h>
 #include <rtsim/reports/text_table.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
