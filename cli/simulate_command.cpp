@@ -166,7 +166,7 @@ void add_simulate_command(CLI::App& root) {
   cmd->add_option("--builder", opts->builder, "BVH builder: " + builder_list())->capture_default_str();
   cmd->add_option("--camera", opts->camera, "camera name (default: view1, else the scene's first)");
   cmd->add_option("--fidelity", opts->fidelity, "functional | lt | cycle")->capture_default_str();
-  cmd->add_option("--config", opts->config, "hardware preset (mobile | desktop) or TOML file")
+  cmd->add_option("--config", opts->config, "hardware preset (mobile | desktop | mobile-gpu | desktop-gpu) or TOML file")
       ->capture_default_str();
   auto* out_dir = cmd->add_option("--out-dir", opts->out_dir,
                                   "output folder for config.json, stats.json and host.json (required)");

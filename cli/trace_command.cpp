@@ -60,19 +60,29 @@ nlohmann::json totals_json(const CounterTotals& t, uint64_t all_ops) {
           {"stack_overflows", t.stack_overflows}};
 }
 
-nlohmann::json cache_json(const sim::CacheModel& c) {
-  const auto& k = c.counters();
-  return {{"size_bytes", c.config().size_bytes}, {"line_bytes", c.config().line_bytes},
-          {"ways", c.config().associativity},     {"accesses", k.accesses},
-          {"hits", k.hits},                       {"misses", k.misses},
+// One cache level as a whole (an L2's slices summed).
+nlohmann::json cache_json(const std::vector<std::unique_ptr<sim::CacheModel>>& level) {
+  sim::CacheModel::Counters k;
+  uint64_t size = 0, requested = 0, filled = 0;
+  for (auto& c : level) {
+    k.add(c->counters());
+    size += c->config().size_bytes;
+    requested += c->requested().total();
+    filled += c->filled().total();
+  }
+  const sim::CacheConfig& c = level.front()->config();
+  return {{"size_bytes", size},        {"line_bytes", c.line_bytes},
+          {"ways", c.associativity},   {"accesses", k.accesses},
+          {"hits", k.hits},            {"misses", k.misses},
           {"hit_rate", k.accesses ? double(k.hits) / double(k.accesses) : 0.0},
           {"writebacks", k.writebacks},
-          {"bytes_requested", c.requested().total()},
-          {"bytes_filled", c.filled().total()}};
+          {"bytes_requested", requested},
+          {"bytes_filled", filled},
+          {"instances", level.size()}};
 }
 
-double hit_rate(const sim::CacheModel& c) {
-  return c.counters().accesses ? double(c.counters().hits) / double(c.counters().accesses) : 0.0;
+double hit_rate(const std::vector<std::unique_ptr<sim::CacheModel>>& level) {
+  return cache_json(level)["hit_rate"].get<double>();
 }
 
 void run_trace(const TraceOptions& o) {
@@ -117,9 +127,10 @@ void run_trace(const TraceOptions& o) {
   traversal.stack_limit = o.stack_limit;
   const TraversalContext context(scene, bvh, image, traversal);
 
-  // The hardware's memory hierarchy as one TRV and one IST unit with one ray in flight.
+  // The hardware's memory hierarchy as one core of one TRV and one IST unit with one
+  // ray in flight (the L2 keeps its slices).
   sim::HardwareConfig one_unit = hardware;
-  one_unit.trv_units = one_unit.ist_units = 1;
+  one_unit.cores = one_unit.trv_units = one_unit.ist_units = 1;
   sim::FunctionalMemory memory(one_unit);
   sim::FunctionalMemorySink caches(memory);
   FrameRun run;
@@ -158,8 +169,8 @@ void run_trace(const TraceOptions& o) {
     if (run.per_type[k].rays) j["per_type"][ray_type_name(t)] = totals_json(run.per_type[k], run.total.ops());
   }
   const uint64_t dram_bytes = memory.dram.counters().bytes;
-  j["caches"] = {{"l1_node", cache_json(*memory.l1_node.front())},
-                 {"l1_triangle", cache_json(*memory.l1_triangle.front())},
+  j["caches"] = {{"l1_node", cache_json(memory.l1_node)},
+                 {"l1_triangle", cache_json(memory.l1_triangle)},
                  {"l2", cache_json(memory.l2)},
                  {"dram_bytes", dram_bytes},
                  {"dram_bytes_per_ray", run.total.per_ray(dram_bytes)}};
@@ -221,8 +232,8 @@ void run_trace(const TraceOptions& o) {
       std::printf("  %-11s %-4s %s\n", ray_type_name(t), run.plan.enabled[ray_type_index(t)] ? "on" : "off",
                   run.plan.reason[ray_type_index(t)].c_str());
     std::printf("\ncaches (%s, one ray in flight):  L1 node %.1f%%  L1 triangle %.1f%%  L2 %.1f%%  DRAM %.1f B/ray\n",
-                o.config.c_str(), 100 * hit_rate(*memory.l1_node.front()),
-                100 * hit_rate(*memory.l1_triangle.front()), 100 * hit_rate(memory.l2),
+                o.config.c_str(), 100 * hit_rate(memory.l1_node),
+                100 * hit_rate(memory.l1_triangle), 100 * hit_rate(memory.l2),
                 run.total.per_ray(dram_bytes));
     std::printf("max stack depth %u, stack overflows %llu\n", run.total.max_stack_depth,
                 (unsigned long long)run.total.stack_overflows);
@@ -272,7 +283,7 @@ void add_trace_command(CLI::App& root) {
   cmd->add_option("--threads", options->threads,
                   "threads for the build, the trace and validation (0: all); results do not depend on it");
   cmd->add_option("--config", options->config,
-                  "hardware preset (mobile | desktop) or TOML file: memory layout and caches")
+                  "hardware preset (model/presets: mobile, desktop, mobile-gpu, desktop-gpu) or TOML file")
       ->capture_default_str();
   cmd->add_option("--node-format", options->node_format,
                   "node record format: " + node_format_names("|") +

@@ -153,8 +153,8 @@ TEST(SimHierarchy, StreamingTwiceOverACacheSizedRegionHitsTheL2TheSecondTime) {
     }
   EXPECT_EQ(memory.l1_node[0]->counters().accesses, 64u);
   EXPECT_EQ(memory.l1_node[0]->counters().hits, 0u);  // LRU streaming twice its size
-  EXPECT_EQ(memory.l2.counters().accesses, 64u);
-  EXPECT_EQ(memory.l2.counters().hits, 32u);
+  EXPECT_EQ(memory.l2.front()->counters().accesses, 64u);
+  EXPECT_EQ(memory.l2.front()->counters().hits, 32u);
   EXPECT_EQ(memory.dram.counters().bytes, 32u * 64u);
   // A 36-byte triangle straddling two lines is two L1 accesses; two triangles in
   // one line of one step are one.
@@ -166,7 +166,7 @@ TEST(SimHierarchy, StreamingTwiceOverACacheSizedRegionHitsTheL2TheSecondTime) {
   sink.on_access({0x30000 + 32, 32, AccessKind::Triangle, false}, RayType::Ao);
   sink.on_step_end();
   EXPECT_EQ(memory.l1_triangle[0]->counters().accesses, 3u);
-  EXPECT_EQ(memory.l2.filled().bytes[size_t(RayType::Ao)][size_t(AccessKind::Triangle)], 3u * 64u);
+  EXPECT_EQ(memory.l2.front()->filled().bytes[size_t(RayType::Ao)][size_t(AccessKind::Triangle)], 3u * 64u);
 }
 
 TEST(SimHierarchy, DirtyLinesTravelDownToDramAsWrites) {
@@ -181,9 +181,9 @@ TEST(SimHierarchy, DirtyLinesTravelDownToDramAsWrites) {
   EXPECT_EQ(memory.dram.counters().bytes, 0u);
   memory.access(Requester::Trv, 0, {512, 64, AccessKind::Node, RayType::Primary, false}, 0);
   EXPECT_EQ(memory.l1_node[0]->counters().writebacks, 1u);
-  EXPECT_EQ(memory.l2.counters().writes, 1u);
+  EXPECT_EQ(memory.l2.front()->counters().writes, 1u);
   memory.access(Requester::Trv, 0, {1024, 64, AccessKind::Node, RayType::Primary, false}, 0);
-  EXPECT_EQ(memory.l2.counters().writebacks, 1u);
+  EXPECT_EQ(memory.l2.front()->counters().writebacks, 1u);
 }
 
 TEST(SimCache, BytesAreAttributedByRayTypeAndKind) {

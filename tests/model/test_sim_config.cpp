@@ -72,13 +72,16 @@ TEST(SimConfig, OutOfRangeAndWrongTypeAreRefusedByName) {
 // The preset files are the generated listing of every parameter, word for word
 // (RTSIM_WRITE_PRESETS=1 rewrites them after the table changed).
 TEST(SimConfig, PresetFilesMatchBuiltInPresets) {
-  for (const std::string name : {"mobile", "desktop"}) {
+  for (const std::string& name : preset_names()) {
     const std::string path = std::string(RTSIM_SOURCE_DIR) + "/model/presets/" + name + ".toml";
+    std::string sources;
+    std::istringstream lines(preset_sources(name));
+    for (std::string line; std::getline(lines, line);) sources += "# " + line + "\n";
     const std::string expected =
         "# rtsim hardware preset '" + name + "': every parameter with its value.\n"
         "# Generated from the parameter table (model/src/sim/config.cpp); a test checks\n"
-        "# that this file and the built-in preset agree. Copy it to start a variant.\n" +
-        to_documented_toml(preset(name));
+        "# that this file and the built-in preset agree. Copy it to start a variant.\n#\n" +
+        sources + to_documented_toml(preset(name));
     if (std::getenv("RTSIM_WRITE_PRESETS")) std::ofstream(path, std::ios::binary) << expected;
     std::ifstream in(path, std::ios::binary);
     std::stringstream text;

@@ -26,7 +26,7 @@ std::vector<Ray> primaries(uint32_t w, uint32_t h) {
 std::vector<uint32_t> drain(RayDispatcher& d) {
   std::vector<uint32_t> out;
   uint32_t r;
-  while (d.next(UINT64_MAX, &r)) out.push_back(r);
+  while (d.next(0, UINT64_MAX, &r)) out.push_back(r);
   return out;
 }
 }  // namespace
@@ -58,14 +58,14 @@ TEST(SimDispatch, SpawnedRaysGoBehindTheirParentOrAfterEveryPrimary) {
   for (bool behind : {true, false}) {
     RayDispatcher d(policy(IssuePolicy::Order::Scanline, 4, 2, behind), primaries(4, 1), 4, 1, true);
     uint32_t r;
-    ASSERT_TRUE(d.next(0, &r));
+    ASSERT_TRUE(d.next(0, 0, &r));
     EXPECT_EQ(r, 0u);
     std::vector<Ray> ao(2);
     ao[0].type = ao[1].type = RayType::Ao;
-    d.add_spawned(ao, 100);  // rays 4 and 5, ready at 100
-    ASSERT_TRUE(d.next(50, &r));
+    d.add_spawned(0, ao, 100);  // rays 4 and 5, ready at 100
+    ASSERT_TRUE(d.next(0, 50, &r));
     EXPECT_EQ(r, 1u) << "not ready yet: a primary goes first";
-    ASSERT_TRUE(d.next(100, &r));
+    ASSERT_TRUE(d.next(0, 100, &r));
     EXPECT_EQ(r, behind ? 4u : 2u);
     const auto rest = drain(d);
     EXPECT_EQ(rest, behind ? (std::vector<uint32_t>{5, 2, 3}) : (std::vector<uint32_t>{3, 4, 5}));
@@ -96,4 +96,65 @@ TEST(SimDispatch, TheTileIsParsedStrictly) {
   EXPECT_EQ(parse_tile("16x8"), (std::pair<uint32_t, uint32_t>{16, 8}));
   for (const char* bad : {"", "8", "0x8", "8x", "8x8x", "-8x8", "8 x 8", "99999x1"})
     EXPECT_THROW(parse_tile(bad), std::exception) << bad;
+}
+
+// Several cores: the issue order cut into screen tiles, tile i to core i mod cores
+// (static) or to whichever core runs out first (dynamic); spawned rays stay on
+// the core that spawned them.
+TEST(SimDispatch, TilesGoToCoresRoundRobinOrOnDemandAndSecondariesStayHome) {
+  IssuePolicy p = policy(IssuePolicy::Order::Tiles, 2, 2);
+  p.cores = 2;
+  {
+    RayDispatcher d(p, primaries(4, 4), 4, 4, true);  // tiles {0,1,4,5} {2,3,6,7} {8,9,12,13} {10,11,14,15}
+    std::vector<uint32_t> core0, core1;
+    uint32_t r;
+    while (d.next(1, 0, &r)) core1.push_back(r);
+    while (d.next(0, 0, &r)) core0.push_back(r);
+    EXPECT_EQ(core0, (std::vector<uint32_t>{0, 1, 4, 5, 8, 9, 12, 13}));
+    EXPECT_EQ(core1, (std::vector<uint32_t>{2, 3, 6, 7, 10, 11, 14, 15}));
+    EXPECT_TRUE(d.empty());
+    std::vector<Ray> ao(2);
+    d.add_spawned(1, ao, 10);
+    EXPECT_FALSE(d.empty());
+    EXPECT_FALSE(d.next(0, 100, &r));  // core 0 has nothing: the rays are core 1's
+    EXPECT_EQ(d.next_ready_ps(0), UINT64_MAX);
+    EXPECT_EQ(d.next_ready_ps(1), 10u);
+    EXPECT_FALSE(d.next(1, 5, &r));  // not ready yet
+    ASSERT_TRUE(d.next(1, 10, &r));
+    EXPECT_EQ(r, 16u);
+    d.restart();
+    EXPECT_EQ(d.rays().size(), 16u);
+    ASSERT_TRUE(d.next(1, 0, &r));
+    EXPECT_EQ(r, 2u);  // a new frame deals the tiles again
+  }
+  {
+    p.dynamic = true;
+    RayDispatcher d(p, primaries(4, 4), 4, 4, true);
+    std::vector<uint32_t> core0, core1;
+    uint32_t r;
+    while (d.next(0, 0, &r)) core0.push_back(r);  // core 0 asks first and takes all it can
+    EXPECT_EQ(core0.size(), 16u);
+    EXPECT_FALSE(d.next(1, 0, &r));
+    EXPECT_TRUE(d.empty());
+  }
+  {
+    RayDispatcher d(p, primaries(4, 4), 4, 4, true);
+    uint32_t r;
+    ASSERT_TRUE(d.next(1, 0, &r));  // core 1 asks first: it takes the first tile
+    EXPECT_EQ(r, 0u);
+    ASSERT_TRUE(d.next(0, 0, &r));
+    EXPECT_EQ(r, 2u);  // core 0 the second
+    ASSERT_TRUE(d.next(1, 0, &r));
+    EXPECT_EQ(r, 1u);  // core 1 finishes its own tile first
+  }
+}
+
+TEST(SimDispatch, OneCoreIssuesTheSingleOrderWhateverTheDispatchMode) {
+  for (bool dynamic : {false, true}) {
+    IssuePolicy p = policy(IssuePolicy::Order::Morton, 2, 2);
+    p.dynamic = dynamic;
+    RayDispatcher one(p, primaries(8, 8), 8, 8, true);
+    std::vector<uint32_t> expected = pixel_issue_order(8, 8, p);
+    EXPECT_EQ(drain(one), expected);
+  }
 }

@@ -203,7 +203,7 @@ TEST(SimLevels, BackPressureDelaysButKeepsCountsExact) {
   const auto cycle = flat_stats(in_child([&] { return simulate(tight(Fidelity::Cycle)).stats.to_json(); }));
   for (const char* key : kOpsAndFetches) EXPECT_EQ(functional.at(key), cycle.at(key)) << key;
   EXPECT_GT(cycle.at("l1_node.all.mshr_full_stalls") + cycle.at("l1_triangle.all.mshr_full_stalls"), 0);
-  EXPECT_GT(cycle.at("ist.unit0.stalled_cycles") + cycle.at("trv.unit0.stalled_cycles"), 0);
+  EXPECT_GT(cycle.at("core0.ist0.stalled_cycles") + cycle.at("core0.trv0.stalled_cycles"), 0);
   EXPECT_GT(cycle.at("dram.reads"), 0);
   // The full DRAM queue held the L2 back, and that was counted on both sides.
   EXPECT_GT(cycle.at("dram.queue_full_stalls"), 0);
@@ -219,7 +219,7 @@ TEST(SimLevels, FunctionalReportsUnitWorkAndAnEstimate) {
   const auto s = flat_stats(simulate(w.request(Fidelity::Functional)).stats.to_json());
   double nodes = 0;
   for (uint32_t u = 0; u < preset("mobile").trv_units; ++u)
-    nodes += s.at("trv.unit" + std::to_string(u) + ".passes");
+    nodes += s.at("core0.trv" + std::to_string(u) + ".passes");
   EXPECT_EQ(nodes, s.at("ops.trv"));
   EXPECT_GE(s.at("time.cycles"), s.at("time.bound_trv_cycles"));
   EXPECT_GE(s.at("time.cycles"), s.at("time.bound_dram_cycles"));
@@ -285,7 +285,7 @@ TEST(SimLevels, WideNodesTakeOnePipelinePassPerBoxesPerPassChildren) {
     auto passes = [&](uint32_t bpp) {
       double sum = 0;
       for (uint32_t u = 0; u < preset("mobile").trv_units; ++u)
-        sum += runs[bpp].at("trv.unit" + std::to_string(u) + ".passes");
+        sum += runs[bpp].at("core0.trv" + std::to_string(u) + ".passes");
       return sum;
     };
     SCOPED_TRACE(level == Fidelity::Lt ? "lt" : "cycle");

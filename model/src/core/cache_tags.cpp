@@ -38,7 +38,7 @@ CacheTags::CacheTags(const CacheGeometry& geometry, const std::string& name) : g
 }
 
 size_t CacheTags::find(uint64_t line) const {
-  const size_t first = size_t(line & (sets_ - 1)) * geometry_.ways;
+  const size_t first = set_start(line);
   const uint64_t* set = &tags_[first];
   for (uint32_t w = 0; w < geometry_.ways; ++w)
     if (set[w] == line) return first + w;
@@ -63,7 +63,7 @@ bool CacheTags::contains(uint64_t address) const { return find(address >> line_s
 
 Eviction CacheTags::insert(uint64_t address, bool dirty) {
   const uint64_t line = address >> line_shift_;
-  const size_t first = size_t(line & (sets_ - 1)) * geometry_.ways;
+  const size_t first = set_start(line);
   size_t victim = first;
   for (size_t w = first; w < first + geometry_.ways; ++w) {
     if (tags_[w] == line) {  // already present: refresh only

@@ -43,7 +43,9 @@ void CacheModel::Counters::add(const Counters& o) {
 
 CacheModel::CacheModel(const CacheConfig& config, const std::string& name, uint64_t cycle_ps)
     : config_(config),
-      tags_(CacheGeometry{config.size_bytes, config.line_bytes, config.associativity}, name),
+      tags_(CacheGeometry{config.size_bytes, config.line_bytes, config.associativity,
+                          config.interleave},
+            name),
       hit_ps_(uint64_t(config.hit_latency_cycles) * cycle_ps),
       fill_ps_(uint64_t(config.fill_latency_cycles) * cycle_ps),
       port_interval_ps_(std::max<uint64_t>(1, cycle_ps / std::max<uint32_t>(1, config.ports))),

@@ -84,16 +84,25 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
   std::vector<ParameterInfo> list = {
       text("preset", c.preset, preset_names(), "base preset the other keys override"),
       u32("clock_mhz", c.clock_mhz, 1, 10000, "MHz", "accelerator clock; all *_cycles count it"),
+      u32("cores", c.cores, 1, 256, "cores",
+          "RT cores; each has its own ray generation, trv.units TRV units, ist.units IST units, "
+          "shading and L1 caches (every per-unit key below is per core)"),
       f64("raygen.rays_per_cycle", c.raygen_rays_per_cycle, 0.001, 64, "rays/cycle",
-          "rate at which ray generation issues rays"),
+          "rate at which each core's ray generation issues rays"),
       text("raygen.order", c.raygen_order, {"scanline", "tiles", "morton"},
            "issue order of primary rays: row by row, tile by tile (raygen.tile, rows within a "
            "tile), or along a Morton curve"),
-      text("raygen.tile", c.raygen_tile, {}, "tile size WxH for raygen.order = tiles"),
+      text("raygen.tile", c.raygen_tile, {},
+           "tile size WxH: the issue order within a tile for raygen.order = tiles, and the "
+           "pixels handed to a core at a time (raygen.dispatch)"),
       text("raygen.secondary", c.raygen_secondary, {"behind", "after"},
            "secondary rays (AO, shadow, mirror) go right behind their parent, ahead of new "
            "primary rays, or after all primary rays"),
-      u32("trv.units", c.trv_units, 1, 256, "units", "traversal units"),
+      text("raygen.dispatch", c.raygen_dispatch, {"static", "dynamic"},
+           "how primary rays reach the cores, a raygen.tile of pixels at a time: static "
+           "(tile i to core i mod cores) or dynamic (a core that runs out takes the next tile); "
+           "a ray's secondary rays stay on its core"),
+      u32("trv.units", c.trv_units, 1, 256, "units", "traversal units per core"),
       u32("trv.ray_slots", c.trv_ray_slots, 1, 4096, "rays",
           "rays in flight per TRV unit (hide memory latency)"),
       u32("trv.stack_entries", c.trv_stack_entries, 1, 256, "entries",
@@ -108,7 +117,7 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
       u32("trv.boxes_per_pass", c.trv_boxes_per_pass, 1, 16, "boxes",
           "child boxes one pipeline pass tests; a node with more children takes "
           "ceil(children / boxes_per_pass) passes, each adding 1 / nodes_per_cycle to its latency"),
-      u32("ist.units", c.ist_units, 1, 256, "units", "intersection units"),
+      u32("ist.units", c.ist_units, 1, 256, "units", "intersection units per core"),
       u32("ist.queue_entries", c.ist_queue_entries, 1, 4096, "jobs",
           "leaf jobs waiting per IST unit; a full queue stalls TRV"),
       u32("ist.test_latency", c.ist_test_latency, 1, 10000, "cycles",
@@ -121,7 +130,7 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
       u32("shading.latency", c.shading_latency, 1, 100000, "cycles",
           "finished ray to its shading result and spawned rays"),
       f64("shading.rays_per_cycle", c.shading_rays_per_cycle, 0.001, 64, "rays/cycle",
-          "shading throughput"),
+          "shading throughput per core"),
       text("memory.node_format", c.node_format, node_format_list(),
            "BVH node record format (docs/node-formats.md): children per node, bytes, box "
            "encoding; the tree is built (collapsed) for its width and leaf capacity"),
@@ -144,11 +153,25 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
   for (auto& p : list) visit(p);
   cache_parameters("l1_node", c.l1_node, "each TRV unit's L1 node cache", visit);
   cache_parameters("l1_triangle", c.l1_triangle, "each IST unit's L1 triangle cache", visit);
-  cache_parameters("l2", c.l2, "the shared L2", visit);
+  cache_parameters("l2", c.l2, "the shared L2 (all slices)", visit);
+  std::vector<ParameterInfo> machine = {
+      u32("l2.slices", c.l2_slices, 1, 64, "slices",
+          "L2 slices, lines interleaved across them by address (line index mod slices); "
+          "l2.size_bytes is the whole L2, l2.mshrs and l2.ports are per slice"),
+      u32("noc.latency_cycles", c.noc_latency_cycles, 0, 10000, "cycles",
+          "crossbar between the cores' L1s and the L2 slices: cycles one way"),
+      u32("noc.flit_bytes", c.noc_flit_bytes, 0, 4096, "bytes/cycle",
+          "bytes one crossbar port (each core's and each slice's, each way) moves per cycle; "
+          "0: unlimited (no serialisation, no queueing)"),
+      u32("noc.header_bytes", c.noc_header_bytes, 0, 256, "bytes",
+          "address and command every crossbar message carries besides its data"),
+  };
+  for (auto& p : machine) visit(p);
   DramConfig& d = c.dram;
   std::vector<ParameterInfo> dram = {
       text("dram.part", d.part, dram_part_names(), "DRAM part the timings start from"),
-      u32("dram.channels", d.channels, 1, 64, "channels", "independent channels (power of two)"),
+      u32("dram.channels", d.channels, 1, 64, "channels",
+          "independent channels (any count: the address map's channel field is a mixed-radix digit)"),
       u32("dram.ranks", d.ranks, 1, 16, "ranks", "ranks per channel (power of two)"),
       u32("dram.bank_groups", d.bank_groups, 1, 16, "groups",
           "bank groups per rank (power of two dividing banks; 1: no bank groups, the _l "
@@ -201,11 +224,48 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
           "writes (reads go first otherwise; writes also drain when no read waits)"),
       f64("dram.write_drain_low", d.write_drain_low, 0, 0.99, "ratio",
           "a write drain ends at this fraction of queue_entries when reads wait"),
+      f64("dram.activate_pj", d.activate_pj, 0, 1e7, "pJ",
+          "energy of one activate and its precharge in one channel (set by dram.part)"),
+      f64("dram.read_burst_pj", d.read_burst_pj, 0, 1e7, "pJ",
+          "energy of one read burst of burst_bytes, core and I/O as the part's source gives them "
+          "(set by dram.part)"),
+      f64("dram.write_burst_pj", d.write_burst_pj, 0, 1e7, "pJ",
+          "energy of one write burst (set by dram.part)"),
+      f64("dram.refresh_pj", d.refresh_pj, 0, 1e9, "pJ",
+          "energy of one all-bank refresh of a rank (set by dram.part)"),
       text("dram.address_mapping", d.address_mapping, {},
            "fields row, rank, bank, column, channel and optionally bankgroup from most to least "
            "significant, ':'-separated; without bankgroup the group is the bank's top bits"),
   };
   for (auto& p : dram) visit(p);
+  EnergyConfig& e = c.energy;
+  std::vector<ParameterInfo> energy = {
+      f64("energy.sram_scale", e.sram_scale, 0, 100, "ratio",
+          "factor on every cache access energy, which otherwise follows the cache's size in "
+          "SimTRaX's 65 nm CACTI table (1 bank, 64-byte lines: 16 KiB 126 pJ, 512 KiB 642 pJ, "
+          "4 MiB 1645 pJ)"),
+      f64("energy.box_test_pj", e.box_test_pj, 0, 1e6, "pJ",
+          "one ray-box slab test: 6 multiplies, 6 adds, 13 min/max/compares at SimTRaX's 65 nm "
+          "unit energies (FPMUL 14.2, FPADD 7.4, FPMIN 0.536 pJ)"),
+      f64("energy.triangle_test_pj", e.triangle_test_pj, 0, 1e6, "pJ",
+          "one ray-triangle test: Moeller-Trumbore's 27 multiplies, 24 adds, 6 compares and a "
+          "reciprocal at SimTRaX's 65 nm unit energies (FPINV 156.3 pJ)"),
+      f64("energy.noc_byte_pj", e.noc_byte_pj, 0, 1e6, "pJ",
+          "one byte through the crossbar: 0.6 pJ/bit, a 45 nm 4x4 mesh's delivered energy "
+          "(Park et al., DAC 2012: 892 Gb/s at 531 mW)"),
+  };
+  for (auto& p : energy) visit(p);
+}
+
+double cache_access_pj(uint64_t size_bytes) {
+  // SimTRaX (dkoptacs/simtrax) samples/configs/dcacheparams.txt, one bank, 64-byte
+  // lines, nJ in the file: 8 KiB .. 4 MiB.
+  static const double kPj[] = {91.7, 126.4, 168.2, 235.8, 321.9, 457.8, 641.6, 904.3, 1165.6, 1645.0};
+  const double x = std::log2(std::max<double>(1, double(size_bytes))) - 13;  // 0 at 8 KiB
+  const int last = int(sizeof(kPj) / sizeof(kPj[0])) - 1;
+  const int i = std::clamp(int(std::floor(x)), 0, last - 1);
+  const double v = kPj[i] + (x - i) * (kPj[i + 1] - kPj[i]);  // beyond the ends: the end slope
+  return std::max(1.0, v);
 }
 
 std::vector<std::string> dram_part_names() {
@@ -259,6 +319,24 @@ void apply_dram_part(DramConfig& d, const std::string& part) {
   auto recovery = [&d](uint32_t wr, uint32_t rtp, uint32_t rtrs, uint32_t refi, uint32_t rfc) {
     d.twr = wr, d.trtp = rtp, d.trtrs = rtrs, d.trefi = refi, d.trfc = rfc;
   };
+  // Energy per command of one channel: DRAM core energy (no I/O, no termination)
+  // from the parts' IDD currents with DRAMPower's formulas, E_act = (IDD0 tRC - IDD3N
+  // tRAS - IDD2N tRP) VDD, E_rd = (IDD4R - IDD3N) VDD tBURST, E_wr likewise with
+  // IDD4W, E_ref = (IDD5B - IDD3N) VDD tRFC:
+  // - lpddr4-3200: DRAMSys configs/memspec/JEDEC_8Gb_LPDDR4-3200_16bit.json currents,
+  //   per x16 die ACT 1.2 nJ, 32 B read 1.35 nJ, write 0.99 nJ, REF 22 nJ; a channel
+  //   is two dies in lockstep.
+  // - ddr4-2400: DRAMSys configs/memspec/MICRON_4Gb_DDR4-2400_8bit_A.json, per x8 chip
+  //   ACT 1.0 nJ, 8 B read 0.56 nJ, write 0.50 nJ, REF 23 nJ; eight chips a rank.
+  // - gddr6: Arches (Haydelj/arches-v2 units/ramulator/unit-GDDR6.cpp, VDD 1.35 V,
+  //   IDD0 71, IDD2N 60, IDD3N 61, IDD4R 248, IDD4W 231, IDD5B 286 mA) with the timings
+  //   below: ACT 0.67 nJ, 32 B read 0.29 nJ, write 0.26 nJ, REF 36 nJ per x16 channel.
+  //   With I/O GDDR6 is quoted at about 7.5 pJ/bit, 6.8 times this core figure.
+  // - lpddr5: no public LPDDR5 current set was found; the LPDDR4-3200 die's figures
+  //   stand in (per x16 channel), which likely overstates LPDDR5.
+  auto energy = [&d](double act, double rd, double wr, double ref) {
+    d.activate_pj = act, d.read_burst_pj = rd, d.write_burst_pj = wr, d.refresh_pj = ref;
+  };
   auto shape = [&d](uint32_t burst_cycles, uint32_t burst_bytes, uint32_t groups,
                     uint32_t banks, uint32_t row_bytes) {
     d.burst_cycles = burst_cycles, d.burst_bytes = burst_bytes, d.bank_groups = groups;
@@ -269,21 +347,25 @@ void apply_dram_part(DramConfig& d, const std::string& part) {
     spacing(16, 16, 64, 8, 8, 16, 16);
     recovery(29, 12, 1, 6246, 448);
     shape(8, 64, 1, 8, 4096);
+    energy(2400, 2700, 1980, 44000);
   } else if (part == "ddr4-2400") {
     timing(833, 17, 12, 17, 17, 17, 39);
     spacing(4, 6, 26, 4, 6, 3, 9);
     recovery(18, 9, 1, 9360, 420);
     shape(4, 64, 4, 16, 8192);
+    energy(8100, 4480, 3990, 184000);
   } else if (part == "gddr6") {
     timing(570, 24, 6, 27, 16, 27, 53);
     spacing(8, 8, 29, 2, 4, 9, 11);
     recovery(27, 4, 1, 3333, 211);
     shape(2, 32, 4, 16, 2048);
+    energy(670, 290, 260, 36000);
   } else if (part == "lpddr5") {
     timing(1250, 17, 9, 15, 15, 15, 34);
     spacing(4, 4, 16, 2, 4, 5, 10);
     recovery(28, 8, 2, 3125, 168);
     shape(2, 32, 4, 16, 2048);
+    energy(1200, 1350, 990, 22000);
   } else {
     std::string all;
     for (auto& n : dram_part_names()) all += (all.empty() ? "" : " | ") + n;
@@ -292,7 +374,46 @@ void apply_dram_part(DramConfig& d, const std::string& part) {
   d.part = part;
 }
 
-std::vector<std::string> preset_names() { return {"mobile", "desktop"}; }
+std::vector<std::string> preset_names() { return {"mobile", "desktop", "mobile-gpu", "desktop-gpu"}; }
+
+std::string preset_sources(const std::string& name) {
+  if (name == "mobile")
+    return "The patent's target class: one small RT accelerator in a phone SoC, 2 channels of "
+           "LPDDR4-3200 (51.2 GB/s).";
+  if (name == "desktop")
+    return "One larger RT accelerator (8 TRV units) on dual-channel DDR4-2400 (38.4 GB/s): a "
+           "discrete accelerator card, not a GPU.";
+  if (name == "mobile-gpu")
+    return "A mobile GPU with RT units, after Vulkan-Sim's MOBILE configuration\n"
+           "(ubc-aamodt-group/vulkan-sim configs/tested-cfgs/MOBILE/gpgpusim.config since commit\n"
+           "67447b9a): 8 SMs with one RT unit each (cores = 8) at 1365 MHz; gpgpu_rt_max_warps 4 =\n"
+           "128 rays in flight per RT unit (trv.ray_slots = 128); an RT unit reading through its\n"
+           "SM's 32 KiB L1 (split here into 16 KiB node + 16 KiB triangle caches, 20-cycle hits as\n"
+           "its L1D); internal-node and leaf test latency 8 cycles (gpgpu_rt_intersection_latency);\n"
+           "64-byte 6-wide nodes (GEN_RT_BVH_INTERNAL_NODE is 16 dwords: memory.node_format =\n"
+           "bvh6-64q); 4 memory channels of 16 bits with one L2 slice each. Vulkan-Sim's slices\n"
+           "are 128 KiB (512 KiB L2); here 256 KiB (1 MiB), within Arm Immortalis-G720's stated\n"
+           "2 or 4 slices of up to 1 MiB. Memory: LPDDR5-6400 (Ramulator2 timings), 4 x 16 bit\n"
+           "= 51.2 GB/s, as a current phone SoC (Vulkan-Sim's MOBILE config keeps GDDR-class\n"
+           "timings). Crossbar: 40-byte flits (icnt_flit_size) and 8-byte headers (gpgpu-sim's\n"
+           "READ_PACKET_SIZE); L2 round trip 160 cycles (gpgpu_l2_rop_latency) as 30 cycles each\n"
+           "way on the crossbar and 100 in the slice; 192 MSHRs per slice (dl2 MSHR A:192).";
+  if (name == "desktop-gpu")
+    return "An RTX 2060-class GPU, after Vulkan-Sim's and Accel-Sim's SM75_RTX2060 configuration\n"
+           "(configs/tested-cfgs/SM75_RTX2060/gpgpusim.config) and NVIDIA's public figures:\n"
+           "30 SMs with one RT core each (cores = 30) at the 1365 MHz base clock (1680 boost);\n"
+           "128 rays in flight per RT core (gpgpu_rt_max_warps 4 x 32); the RT core reads\n"
+           "through its SM's L1 (Vulkan-Sim: 64 KiB, 20-cycle hits; here 32 KiB node + 32 KiB\n"
+           "triangle caches); 8-cycle node and leaf tests; 64-byte 6-wide nodes (bvh6-64q).\n"
+           "Memory: GDDR6 at 14 Gb/s on a 192-bit bus as 12 channels of 16 bits (gpgpu_n_mem 12,\n"
+           "gpgpu_dram_buswidth 2) = 336 GB/s; Ramulator2's GDDR6_14000 timings; FR-FCFS queues of\n"
+           "64. L2: 3 MiB in 12 slices of 256 KiB, one per channel (Vulkan-Sim has 24 sub-\n"
+           "partitions of 128 KiB, two per channel). Crossbar: 40-byte flits, 8-byte headers,\n"
+           "160-cycle L2 round trip (gpgpu_l2_rop_latency) as 30 cycles each way plus 100 in the\n"
+           "slice; 192 MSHRs per slice. rtsim caches have no sectors, so lines are 64 bytes: the\n"
+           "two 32-byte sectors a GPU fetches for one 64-byte node.";
+  throw InputError("preset", "unknown preset '" + name + "'");
+}
 
 HardwareConfig preset(const std::string& name) {
   HardwareConfig c;
@@ -311,8 +432,27 @@ HardwareConfig preset(const std::string& name) {
     c.l2 = {2 * 1024 * 1024, 64, 16, 30, 64, 4, 1};
     apply_dram_part(c.dram, "ddr4-2400");
     c.dram.channels = 2;
+  } else if (name == "mobile-gpu" || name == "desktop-gpu") {
+    // preset_sources says where each number comes from.
+    const bool desktop = name == "desktop-gpu";
+    c.preset = name;
+    c.clock_mhz = 1365;
+    c.cores = desktop ? 30 : 8;
+    c.trv_units = 1, c.trv_ray_slots = 128, c.trv_stack_entries = 16;
+    c.trv_box_test_latency = 8, c.trv_boxes_per_pass = 6;
+    c.ist_units = 1, c.ist_test_latency = 8, c.ist_queue_entries = 32;
+    c.node_format = "bvh6-64q";
+    const uint32_t l1 = desktop ? 32 * 1024 : 16 * 1024;
+    c.l1_node = {l1, 64, 8, 20, 64};
+    c.l1_triangle = {l1, 64, 8, 20, 64};
+    c.l2_slices = desktop ? 12 : 4;
+    c.l2 = {c.l2_slices * 256 * 1024, 64, 16, 100, 192, 1, 1};
+    c.noc_latency_cycles = 30, c.noc_flit_bytes = 40, c.noc_header_bytes = 8;
+    apply_dram_part(c.dram, desktop ? "gddr6" : "lpddr5");
+    c.dram.channels = desktop ? 12 : 4;
+    c.dram.queue_entries = 64;
   } else {
-    throw InputError("preset", "unknown preset '" + name + "' (mobile | desktop)");
+    throw InputError("preset", "unknown preset '" + name + "' (mobile | desktop | mobile-gpu | desktop-gpu)");
   }
   return c;
 }
@@ -352,13 +492,25 @@ void validate(const HardwareConfig& c) {
                                                     std::to_string(c.triangle_bytes) + ")");
   check_cache("l1_node", c.l1_node);
   check_cache("l1_triangle", c.l1_triangle);
-  check_cache("l2", c.l2);
+  // The L2's geometry is checked per slice (3 MB in 12 slices is 256 KiB each).
+  if (c.l2.size_bytes % c.l2_slices != 0)
+    throw InputError("l2.slices", "must divide l2.size_bytes (" + std::to_string(c.l2.size_bytes) + ")");
+  if (c.l2_slices == 1 || !is_pow2(c.l2.line_bytes)) {
+    check_cache("l2", c.l2);
+  } else {
+    try {
+      check_cache("l2", c.l2_slice());
+    } catch (const InputError&) {
+      throw InputError("l2.slices", "a slice (l2.size_bytes / " + std::to_string(c.l2_slices) +
+                                        " bytes) must hold a power-of-two number of sets of "
+                                        "l2.line_bytes x l2.associativity");
+    }
+  }
   if (c.l1_node.line_bytes > c.l2.line_bytes)
     throw InputError("l1_node.line_bytes", "must not exceed l2.line_bytes");
   if (c.l1_triangle.line_bytes > c.l2.line_bytes)
     throw InputError("l1_triangle.line_bytes", "must not exceed l2.line_bytes");
   const DramConfig& d = c.dram;
-  if (!is_pow2(d.channels)) throw InputError("dram.channels", "must be a power of two");
   if (!is_pow2(d.ranks)) throw InputError("dram.ranks", "must be a power of two");
   if (!is_pow2(d.banks)) throw InputError("dram.banks", "must be a power of two");
   if (!is_pow2(d.row_bytes)) throw InputError("dram.row_bytes", "must be a power of two");
@@ -504,7 +656,8 @@ HardwareConfig load_hardware_config(const std::string& preset_or_path) {
       return c;
     }
   if (!path_exists(preset_or_path))
-    throw InputError(preset_or_path, "neither a preset (mobile | desktop) nor a file");
+    throw InputError(preset_or_path,
+                     "neither a preset (mobile | desktop | mobile-gpu | desktop-gpu) nor a file");
   // Bounded, and a folder or a FIFO is refused (a folder used to read as empty: defaults).
   return parse_hardware_config(read_input_file(preset_or_path, kMaxConfigFileBytes), preset_or_path);
 }

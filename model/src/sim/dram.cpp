@@ -45,43 +45,39 @@ DramAddressMap::DramAddressMap(const DramConfig& c, uint32_t access_bytes) {
   offset_bits_ = log2_exact(access_bytes);
   const uint32_t groups = std::max<uint32_t>(1, c.bank_groups);
   banks_per_group_ = std::max<uint32_t>(1, c.banks / groups);
-  const uint32_t column_bits = log2_exact(std::max<uint64_t>(1, c.row_bytes / access_bytes));
   std::vector<std::string> names;
   std::stringstream in(c.address_mapping);
   std::string field;
   while (std::getline(in, field, ':')) names.push_back(field);
   group_field_ = std::find(names.begin(), names.end(), "bankgroup") != names.end();
   // Least significant first: the last name sits right above the access offset.
+  // Each field is a digit of a mixed-radix number, so a channel count need not be a
+  // power of two (12 GDDR6 channels of a 192-bit bus); for powers of two the digits
+  // are the bit fields a controller's mapping names.
   for (auto it = names.rbegin(); it != names.rend(); ++it) {
     Field f{};
-    if (*it == "row") f.which = Row, f.bits = it + 1 == names.rend() ? 64 : 24;
-    else if (*it == "rank") f.which = Rank, f.bits = log2_exact(c.ranks);
-    else if (*it == "bank")
-      f.which = Bank, f.bits = log2_exact(group_field_ ? banks_per_group_ : c.banks);
-    else if (*it == "bankgroup") f.which = BankGroup, f.bits = log2_exact(groups);
-    else if (*it == "column") f.which = Column, f.bits = column_bits;
-    else if (*it == "channel") f.which = Channel, f.bits = log2_exact(c.channels);
+    if (*it == "row") f.which = Row, f.radix = it + 1 == names.rend() ? 0 : (uint64_t(1) << 24);
+    else if (*it == "rank") f.which = Rank, f.radix = c.ranks;
+    else if (*it == "bank") f.which = Bank, f.radix = group_field_ ? banks_per_group_ : c.banks;
+    else if (*it == "bankgroup") f.which = BankGroup, f.radix = groups;
+    else if (*it == "column") f.which = Column, f.radix = std::max<uint64_t>(1, c.row_bytes / access_bytes);
+    else if (*it == "channel") f.which = Channel, f.radix = c.channels;
     else throw InputError("dram.address_mapping", "unknown field '" + *it + "'");
+    // A row field below other fields gets a fixed range (2^24 rows) so the fields above
+    // have room; row numbers then wrap, which only matters for images above 2^40 bytes.
+    // A row on top (radix 0) takes whatever is left.
     fields_.push_back(f);
-  }
-  // A row field below other fields gets a fixed width (24 bits) so the fields above
-  // have room; row numbers then wrap, which only matters for images above 2^40 bytes.
-  // A row on top takes whatever is left.
-  uint32_t shift = offset_bits_;
-  for (auto& f : fields_) {
-    f.shift = shift;
-    if (f.which == Row && f.bits == 64) f.bits = 64 - std::min<uint32_t>(64, shift);
-    shift += f.bits;
   }
 }
 
 DramAddress DramAddressMap::decode(uint64_t address) const {
   DramAddress out;
   uint32_t bank_field = 0, group_field = 0;
+  uint64_t rest = address >> offset_bits_;
   for (const Field& f : fields_) {
-    if (f.bits == 0 || f.shift >= 64) continue;
-    const uint64_t value = f.bits >= 64 ? (address >> f.shift)
-                                        : (address >> f.shift) & ((uint64_t(1) << f.bits) - 1);
+    uint64_t value = rest;
+    if (f.radix != 0) value = rest % f.radix, rest /= f.radix;
+    else rest = 0;
     switch (f.which) {
       case Row: out.row = value; break;
       case Rank: out.rank = uint32_t(value); break;

@@ -26,38 +26,47 @@ tlm::tlm_generic_payload* PayloadPool::get() {
 }
 
 FunctionalMemory::FunctionalMemory(const HardwareConfig& c)
-    : l2(c.l2, "l2"), dram(c.dram, c.l2.line_bytes) {
-  for (uint32_t u = 0; u < c.trv_units; ++u)
+    : shape(MachineShape::of(c)), noc(c, shape, false), dram(c.dram, c.l2.line_bytes) {
+  for (uint32_t u = 0; u < shape.trv_units(); ++u)
     l1_node.push_back(std::make_unique<CacheModel>(c.l1_node, "l1_node"));
-  for (uint32_t u = 0; u < c.ist_units; ++u)
+  for (uint32_t u = 0; u < shape.ist_units(); ++u)
     l1_triangle.push_back(std::make_unique<CacheModel>(c.l1_triangle, "l1_triangle"));
+  for (uint32_t s = 0; s < shape.l2_slices; ++s)
+    l2.push_back(std::make_unique<CacheModel>(c.l2_slice(), "l2"));
 }
 
 uint32_t FunctionalMemory::line_bytes(Requester who) const {
   return (who == Requester::Trv ? l1_node : l1_triangle).front()->config().line_bytes;
 }
 
-void FunctionalMemory::to_l2(const LineAccess& a) {
-  const CacheModel::Result r = l2.access(a);
+void FunctionalMemory::to_l2(uint32_t core, const LineAccess& a) {
+  const uint32_t s = shape.slice_of(a.line);
+  noc.to_slice(core, s, a.write ? a.bytes : 0, 0);
+  const CacheModel::Result r = l2[s]->access(a);
+  noc.to_core(s, core, a.write ? 0 : l2[s]->config().line_bytes, 0);
   if (r.writeback.dirty) dram.count_access(r.writeback.line, true);
   if (r.fetch) dram.count_access(a.line, false);
 }
 
 uint64_t FunctionalMemory::access(Requester who, uint32_t unit, const LineAccess& a,
                                   uint64_t issue_ps) {
-  CacheModel& l1 = *(who == Requester::Trv ? l1_node : l1_triangle)[unit];
+  const bool trv = who == Requester::Trv;
+  CacheModel& l1 = *(trv ? l1_node : l1_triangle)[unit];
+  const uint32_t core = trv ? shape.core_of_trv(unit) : shape.core_of_ist(unit);
   const CacheModel::Result r = l1.access(a);
   const uint32_t l1_line = l1.config().line_bytes;
+  const CacheModel& slices = *l2.front();
   if (r.writeback.dirty)
-    to_l2({l2.line_of(r.writeback.line), l1_line, AccessKind::Stack, a.ray_type, true});
-  if (r.fetch) to_l2({l2.line_of(a.line), l1_line, a.kind, a.ray_type, false});
+    to_l2(core, {slices.line_of(r.writeback.line), l1_line, AccessKind::Stack, a.ray_type, true});
+  if (r.fetch) to_l2(core, {slices.line_of(a.line), l1_line, a.kind, a.ray_type, false});
   return issue_ps;
 }
 
 void FunctionalMemory::reset_counters() {
   for (auto& c : l1_node) c->reset_counters();
   for (auto& c : l1_triangle) c->reset_counters();
-  l2.reset_counters();
+  for (auto& c : l2) c->reset_counters();
+  noc.reset_counters();
   dram.reset_counters();
 }
 
@@ -128,6 +137,29 @@ void LtCache::b_transport(int, tlm::tlm_generic_payload& p, sc_time& delay) {
   p.set_response_status(tlm::TLM_OK_RESPONSE);
 }
 
+LtCrossbar::LtCrossbar(sc_core::sc_module_name name, Crossbar& model, const MachineShape& shape)
+    : sc_module(name), target("target"), to_slice("to_slice"), model_(model), shape_(shape) {
+  target.register_b_transport(this, &LtCrossbar::b_transport);
+}
+
+void LtCrossbar::bind_l1(tlm_utils::simple_initiator_socket<LtCache>& l1, uint32_t core) {
+  l1.bind(target);  // target ports are numbered in bind order
+  core_of_port_.push_back(core);
+}
+
+void LtCrossbar::b_transport(int id, tlm::tlm_generic_payload& p, sc_time& delay) {
+  const uint32_t core = core_of_port_[size_t(id)];
+  const uint32_t slice = shape_.slice_of(p.get_address());
+  const bool write = p.is_write();
+  const uint64_t now = now_ps();
+  const uint64_t there = model_.to_slice(core, slice, write ? p.get_data_length() : 0, now + to_ps(delay));
+  sc_time slice_delay = from_ps(there - now);
+  to_slice[slice]->b_transport(p, slice_delay);
+  const uint64_t back =
+      model_.to_core(slice, core, write ? 0 : p.get_data_length(), now + to_ps(slice_delay));
+  delay = from_ps(back - now);
+}
+
 LtDram::LtDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes)
     : sc_module(name), target("target"), model(config, access_bytes) {
   target.register_b_transport(this, &LtDram::b_transport);
@@ -142,28 +174,35 @@ void LtDram::b_transport(int, tlm::tlm_generic_payload& p, sc_time& delay) {
 
 LtSystem::LtSystem(sc_core::sc_module_name name, const HardwareConfig& config,
                    const Workload& workload, std::function<void(uint64_t)> progress)
-    : sc_module(name), engine(config, workload, true), config_(config),
-      progress_(std::move(progress)) {
+    : sc_module(name), engine(config, workload, true), shape(MachineShape::of(config)),
+      noc_model(config, shape, true), config_(config), progress_(std::move(progress)) {
   const uint64_t cycle_ps = uint64_t(std::llround(config.clock_period_ps()));
-  l2 = std::make_unique<LtCache>("l2", config.l2, cycle_ps);
   dram = std::make_unique<LtDram>("dram", config.dram, config.l2.line_bytes);
-  l2->next.bind(dram->target);
-  for (uint32_t u = 0; u < config.trv_units; ++u) {
-    const std::string id = std::to_string(u);
-    l1_node.push_back(std::make_unique<LtCache>(("l1_node" + id).c_str(), config.l1_node, cycle_ps));
-    trv_ports_.push_back(std::make_unique<tlm_utils::simple_initiator_socket<LtSystem>>(
-        ("trv" + id + "_memory").c_str()));
-    trv_ports_.back()->bind(l1_node.back()->target);
-    l1_node.back()->next.bind(l2->target);
+  noc = std::make_unique<LtCrossbar>("noc", noc_model, shape);
+  for (uint32_t s = 0; s < shape.l2_slices; ++s) {
+    const std::string instance = MachineShape::slice_name(s);
+    l2.push_back(std::make_unique<LtCache>(MachineShape::module_name(instance).c_str(),
+                                           config.l2_slice(), cycle_ps));
+    noc->to_slice.bind(l2.back()->target);
+    l2.back()->next.bind(dram->target);
   }
-  for (uint32_t u = 0; u < config.ist_units; ++u) {
-    const std::string id = std::to_string(u);
-    l1_triangle.push_back(
-        std::make_unique<LtCache>(("l1_triangle" + id).c_str(), config.l1_triangle, cycle_ps));
+  for (uint32_t u = 0; u < shape.trv_units(); ++u) {
+    const std::string instance = shape.l1_node_name(u);
+    l1_node.push_back(std::make_unique<LtCache>(MachineShape::module_name(instance).c_str(),
+                                                config.l1_node, cycle_ps));
+    trv_ports_.push_back(std::make_unique<tlm_utils::simple_initiator_socket<LtSystem>>(
+        MachineShape::module_name(shape.trv_name(u) + "_memory").c_str()));
+    trv_ports_.back()->bind(l1_node.back()->target);
+    noc->bind_l1(l1_node.back()->next, shape.core_of_trv(u));
+  }
+  for (uint32_t u = 0; u < shape.ist_units(); ++u) {
+    const std::string instance = shape.l1_triangle_name(u);
+    l1_triangle.push_back(std::make_unique<LtCache>(MachineShape::module_name(instance).c_str(),
+                                                    config.l1_triangle, cycle_ps));
     ist_ports_.push_back(std::make_unique<tlm_utils::simple_initiator_socket<LtSystem>>(
-        ("ist" + id + "_memory").c_str()));
+        MachineShape::module_name(shape.ist_name(u) + "_memory").c_str()));
     ist_ports_.back()->bind(l1_triangle.back()->target);
-    l1_triangle.back()->next.bind(l2->target);
+    noc->bind_l1(l1_triangle.back()->next, shape.core_of_ist(u));
   }
   tlm_utils::tlm_quantumkeeper::set_global_quantum(
       from_ps(uint64_t(config.lt_quantum_cycles) * cycle_ps));
@@ -197,7 +236,8 @@ uint64_t LtSystem::access(Requester who, uint32_t unit, const LineAccess& a, uin
 void LtSystem::reset_counters() {
   for (auto& c : l1_node) c->model.reset_counters();
   for (auto& c : l1_triangle) c->model.reset_counters();
-  l2->model.reset_counters();
+  for (auto& c : l2) c->model.reset_counters();
+  noc_model.reset_counters();
   dram->model.reset_counters();
 }
 

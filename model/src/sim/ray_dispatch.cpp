@@ -14,6 +14,8 @@ IssuePolicy IssuePolicy::from(const HardwareConfig& c) {
   p.tile_width = w;
   p.tile_height = h;
   p.secondary_behind = c.raygen_secondary != "after";
+  p.cores = c.cores;
+  p.dynamic = c.raygen_dispatch == "dynamic";
   return p;
 }
 
@@ -66,13 +68,24 @@ std::vector<uint32_t> free_slot_order(uint32_t units, uint32_t slots_per_unit) {
 
 RayDispatcher::RayDispatcher(const IssuePolicy& policy, std::vector<Ray> initial, uint32_t width,
                              uint32_t height, bool spawn)
-    : policy_(policy), rays_(std::move(initial)), initial_count_(rays_.size()) {
+    : policy_(policy), rays_(std::move(initial)), initial_count_(rays_.size()),
+      cores_(std::max<uint32_t>(1, policy.cores)) {
   const size_t n = rays_.size();
   // Primary rays by pixel issue order (stable: a pixel's samples keep their order).
-  std::vector<uint32_t> rank(size_t(width) * height, 0);
+  const size_t pixel_count = size_t(width) * height;
+  std::vector<uint32_t> rank(pixel_count, 0);
   const std::vector<uint32_t> pixels = pixel_issue_order(width, height, policy);
   for (uint32_t i = 0; i < pixels.size(); ++i) rank[pixels[i]] = i;
   const auto pixel_rank = [&](const Ray& r) { return r.pixel < rank.size() ? rank[r.pixel] : r.pixel; };
+  // The tile a ray's pixel belongs to, numbered in issue order.
+  const uint64_t tile_pixels = uint64_t(policy.tile_width) * policy.tile_height;
+  const uint64_t tiles_across = (width + policy.tile_width - 1) / std::max<uint32_t>(1, policy.tile_width);
+  const auto tile_of = [&](const Ray& r) -> uint64_t {
+    if (policy.order == IssuePolicy::Order::Tiles && r.pixel < pixel_count)
+      return uint64_t(r.pixel / width / policy.tile_height) * tiles_across +
+             (r.pixel % width) / policy.tile_width;
+    return pixel_rank(r) / tile_pixels;
+  };
   std::vector<uint32_t> primaries;
   std::vector<std::vector<uint32_t>> children(spawn ? 0 : n);
   std::vector<uint32_t> others;
@@ -86,56 +99,110 @@ RayDispatcher::RayDispatcher(const IssuePolicy& policy, std::vector<Ray> initial
   std::stable_sort(primaries.begin(), primaries.end(), [&](uint32_t a, uint32_t b) {
     return pixel_rank(rays_[a]) < pixel_rank(rays_[b]);
   });
+  std::vector<uint64_t> tile;  // per order_ entry
   if (spawn || !policy.secondary_behind) {
     order_ = primaries;
     order_.insert(order_.end(), others.begin(), others.end());
-    return;
-  }
-  // A replayed set, "behind": each root followed by its descendants, depth first.
-  order_.reserve(n);
-  std::vector<uint32_t> stack;
-  for (uint32_t p : primaries) {
-    stack.push_back(p);
-    while (!stack.empty()) {
-      const uint32_t r = stack.back();
-      stack.pop_back();
-      order_.push_back(r);
-      for (auto it = children[r].rbegin(); it != children[r].rend(); ++it) stack.push_back(*it);
+    for (uint32_t r : primaries) tile.push_back(tile_of(rays_[r]));
+    // Replayed secondary rays issued after every primary: tiles of their own.
+    for (uint32_t r : others) tile.push_back(UINT32_MAX + tile_of(rays_[r]));
+  } else {
+    // A replayed set, "behind": each root followed by its descendants, depth first,
+    // all in the root's tile.
+    order_.reserve(n);
+    std::vector<uint32_t> stack;
+    for (uint32_t p : primaries) {
+      const uint64_t root_tile = tile_of(rays_[p]);
+      stack.push_back(p);
+      while (!stack.empty()) {
+        const uint32_t r = stack.back();
+        stack.pop_back();
+        order_.push_back(r);
+        tile.push_back(root_tile);
+        for (auto it = children[r].rbegin(); it != children[r].rend(); ++it) stack.push_back(*it);
+      }
     }
   }
+  // One core issues the whole order as one tile; more cut it where the tile changes.
+  tile_start_.push_back(0);
+  if (cores_.size() > 1)
+    for (size_t i = 1; i < order_.size(); ++i)
+      if (tile[i] != tile[i - 1]) tile_start_.push_back(i);
+  if (!order_.empty()) tile_start_.push_back(order_.size());  // no rays: no tiles
+  start_frame();
 }
 
-bool RayDispatcher::next(uint64_t now_ps, uint32_t* ray_index) {
-  const bool secondary_ready = !secondary_.empty() && secondary_.front().ready_ps <= now_ps;
-  const bool primary_left = cursor_ < order_.size();
-  if (secondary_ready && (policy_.secondary_behind || !primary_left)) {
-    *ray_index = secondary_.front().ray;
-    secondary_.pop_front();
+void RayDispatcher::start_frame() {
+  for (uint32_t c = 0; c < cores_.size(); ++c) cores_[c] = CoreQueue{0, 0, c, {}};
+  next_free_tile_ = 0;
+  secondary_queued_ = 0;
+}
+
+bool RayDispatcher::primary_left(const CoreQueue& q) const {
+  const size_t tiles = tile_start_.size() - 1;
+  return q.cursor < q.end || (policy_.dynamic ? next_free_tile_ : q.next_tile) < tiles;
+}
+
+bool RayDispatcher::take_tile(uint32_t core) {
+  CoreQueue& q = cores_[core];
+  const size_t tiles = tile_start_.size() - 1;
+  size_t k;
+  if (policy_.dynamic) {
+    if (next_free_tile_ >= tiles) return false;
+    k = next_free_tile_++;
+  } else {
+    if (q.next_tile >= tiles) return false;
+    k = q.next_tile;
+    q.next_tile += cores_.size();
+  }
+  q.cursor = tile_start_[k];
+  q.end = tile_start_[k + 1];
+  return true;
+}
+
+bool RayDispatcher::next(uint32_t core, uint64_t now_ps, uint32_t* ray_index) {
+  CoreQueue& q = cores_[core];
+  const bool secondary_ready = !q.secondary.empty() && q.secondary.front().ready_ps <= now_ps;
+  const bool primary = primary_left(q);
+  if (secondary_ready && (policy_.secondary_behind || !primary)) {
+    *ray_index = q.secondary.front().ray;
+    q.secondary.pop_front();
+    --secondary_queued_;
     return true;
   }
-  if (primary_left) {
-    *ray_index = order_[cursor_++];
+  if (primary) {
+    while (q.cursor == q.end)
+      if (!take_tile(core)) return false;
+    *ray_index = order_[q.cursor++];
     return true;
   }
   return false;
 }
 
-uint64_t RayDispatcher::next_ready_ps() const {
-  if (cursor_ < order_.size()) return 0;
-  return secondary_.empty() ? UINT64_MAX : secondary_.front().ready_ps;
+uint64_t RayDispatcher::next_ready_ps(uint32_t core) const {
+  const CoreQueue& q = cores_[core];
+  if (primary_left(q)) return 0;
+  return q.secondary.empty() ? UINT64_MAX : q.secondary.front().ready_ps;
 }
 
-void RayDispatcher::add_spawned(const std::vector<Ray>& rays, uint64_t ready_ps) {
+bool RayDispatcher::empty() const {
+  if (secondary_queued_ != 0) return false;
+  for (const CoreQueue& q : cores_)
+    if (primary_left(q)) return false;
+  return true;
+}
+
+void RayDispatcher::add_spawned(uint32_t core, const std::vector<Ray>& rays, uint64_t ready_ps) {
   for (const Ray& r : rays) {
-    secondary_.push_back({uint32_t(rays_.size()), ready_ps});
+    cores_[core].secondary.push_back({uint32_t(rays_.size()), ready_ps});
     rays_.push_back(r);
   }
+  secondary_queued_ += rays.size();
 }
 
 void RayDispatcher::restart() {
   rays_.resize(initial_count_);
-  cursor_ = 0;
-  secondary_.clear();
+  start_frame();
 }
 
 }  // namespace rtsim::sim

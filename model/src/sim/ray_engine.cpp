@@ -89,14 +89,17 @@ bool RayEngine::EventCalendar::pop(Event* out) {
 }
 
 RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, bool timed)
-    : config_(config), workload_(&workload), timed_(timed),
+    : config_(config), shape_(MachineShape::of(config)), workload_(&workload), timed_(timed),
       cycle_ps_(uint64_t(std::llround(config.clock_period_ps()))),
       dispatcher_(IssuePolicy::from(config), workload.initial_rays, workload.width,
                   workload.height, workload.spawn_secondary),
-      visit_order_(free_slot_order(config.trv_units, config.trv_ray_slots)),
-      trv_free_(config.trv_units, 0), ist_free_(config.ist_units, 0),
-      trv_time_(config.trv_units), ist_time_(config.ist_units), trv_passes_(config.trv_units, 0),
-      ist_tests_(config.ist_units, 0), events_(cycle_ps_) {
+      visit_order_(free_slot_order(shape_.trv_units(), config.trv_ray_slots)),
+      trv_free_(shape_.trv_units(), 0), ist_free_(shape_.ist_units(), 0),
+      shading_free_(shape_.cores, 0), raygen_free_(shape_.cores, 0),
+      trv_time_(shape_.trv_units()), ist_time_(shape_.ist_units()),
+      trv_passes_(shape_.trv_units(), 0), ist_tests_(shape_.ist_units(), 0),
+      shading_time_(shape_.cores), shaded_(shape_.cores, 0), spawned_count_(shape_.cores, 0),
+      events_(cycle_ps_) {
   trv_interval_ps_ = interval_ps(config.trv_nodes_per_cycle, cycle_ps_);
   ist_interval_ps_ = interval_ps(config.ist_tests_per_cycle, cycle_ps_);
   shading_interval_ps_ = interval_ps(config.shading_rays_per_cycle, cycle_ps_);
@@ -104,7 +107,7 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
   box_latency_ps_ = uint64_t(config.trv_box_test_latency) * cycle_ps_;
   test_latency_ps_ = uint64_t(config.ist_test_latency) * cycle_ps_;
   shading_latency_ps_ = uint64_t(config.shading_latency) * cycle_ps_;
-  const uint32_t count = config.trv_units * config.trv_ray_slots;
+  const uint32_t count = shape_.slots();
   slots_.reserve(count);
   for (uint32_t id = 0; id < count; ++id)
     slots_.emplace_back(*workload.context, id, id / config.trv_ray_slots);
@@ -120,11 +123,12 @@ CounterTotals RayEngine::total() const {
 void RayEngine::reset_counters() {
   for (auto& t : trv_time_) t = UnitTime{};
   for (auto& t : ist_time_) t = UnitTime{};
-  shading_time_ = UnitTime{};
+  for (auto& t : shading_time_) t = UnitTime{};
   std::fill(trv_passes_.begin(), trv_passes_.end(), 0);
   std::fill(ist_tests_.begin(), ist_tests_.end(), 0);
   per_type_ = {};
-  shaded_ = 0;
+  std::fill(shaded_.begin(), shaded_.end(), 0);
+  std::fill(spawned_count_.begin(), spawned_count_.end(), 0);
 }
 
 uint64_t RayEngine::issue(MemoryPort& port, Slot& slot, const std::vector<MemoryAccess>& list,
@@ -138,7 +142,7 @@ uint64_t RayEngine::issue(MemoryPort& port, Slot& slot, const std::vector<Memory
     const uint64_t line_bytes = line_bytes_[size_t(who)];
     const uint64_t line = a.address & ~(line_bytes - 1);
     if (a.address + a.bytes <= line + line_bytes) {
-      const uint32_t unit = who == Requester::Trv ? slot.unit : slot.unit % config_.ist_units;
+      const uint32_t unit = who == Requester::Trv ? slot.unit : shape_.ist_of_trv(slot.unit);
       const uint64_t done = port.access(who, unit, LineAccess{line, a.bytes, a.kind, type, a.write}, t);
       return a.write ? t : std::max(t, done);
     }
@@ -149,7 +153,7 @@ uint64_t RayEngine::issue(MemoryPort& port, Slot& slot, const std::vector<Memory
   uint64_t ready = t;
   for (const LineAccess& line : lines_) {
     const Requester who = requester_of(line.kind);
-    const uint32_t unit = who == Requester::Trv ? slot.unit : slot.unit % config_.ist_units;
+    const uint32_t unit = who == Requester::Trv ? slot.unit : shape_.ist_of_trv(slot.unit);
     const uint64_t done = port.access(who, unit, line, t);
     if (!line.write) ready = std::max(ready, done);
   }
@@ -160,12 +164,13 @@ uint64_t RayEngine::issue(MemoryPort& port, Slot& slot, const std::vector<Memory
 
 bool RayEngine::start_next_ray(Slot& slot, uint64_t now_ps, uint64_t* start_ps) {
   uint32_t ray = 0;
-  if (!dispatcher_.next(now_ps, &ray)) return false;
+  const uint32_t core = shape_.core_of_trv(slot.unit);
+  if (!dispatcher_.next(core, now_ps, &ray)) return false;
   slot.ray = ray;
   slot.traversal.reset(dispatcher_.rays()[ray]);
   slot.active = true;
-  const uint64_t start = std::max(now_ps, raygen_free_);
-  raygen_free_ = start + raygen_interval_ps_;
+  const uint64_t start = std::max(now_ps, raygen_free_[core]);
+  raygen_free_[core] = start + raygen_interval_ps_;
   slot.start_ps = start;
   *start_ps = start;
   return true;
@@ -184,19 +189,21 @@ void RayEngine::finish(Slot& slot, uint64_t t) {
   const Ray ray = trv.ray();
   spawn_secondary_rays(*workload_->scene, workload_->plan, workload_->settings, ray, slot.ray,
                        trv.hit(), spawned_);
-  ++shaded_;
+  const uint32_t core = shape_.core_of_trv(slot.unit);
+  ++shaded_[core];
+  spawned_count_[core] += spawned_.size();
   uint64_t ready = 0;
   if (timed_) {
-    const uint64_t start = std::max(t, shading_free_);
-    shading_free_ = start + shading_interval_ps_;
-    shading_time_.busy_ps += shading_interval_ps_;
+    const uint64_t start = std::max(t, shading_free_[core]);
+    shading_free_[core] = start + shading_interval_ps_;
+    shading_time_[core].busy_ps += shading_interval_ps_;
     ready = start + shading_latency_ps_;
-    shading_time_.add_span(start, ready);
+    shading_time_[core].add_span(start, ready);
     end_ps_ = std::max(end_ps_, ready);
   }
   if (spawned_.empty()) return;
-  dispatcher_.add_spawned(spawned_, ready);
-  if (timed_) schedule(ready, 0, EventKind::Dispatch);
+  dispatcher_.add_spawned(core, spawned_, ready);
+  if (timed_) schedule(ready, core, EventKind::Dispatch);
 }
 
 void RayEngine::schedule(uint64_t t, uint32_t slot, EventKind kind) {
@@ -239,7 +246,7 @@ void RayEngine::run_rounds(MemoryPort& port, const std::function<void(uint64_t)>
         issue(port, slot, reads, 0, reads.size(), 0);
         trv.process();
         if (node_step) trv_passes_[slot.unit] += passes;
-        else ist_tests_[slot.unit % config_.ist_units] += trv.last_step_tests();
+        else ist_tests_[shape_.ist_of_trv(slot.unit)] += trv.last_step_tests();
         const std::vector<MemoryAccess>& stack = trv.stack_accesses();
         issue(port, slot, stack, 0, stack.size(), 0);
       }
@@ -269,19 +276,22 @@ void RayEngine::issue_step(MemoryPort& port, uint32_t id, uint64_t t) {
 void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>& sync,
                           const std::function<void(uint64_t)>& progress) {
   uint64_t reported = done_rays_;
-  idle_slots_.assign(visit_order_.begin(), visit_order_.end());
-  schedule(frame_start_ps_, 0, EventKind::Dispatch);
+  idle_slots_.assign(shape_.cores, {});
+  for (uint32_t id : visit_order_) idle_slots_[shape_.core_of_trv(slots_[id].unit)].push_back(id);
+  for (uint32_t core = 0; core < shape_.cores; ++core)
+    schedule(frame_start_ps_, core, EventKind::Dispatch);
   Event e{};
   while (events_.pop(&e)) {
     const uint64_t t = e.time_ps;
     sync(t);
     if (e.kind == EventKind::Dispatch) {
-      while (!idle_slots_.empty()) {
-        Slot& slot = slots_[idle_slots_.front()];
+      std::deque<uint32_t>& idle = idle_slots_[e.slot];
+      while (!idle.empty()) {
+        Slot& slot = slots_[idle.front()];
         uint64_t start = 0;
         if (!start_next_ray(slot, t, &start)) break;
-        schedule(start, idle_slots_.front(), EventKind::Issue);
-        idle_slots_.pop_front();
+        schedule(start, idle.front(), EventKind::Issue);
+        idle.pop_front();
       }
       continue;
     }
@@ -311,7 +321,7 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
         } else {
           trv.process();
           const uint32_t tests = trv.last_step_tests();
-          const uint32_t ist = slot.unit % config_.ist_units;
+          const uint32_t ist = shape_.ist_of_trv(slot.unit);
           const uint64_t start = std::max(t, ist_free_[ist]);
           ist_free_[ist] = start + tests * ist_interval_ps_;
           ist_time_[ist].busy_ps += tests * ist_interval_ps_;
@@ -334,7 +344,7 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
         finish(slot, next);
         uint64_t start = 0;
         if (start_next_ray(slot, next, &start)) schedule(start, e.slot, EventKind::Issue);
-        else idle_slots_.push_back(e.slot);
+        else idle_slots_[shape_.core_of_trv(slot.unit)].push_back(e.slot);
         break;
       }
       case EventKind::Dispatch: break;

@@ -1,4 +1,5 @@
 #include <rtsim/model/sim/cycle/cycle_system.h>
+#include <rtsim/model/sim/energy.h>
 #include <rtsim/model/sim/memory_system.h>
 #include <rtsim/model/sim/ray_engine.h>
 #include <rtsim/model/sim/simulator.h>
@@ -85,21 +86,111 @@ void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCou
   }
 }
 
-void report_memory(StatsRegistry& s, const std::vector<const CacheModel*>& l1_node,
-                   const std::vector<const CacheModel*>& l1_triangle, const CacheModel& l2,
-                   const DramModel& dram, bool row_timing, bool timed, uint64_t sim_ps,
-                   uint64_t rays) {
-  report_cache_group(s, "l1_node.all", l1_node);
-  for (size_t i = 0; i < l1_node.size(); ++i) l1_node[i]->report(s, "l1_node.unit" + std::to_string(i));
-  report_cache_group(s, "l1_triangle.all", l1_triangle);
-  for (size_t i = 0; i < l1_triangle.size(); ++i)
-    l1_triangle[i]->report(s, "l1_triangle.unit" + std::to_string(i));
-  l2.report(s, "l2");
-  dram.report(s, "dram", row_timing, timed, sim_ps);
+// What one run of any level leaves to report, per instance of the machine
+// (machine.h numbering). Each level fills it from its own components; the names
+// and the accounting are this one function's.
+struct MachineFigures {
+  std::vector<UnitFigures> trv, ist;          // per TRV / IST unit
+  std::vector<uint64_t> trv_passes, ist_tests;
+  std::vector<UnitFigures> shading;           // per core; empty when nothing is shaded
+  std::vector<uint64_t> shaded, spawned;      // per core
+  std::vector<uint64_t> raygen_stalled_ps;    // per core (cycle level only)
+  std::vector<const CacheModel*> l1_node, l1_triangle, l2;
+  std::vector<uint64_t> l2_downstream_stall_ps, l2_downstream_refusals;  // per slice (cycle)
+  const DramModel* dram = nullptr;
+  const Crossbar* noc = nullptr;
+};
+
+// The energy model's event counts from the figures (energy.h).
+EnergyCounts energy_counts(const MachineFigures& f,
+                           const std::array<CounterTotals, kRayTypeCount>& per_type,
+                           const DramConfig& dram) {
+  EnergyCounts e;
+  const auto level = [](const std::vector<const CacheModel*>& caches, uint64_t& accesses,
+                        TrafficMatrix& bytes) {
+    for (const CacheModel* c : caches) {
+      accesses += c->counters().accesses + c->counters().writebacks;
+      bytes.add(c->requested());
+    }
+  };
+  level(f.l1_node, e.l1_node_accesses, e.l1_node_bytes);
+  level(f.l1_triangle, e.l1_triangle_accesses, e.l1_triangle_bytes);
+  level(f.l2, e.l2_accesses, e.l2_bytes);
+  for (const CacheModel* c : f.l2) e.dram_bytes.add(c->filled());
+  e.noc_bytes = f.noc->bytes();
+  const DramModel::Counters& d = f.dram->counters();
+  e.dram_activates = d.activates;
+  e.dram_read_bursts = (d.bytes + dram.burst_bytes - 1) / dram.burst_bytes;
+  e.dram_write_bursts = (d.bytes_written + dram.burst_bytes - 1) / dram.burst_bytes;
+  e.dram_refreshes = d.refreshes;
+  e.per_type = per_type;
+  return e;
+}
+
+void report_machine(StatsRegistry& s, const HardwareConfig& config, const MachineShape& m,
+                    const MachineFigures& f, const std::array<CounterTotals, kRayTypeCount>& per_type,
+                    uint64_t sim_ps, bool timed) {
+  const double cycle_ps = config.clock_period_ps();
+  uint64_t rays = 0;
+  for (const CounterTotals& t : per_type) rays += t.rays;
+  const auto cycles = [&](uint64_t ps) { return uint64_t(std::llround(double(ps) / cycle_ps)); };
+  for (uint32_t u = 0; u < f.trv.size(); ++u)
+    report_unit(s, m.trv_name(u), f.trv[u], sim_ps, cycle_ps, f.trv_passes[u], "passes",
+                "box-test pipeline passes (a node takes ceil(children / trv.boxes_per_pass))");
+  for (uint32_t u = 0; u < f.ist.size(); ++u)
+    report_unit(s, m.ist_name(u), f.ist[u], sim_ps, cycle_ps, f.ist_tests[u], "tests",
+                "triangle tests through the pipeline");
+  for (uint32_t c = 0; c < f.shading.size(); ++c) {
+    const std::string p = MachineShape::core_name(c) + ".shading";
+    report_unit(s, p, f.shading[c], sim_ps, cycle_ps, f.shaded[c], "rays", "rays shaded");
+    s.set(p + ".spawned", f.spawned[c], "rays", "secondary rays spawned");
+  }
+  for (uint32_t c = 0; c < f.raygen_stalled_ps.size(); ++c)
+    s.set(MachineShape::core_name(c) + ".raygen.stalled_cycles", cycles(f.raygen_stalled_ps[c]),
+          "cycles", "cycles a ready ray found no free TRV slot of its core");
+  s.set("machine.cores", m.cores, "cores", "RT cores");
+  report_cache_group(s, "l1_node.all", f.l1_node);
+  for (uint32_t u = 0; u < f.l1_node.size(); ++u) f.l1_node[u]->report(s, m.l1_node_name(u));
+  report_cache_group(s, "l1_triangle.all", f.l1_triangle);
+  for (uint32_t u = 0; u < f.l1_triangle.size(); ++u)
+    f.l1_triangle[u]->report(s, m.l1_triangle_name(u));
+  // The L2 as a whole under l2.*, each slice under l2.slice<s>.*.
+  report_cache_group(s, "l2", f.l2);
+  TrafficMatrix filled;
+  uint64_t max_accesses = 0, sum_accesses = 0;
+  for (uint32_t i = 0; i < f.l2.size(); ++i) {
+    filled.add(f.l2[i]->filled());
+    max_accesses = std::max(max_accesses, f.l2[i]->counters().accesses);
+    sum_accesses += f.l2[i]->counters().accesses;
+    if (f.l2.size() > 1) f.l2[i]->report(s, MachineShape::slice_name(i));
+  }
+  s.set_real("l2.slice_balance",
+             sum_accesses ? double(max_accesses) * double(f.l2.size()) / double(sum_accesses) : 1.0,
+             "ratio", "the busiest slice's accesses / the mean slice's (1: even)");
+  if (!f.l2_downstream_stall_ps.empty()) {
+    uint64_t stall = 0, refusals = 0;
+    for (uint32_t i = 0; i < f.l2.size(); ++i) {
+      stall += f.l2_downstream_stall_ps[i];
+      refusals += f.l2_downstream_refusals[i];
+      if (f.l2.size() == 1) continue;
+      const std::string p = MachineShape::slice_name(i);
+      s.set(p + ".downstream_stall_cycles", cycles(f.l2_downstream_stall_ps[i]), "cycles",
+            "cycles the slice's outbound queue waited because the DRAM queue was full");
+      s.set(p + ".downstream_refusals", f.l2_downstream_refusals[i], "requests",
+            "requests the DRAM did not take at once (its channel queue was full)");
+    }
+    s.set("l2.downstream_stall_cycles", cycles(stall), "cycles",
+          "cycles the L2's outbound queues waited because the DRAM queue was full (summed over slices)");
+    s.set("l2.downstream_refusals", refusals, "requests",
+          "requests the DRAM did not take at once (its channel queue was full)");
+  }
+  f.noc->report(s, "noc", sim_ps);
+  f.dram->report(s, "dram", timed, timed, sim_ps);
   // Every DRAM byte read is an L2 fill: attribute them the same way.
-  l2.filled().report(s, "dram.bytes_by_type", "bytes read from DRAM");
-  s.set_real("dram.bytes_per_ray", rays ? double(dram.counters().bytes) / double(rays) : 0,
+  filled.report(s, "dram.bytes_by_type", "bytes read from DRAM");
+  s.set_real("dram.bytes_per_ray", rays ? double(f.dram->counters().bytes) / double(rays) : 0,
              "bytes/ray", "DRAM bytes read / rays");
+  report_energy(s, config, energy_counts(f, per_type, config.dram));
 }
 
 void report_layout(StatsRegistry& s, const MemoryImage& image, uint64_t triangles) {
@@ -174,6 +265,144 @@ TraversalConfig traversal_config_for(const HardwareConfig& c) {
   return t;
 }
 
+namespace {
+
+using Progress = std::function<void(uint64_t)>;
+
+// Figures of the engine's units (functional and lt). Untimed, a unit is busy for
+// its work / throughput and idle for the rest of the estimate; stalls are not
+// modelled at this level.
+void engine_figures(const RayEngine& engine, bool timed, const HardwareConfig& c, MachineFigures& f) {
+  const double cycle_ps = c.clock_period_ps();
+  const auto units = [&](const std::vector<uint64_t>& work, const std::vector<UnitTime>& time,
+                         double per_cycle, std::vector<UnitFigures>& out) {
+    for (size_t u = 0; u < work.size(); ++u) {
+      const uint64_t busy = uint64_t(std::llround(double(work[u]) / per_cycle * cycle_ps));
+      out.push_back(timed ? UnitFigures{time[u].busy_ps, time[u].occupied_ps(), 0}
+                          : UnitFigures{busy, busy, 0});
+    }
+  };
+  f.trv_passes = engine.trv_passes();
+  f.ist_tests = engine.ist_tests();
+  units(f.trv_passes, engine.trv_time(), c.trv_nodes_per_cycle, f.trv);
+  units(f.ist_tests, engine.ist_time(), c.ist_tests_per_cycle, f.ist);
+  f.shaded = engine.shaded();
+  f.spawned = engine.spawned();
+  if (engine.spawned_rays_are_shaded())
+    units(f.shaded, engine.shading_time(), c.shading_rays_per_cycle, f.shading);
+}
+
+void run_functional(const HardwareConfig& config, const Workload& work, const Progress& progress,
+                    const std::function<void()>& stop_clock, SimulationResult& result) {
+  FunctionalMemory memory(config);
+  RayEngine engine(config, work, false);
+  engine.run(
+      memory, [](uint64_t) {},
+      [&](bool last) {
+        const auto& d = memory.dram.counters();
+        result.frame_history.push_back({engine.total().rays, d.bytes, d.bytes_written, 0});
+        if (!last) memory.reset_counters();
+      },
+      progress);
+  stop_clock();
+  result.per_type = engine.per_type();
+  const CounterTotals total = engine.total();
+  result.rays = total.rays;
+  StatsRegistry& s = result.stats;
+  const MachineShape& m = memory.shape;
+  const double cycle_ps = config.clock_period_ps();
+  // Analytic estimate: the busiest resource bounds the run.
+  const double bytes_per_cycle = memory.dram.peak_bytes_per_second() * cycle_ps * 1e-12;
+  const uint64_t dram_bytes = memory.dram.counters().bytes;
+  uint64_t trv_passes = 0;
+  for (uint64_t p : engine.trv_passes()) trv_passes += p;
+  const double trv_cycles = double(trv_passes) / (m.trv_units() * config.trv_nodes_per_cycle);
+  const double ist_cycles = double(total.ist_ops) / (m.ist_units() * config.ist_tests_per_cycle);
+  const double dram_cycles = double(dram_bytes) / bytes_per_cycle;
+  const double cycles = std::max({trv_cycles, ist_cycles,
+                                  double(total.rays) / (m.cores * config.raygen_rays_per_cycle),
+                                  dram_cycles});
+  result.simulated_ps = uint64_t(std::llround(std::ceil(cycles) * cycle_ps));
+  s.set_real("time.bound_trv_cycles", trv_cycles, "cycles", "box-test pipeline passes / TRV throughput");
+  s.set_real("time.bound_ist_cycles", ist_cycles, "cycles", "IST ops / IST throughput");
+  s.set_real("time.bound_dram_cycles", dram_cycles, "cycles",
+             "DRAM bytes read / peak DRAM bytes per cycle");
+  MachineFigures f;
+  engine_figures(engine, false, config, f);
+  for (auto& c : memory.l1_node) f.l1_node.push_back(c.get());
+  for (auto& c : memory.l1_triangle) f.l1_triangle.push_back(c.get());
+  for (auto& c : memory.l2) f.l2.push_back(c.get());
+  f.dram = &memory.dram;
+  f.noc = &memory.noc;
+  report_machine(s, config, m, f, result.per_type, result.simulated_ps, false);
+}
+
+void run_lt(const HardwareConfig& config, const Workload& work, const Progress& progress,
+            const std::function<void()>& stop_clock, SimulationResult& result) {
+  LtSystem lt("lt", config, work, progress);
+  sc_core::sc_start();
+  stop_clock();
+  const RayEngine& engine = lt.engine;
+  result.frame_history = lt.frame_history;
+  result.per_type = engine.per_type();
+  result.rays = engine.total().rays;
+  result.simulated_ps = engine.end_ps() - engine.start_ps();
+  lt.dram->model.settle(engine.end_ps());  // idle-time refreshes into the counts
+  MachineFigures f;
+  engine_figures(engine, true, config, f);
+  for (auto& c : lt.l1_node) f.l1_node.push_back(&c->model);
+  for (auto& c : lt.l1_triangle) f.l1_triangle.push_back(&c->model);
+  for (auto& c : lt.l2) f.l2.push_back(&c->model);
+  f.dram = &lt.dram->model;
+  f.noc = &lt.noc_model;
+  report_machine(result.stats, config, lt.shape, f, result.per_type, result.simulated_ps, true);
+}
+
+void run_cycle(const HardwareConfig& config, const Workload& work, const Progress& progress,
+               const std::function<void()>& stop_clock, SimulationResult& result) {
+  CycleSystem system("accelerator", config, work, progress);
+  sc_core::sc_start();
+  stop_clock();
+  if (!system.finished)
+    throw std::runtime_error("cycle model stopped with " +
+                             std::to_string(system.issued() - system.rays_done) +
+                             " rays unfinished");
+  result.per_type = system.per_type;
+  result.rays = system.rays_done;
+  result.frame_history = system.frame_history;
+  result.simulated_ps = system.end_ps - system.frame_start_ps;
+  system.dram->model.settle(system.end_ps);  // idle-time refreshes into the counts
+  MachineFigures f;
+  for (auto& u : system.trv) {
+    const Occupancy& o = u->occupancy;
+    f.trv.push_back({o.busy_ps, o.occupied_ps, o.stalled_ps});
+    f.trv_passes.push_back(u->passes);
+  }
+  for (auto& u : system.ist) {
+    const Occupancy& o = u->occupancy;
+    f.ist.push_back({o.busy_ps, o.occupied_ps, o.stalled_ps});
+    f.ist_tests.push_back(u->tests);
+  }
+  for (auto& sh : system.shading) {
+    f.shading.push_back({sh->busy_ps, sh->occupancy.occupied_ps, 0});
+    f.shaded.push_back(sh->shaded);
+    f.spawned.push_back(sh->spawned);
+  }
+  for (auto& r : system.raygen) f.raygen_stalled_ps.push_back(r->stalled_ps);
+  for (auto& c : system.l1_node) f.l1_node.push_back(&c->model);
+  for (auto& c : system.l1_triangle) f.l1_triangle.push_back(&c->model);
+  for (auto& c : system.l2) {
+    f.l2.push_back(&c->model);
+    f.l2_downstream_stall_ps.push_back(c->downstream_stall_ps);
+    f.l2_downstream_refusals.push_back(c->downstream_refusals);
+  }
+  f.dram = &system.dram->model;
+  f.noc = &system.noc_model;
+  report_machine(result.stats, config, system.shape, f, result.per_type, result.simulated_ps, true);
+}
+
+}  // namespace
+
 SimulationResult simulate(const SimulationRequest& request) {
   if (!request.scene || !request.bvh) throw InputError("simulate", "scene and BVH are required");
   if (request.rays.empty() && !request.camera)
@@ -210,158 +439,22 @@ SimulationResult simulate(const SimulationRequest& request) {
   result.plan = work.plan;
   auto progress = request.progress ? request.progress : [](uint64_t) {};
 
+  const double cpu_start = cpu_now();
+  const auto start = std::chrono::steady_clock::now();
+  const auto stop_clock = [&] {
+    result.host_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result.cpu_seconds = cpu_now() - cpu_start;
+  };
+  switch (request.fidelity) {
+    case Fidelity::Functional: run_functional(config, work, progress, stop_clock, result); break;
+    case Fidelity::Lt: run_lt(config, work, progress, stop_clock, result); break;
+    case Fidelity::Cycle: run_cycle(config, work, progress, stop_clock, result); break;
+  }
   StatsRegistry& s = result.stats;
   const double cycle_ps = config.clock_period_ps();
-  const auto start = std::chrono::steady_clock::now();
-  const double cpu_start = cpu_now();
-
-  if (request.fidelity == Fidelity::Functional || request.fidelity == Fidelity::Lt) {
-    std::unique_ptr<FunctionalMemory> functional;
-    std::unique_ptr<LtSystem> lt;
-    RayEngine* engine = nullptr;
-    std::unique_ptr<RayEngine> own_engine;
-    if (request.fidelity == Fidelity::Functional) {
-      functional = std::make_unique<FunctionalMemory>(config);
-      own_engine = std::make_unique<RayEngine>(config, work, false);
-      engine = own_engine.get();
-      engine->run(
-          *functional, [](uint64_t) {},
-          [&](bool last) {
-            const auto& d = functional->dram.counters();
-            result.frame_history.push_back({engine->total().rays, d.bytes, d.bytes_written, 0});
-            if (!last) functional->reset_counters();
-          },
-          progress);
-    } else {
-      lt = std::make_unique<LtSystem>("lt", config, work, progress);
-      engine = &lt->engine;
-      sc_core::sc_start();
-      result.frame_history = lt->frame_history;
-    }
-    result.host_seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    result.cpu_seconds = cpu_now() - cpu_start;
-    result.per_type = engine->per_type();
-    const CounterTotals total = engine->total();
-    result.rays = total.rays;
-
-    std::vector<const CacheModel*> l1n, l1t;
-    const CacheModel* l2;
-    const DramModel* dram;
-    if (functional) {
-      for (auto& c : functional->l1_node) l1n.push_back(c.get());
-      for (auto& c : functional->l1_triangle) l1t.push_back(c.get());
-      l2 = &functional->l2;
-      dram = &functional->dram;
-      // Analytic estimate: the busiest resource bounds the run.
-      const double bytes_per_cycle = dram->peak_bytes_per_second() * cycle_ps * 1e-12;
-      const uint64_t dram_bytes = dram->counters().bytes;
-      uint64_t trv_passes = 0;
-      for (uint64_t p : engine->trv_passes()) trv_passes += p;
-      const double cycles = std::max(
-          {double(trv_passes) / (config.trv_units * config.trv_nodes_per_cycle),
-           double(total.ist_ops) / (config.ist_units * config.ist_tests_per_cycle),
-           double(total.rays) / config.raygen_rays_per_cycle,
-           double(dram_bytes) / bytes_per_cycle});
-      result.simulated_ps = uint64_t(std::llround(std::ceil(cycles) * cycle_ps));
-      s.set_real("time.bound_trv_cycles",
-                 double(trv_passes) / (config.trv_units * config.trv_nodes_per_cycle), "cycles",
-                 "box-test pipeline passes / TRV throughput");
-      s.set_real("time.bound_ist_cycles",
-                 double(total.ist_ops) / (config.ist_units * config.ist_tests_per_cycle), "cycles",
-                 "IST ops / IST throughput");
-      s.set_real("time.bound_dram_cycles", double(dram_bytes) / bytes_per_cycle,
-                 "cycles", "DRAM bytes read / peak DRAM bytes per cycle");
-      // Untimed: a unit is busy for its work / throughput, idle for the rest of the
-      // estimate; stalls are not modelled at this level.
-      const auto unit_busy_ps = [&](uint64_t work_done, double per_cycle) {
-        return uint64_t(std::llround(double(work_done) / per_cycle * cycle_ps));
-      };
-      for (size_t u = 0; u < engine->trv_passes().size(); ++u) {
-        const uint64_t busy = unit_busy_ps(engine->trv_passes()[u], config.trv_nodes_per_cycle);
-        report_unit(s, "trv.unit" + std::to_string(u), {busy, busy, 0}, result.simulated_ps,
-                    cycle_ps, engine->trv_passes()[u], "passes", "box-test pipeline passes (a node takes ceil(children / trv.boxes_per_pass))");
-      }
-      for (size_t u = 0; u < engine->ist_tests().size(); ++u) {
-        const uint64_t busy = unit_busy_ps(engine->ist_tests()[u], config.ist_tests_per_cycle);
-        report_unit(s, "ist.unit" + std::to_string(u), {busy, busy, 0}, result.simulated_ps,
-                    cycle_ps, engine->ist_tests()[u], "tests", "triangle tests through the pipeline");
-      }
-    } else {
-      for (auto& c : lt->l1_node) l1n.push_back(&c->model);
-      for (auto& c : lt->l1_triangle) l1t.push_back(&c->model);
-      l2 = &lt->l2->model;
-      result.simulated_ps = engine->end_ps() - engine->start_ps();
-      lt->dram->model.settle(engine->end_ps());  // idle-time refreshes into the counts
-      dram = &lt->dram->model;
-      // Per-unit figures of the engine's unit timing.
-      for (size_t u = 0; u < engine->trv_time().size(); ++u) {
-        const UnitTime& t = engine->trv_time()[u];
-        report_unit(s, "trv.unit" + std::to_string(u), {t.busy_ps, t.occupied_ps(), 0},
-                    result.simulated_ps, cycle_ps,
-                    engine->trv_passes()[u], "passes", "box-test pipeline passes (a node takes ceil(children / trv.boxes_per_pass))");
-      }
-      for (size_t u = 0; u < engine->ist_time().size(); ++u) {
-        const UnitTime& t = engine->ist_time()[u];
-        report_unit(s, "ist.unit" + std::to_string(u), {t.busy_ps, t.occupied_ps(), 0},
-                    result.simulated_ps, cycle_ps,
-                    engine->ist_tests()[u], "tests", "triangle tests through the pipeline");
-      }
-      if (work.spawn_secondary) {
-        const UnitTime& t = engine->shading_time();
-        report_unit(s, "shading", {t.busy_ps, t.occupied_ps(), 0}, result.simulated_ps, cycle_ps,
-                    engine->shaded(), "rays", "rays shaded");
-      }
-    }
-    report_memory(s, l1n, l1t, *l2, *dram, lt != nullptr, lt != nullptr, result.simulated_ps,
-                  total.rays);
-    report_time(s, config, result.simulated_ps, total.rays, functional != nullptr, request.frames);
-  } else {
-    CycleSystem system("accelerator", config, work, progress);
-    sc_core::sc_start();
-    result.host_seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    result.cpu_seconds = cpu_now() - cpu_start;
-    if (!system.finished)
-      throw std::runtime_error("cycle model stopped with " +
-                               std::to_string(system.raygen->issued() - system.rays_done) +
-                               " rays unfinished");
-    result.per_type = system.per_type;
-    result.rays = system.rays_done;
-    result.frame_history = system.frame_history;
-    result.simulated_ps = system.end_ps - system.frame_start_ps;
-    system.dram->model.settle(system.end_ps);  // idle-time refreshes into the counts
-    const uint64_t T = result.simulated_ps;
-    for (size_t u = 0; u < system.trv.size(); ++u) {
-      const Occupancy& o = system.trv[u]->occupancy;
-      report_unit(s, "trv.unit" + std::to_string(u), {o.busy_ps, o.occupied_ps, o.stalled_ps}, T,
-                  cycle_ps, system.trv[u]->passes, "passes", "box-test pipeline passes (a node takes ceil(children / trv.boxes_per_pass))");
-    }
-    for (size_t u = 0; u < system.ist.size(); ++u) {
-      const Occupancy& o = system.ist[u]->occupancy;
-      report_unit(s, "ist.unit" + std::to_string(u), {o.busy_ps, o.occupied_ps, o.stalled_ps}, T,
-                  cycle_ps, system.ist[u]->tests, "tests", "triangle tests through the pipeline");
-    }
-    if (system.shading) {
-      const Occupancy& o = system.shading->occupancy;
-      report_unit(s, "shading", {system.shading->busy_ps, o.occupied_ps, 0}, T, cycle_ps,
-                  system.shading->shaded, "rays", "rays shaded");
-      s.set("shading.spawned", system.shading->spawned, "rays", "secondary rays spawned");
-    }
-    s.set("raygen.stalled_cycles",
-          uint64_t(std::llround(double(system.raygen->stalled_ps) / cycle_ps)), "cycles",
-          "cycles a ready ray found no free TRV slot");
-    std::vector<const CacheModel*> l1n, l1t;
-    for (auto& c : system.l1_node) l1n.push_back(&c->model);
-    for (auto& c : system.l1_triangle) l1t.push_back(&c->model);
-    report_memory(s, l1n, l1t, system.l2->model, system.dram->model, true, true, T, result.rays);
-    s.set("l2.downstream_stall_cycles",
-          uint64_t(std::llround(double(system.l2->downstream_stall_ps) / cycle_ps)), "cycles",
-          "cycles the L2's outbound queue waited because the DRAM queue was full");
-    s.set("l2.downstream_refusals", system.l2->downstream_refusals, "requests",
-          "requests the DRAM did not take at once (its channel queue was full)");
-    report_time(s, config, T, result.rays, false, request.frames);
-  }
+  report_time(s, config, result.simulated_ps, result.rays, request.fidelity == Fidelity::Functional,
+              request.frames);
   report_counts(s, result.per_type);
   report_layout(s, image, request.scene->triangle_count());
   report_frames(s, result.frame_history, config, request.fidelity == Fidelity::Functional);

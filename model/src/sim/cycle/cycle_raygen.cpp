@@ -7,10 +7,8 @@
 namespace rtsim::sim {
 
 CycleRayGen::CycleRayGen(sc_core::sc_module_name name, const HardwareConfig& config,
-                         const Workload& workload)
-    : sc_module(name),
-      dispatcher_(IssuePolicy::from(config), workload.initial_rays, workload.width,
-                  workload.height, workload.spawn_secondary) {
+                         RayDispatcher& dispatcher, uint32_t core)
+    : sc_module(name), dispatcher_(dispatcher), core_(core) {
   const double cycle_ps = config.clock_period_ps();
   interval_ps_ = uint64_t(std::llround(cycle_ps / config.raygen_rays_per_cycle));
   SC_METHOD(on_event);
@@ -26,12 +24,11 @@ void CycleRayGen::slot_free(CycleTrv* trv, uint32_t slot, uint64_t t) {
 
 void CycleRayGen::add_rays(const std::vector<Ray>& rays, uint64_t ready_ps) {
   if (rays.empty()) return;
-  dispatcher_.add_spawned(rays, ready_ps);
+  dispatcher_.add_spawned(core_, rays, ready_ps);
   wake_.push(ready_ps, 0);
 }
 
 void CycleRayGen::restart(uint64_t t) {
-  dispatcher_.restart();
   issued_ = 0;
   wake_.push(t, 0);
 }
@@ -39,8 +36,9 @@ void CycleRayGen::restart(uint64_t t) {
 void CycleRayGen::on_event() {
   wake_.drain([](int) {});
   const uint64_t now = now_ps();
-  while (!dispatcher_.empty()) {
-    const uint64_t ready = dispatcher_.next_ready_ps();
+  for (;;) {
+    const uint64_t ready = dispatcher_.next_ready_ps(core_);
+    if (ready == UINT64_MAX) break;  // nothing queued for this core
     const uint64_t issue = std::max({now, ready, next_issue_ps_});
     if (issue > now) {
       wake_.push(issue, 0);
@@ -51,7 +49,7 @@ void CycleRayGen::on_event() {
       break;
     }
     uint32_t ray = 0;
-    if (!dispatcher_.next(now, &ray)) break;
+    if (!dispatcher_.next(core_, now, &ray)) break;
     auto [trv, slot] = free_slots_.front();
     free_slots_.pop_front();
     trv->start_ray(slot, ray, dispatcher_.rays()[ray], now);

@@ -6,8 +6,8 @@
 namespace rtsim::sim {
 
 CycleShading::CycleShading(sc_core::sc_module_name name, const HardwareConfig& config,
-                           const Workload& workload, CycleSystem& system)
-    : sc_module(name), workload_(workload), system_(system) {
+                           const Workload& workload, CycleSystem& system, uint32_t core)
+    : sc_module(name), workload_(workload), system_(system), core_(core) {
   const double cycle_ps = config.clock_period_ps();
   interval_ps_ = uint64_t(std::llround(cycle_ps / config.shading_rays_per_cycle));
   latency_ps_ = uint64_t(config.shading_latency) * uint64_t(std::llround(cycle_ps));
@@ -37,7 +37,7 @@ void CycleShading::on_event() {
     ++shaded;
     spawned += out_.size();
     occupancy.leave(now_ps());
-    system_.spawned(out_, now_ps());
+    system_.spawned(core_, out_, now_ps());
   });
 }
 

@@ -6,34 +6,58 @@ namespace rtsim::sim {
 
 CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg,
                          const Workload& work, std::function<void(uint64_t)> progress)
-    : sc_module(name), config(cfg), workload(work), progress_(std::move(progress)) {
+    : sc_module(name), config(cfg), workload(work), shape(MachineShape::of(cfg)),
+      dispatcher(IssuePolicy::from(cfg), work.initial_rays, work.width, work.height,
+                 work.spawn_secondary),
+      noc_model(cfg, shape, true), progress_(std::move(progress)) {
   const uint64_t cycle_ps = uint64_t(std::llround(cfg.clock_period_ps()));
-  raygen = std::make_unique<CycleRayGen>("raygen", cfg, work);
-  l2 = std::make_unique<CycleCache>("l2", cfg.l2, cycle_ps);
+  const auto module = [](const std::string& instance) { return MachineShape::module_name(instance); };
+  // Constructed in the order of the one-core model before it (ray generation, L2,
+  // DRAM, IST, TRV, shading), which a one-core run's results follow exactly.
+  for (uint32_t c = 0; c < shape.cores; ++c)
+    raygen.push_back(std::make_unique<CycleRayGen>(
+        module(MachineShape::core_name(c) + ".raygen").c_str(), cfg, dispatcher, c));
+  for (uint32_t s = 0; s < shape.l2_slices; ++s)
+    l2.push_back(std::make_unique<CycleCache>(module(MachineShape::slice_name(s)).c_str(),
+                                              cfg.l2_slice(), cycle_ps));
   dram = std::make_unique<CycleDram>("dram", cfg.dram, cfg.l2.line_bytes);
-  l2->next.bind(dram->target);
-  for (uint32_t i = 0; i < cfg.ist_units; ++i) {
-    const std::string id = std::to_string(i);
-    ist.push_back(std::make_unique<CycleIst>(("ist" + id).c_str(), cfg, *this));
-    l1_triangle.push_back(
-        std::make_unique<CycleCache>(("l1_triangle" + id).c_str(), cfg.l1_triangle, cycle_ps));
-    ist.back()->memory.bind(l1_triangle.back()->target);
-    l1_triangle.back()->next.bind(l2->target);
+  noc = std::make_unique<CycleCrossbar>("noc", noc_model, shape);
+  for (auto& slice : l2) {
+    noc->to_slice.bind(slice->target);
+    slice->next.bind(dram->target);
   }
-  for (uint32_t u = 0; u < cfg.trv_units; ++u) {
-    const std::string id = std::to_string(u);
-    trv.push_back(std::make_unique<CycleTrv>(("trv" + id).c_str(), cfg, *work.context, u, *this));
-    l1_node.push_back(std::make_unique<CycleCache>(("l1_node" + id).c_str(), cfg.l1_node, cycle_ps));
+  for (uint32_t i = 0; i < shape.ist_units(); ++i) {
+    ist.push_back(std::make_unique<CycleIst>(module(shape.ist_name(i)).c_str(), cfg, *this));
+    l1_triangle.push_back(std::make_unique<CycleCache>(module(shape.l1_triangle_name(i)).c_str(),
+                                                       cfg.l1_triangle, cycle_ps));
+    ist.back()->memory.bind(l1_triangle.back()->target);
+    noc->bind_l1(l1_triangle.back()->next, shape.core_of_ist(i));
+  }
+  for (uint32_t u = 0; u < shape.trv_units(); ++u) {
+    trv.push_back(
+        std::make_unique<CycleTrv>(module(shape.trv_name(u)).c_str(), cfg, *work.context, u, *this));
+    l1_node.push_back(
+        std::make_unique<CycleCache>(module(shape.l1_node_name(u)).c_str(), cfg.l1_node, cycle_ps));
     trv.back()->memory.bind(l1_node.back()->target);
-    l1_node.back()->next.bind(l2->target);
+    noc->bind_l1(l1_node.back()->next, shape.core_of_trv(u));
     ist_for(u).serve(trv.back().get());
   }
   // Shading exists only when finished rays spawn more rays.
   if (work.spawn_secondary)
-    shading = std::make_unique<CycleShading>("shading", cfg, work, *this);
+    for (uint32_t c = 0; c < shape.cores; ++c)
+      shading.push_back(std::make_unique<CycleShading>(
+          module(MachineShape::core_name(c) + ".shading").c_str(), cfg, work, *this, c));
   // Every slot starts free, in the dispatch policy's order (rays spread over units).
-  for (uint32_t id : free_slot_order(cfg.trv_units, cfg.trv_ray_slots))
-    raygen->slot_free(trv[id / cfg.trv_ray_slots].get(), id % cfg.trv_ray_slots, 0);
+  for (uint32_t id : free_slot_order(shape.trv_units(), cfg.trv_ray_slots)) {
+    const uint32_t unit = id / cfg.trv_ray_slots;
+    raygen[shape.core_of_trv(unit)]->slot_free(trv[unit].get(), id % cfg.trv_ray_slots, 0);
+  }
+}
+
+uint64_t CycleSystem::issued() const {
+  uint64_t n = 0;
+  for (auto& r : raygen) n += r->issued();
+  return n;
 }
 
 void CycleSystem::ray_finished(CycleTrv& unit, uint32_t slot, uint32_t ray_index,
@@ -41,21 +65,23 @@ void CycleSystem::ray_finished(CycleTrv& unit, uint32_t slot, uint32_t ray_index
   per_type[size_t(traversal.ray().type)].add(traversal.counters(), traversal.hit().hit());
   ++rays_done;
   end_ps = std::max(end_ps, t);
-  if (shading) shading->shade(ray_index, traversal.ray(), traversal.hit(), t);
-  raygen->slot_free(&unit, slot, t);
+  const uint32_t core = shape.core_of_trv(unit.unit());
+  if (!shading.empty()) shading[core]->shade(ray_index, traversal.ray(), traversal.hit(), t);
+  raygen[core]->slot_free(&unit, slot, t);
   if ((++rays_done_total & 4095) == 0 && progress_) progress_(rays_done_total);
   check_frame_end(t);
 }
 
-void CycleSystem::spawned(const std::vector<Ray>& rays, uint64_t t) {
-  raygen->add_rays(rays, t);
+void CycleSystem::spawned(uint32_t core, const std::vector<Ray>& rays, uint64_t t) {
+  raygen[core]->add_rays(rays, t);
   check_frame_end(t);
 }
 
 void CycleSystem::check_frame_end(uint64_t t) {
   // Done when every issued ray has finished, nothing is queued and shading is idle.
-  if (!raygen->queue_empty() || raygen->issued() != rays_done || (shading && !shading->idle()))
-    return;
+  if (!dispatcher.empty() || issued() != rays_done) return;
+  for (auto& s : shading)
+    if (!s->idle()) return;
   end_ps = std::max(end_ps, t);
   const auto& d = dram->model.counters();
   frame_history.push_back({rays_done, d.bytes, d.bytes_written, end_ps - frame_start_ps});
@@ -67,19 +93,21 @@ void CycleSystem::check_frame_end(uint64_t t) {
   frame_start_ps = t;
   end_ps = t;
   reset_counters();
-  raygen->restart(t);
+  dispatcher.restart();
+  for (auto& r : raygen) r->restart(t);
 }
 
 void CycleSystem::reset_counters() {
   per_type = {};
   rays_done = 0;
-  raygen->reset_counters();
+  for (auto& r : raygen) r->reset_counters();
   for (auto& u : trv) u->reset_counters();
   for (auto& u : ist) u->reset_counters();
-  if (shading) shading->reset_counters();
+  for (auto& s : shading) s->reset_counters();
   for (auto& c : l1_node) c->reset_counters();
   for (auto& c : l1_triangle) c->reset_counters();
-  l2->reset_counters();
+  for (auto& c : l2) c->reset_counters();
+  noc_model.reset_counters();
   dram->model.reset_counters();
 }
 

@@ -12,6 +12,9 @@ struct CacheGeometry {
   uint64_t size_bytes = 16 * 1024;
   uint32_t line_bytes = 64;
   uint32_t ways = 4;  // size / (line * ways) sets, a power of two
+  // An L2 slice of N sees every Nth line only: its sets are indexed by line / N,
+  // so that all of them are used.
+  uint32_t interleave = 1;
 };
 
 // Throws InputError("<name>.<field>: reason") unless line and set counts are powers
@@ -53,6 +56,10 @@ class CacheTags {
   // one or two host cache lines (a miss scans them twice: lookup, then insert).
   static constexpr uint64_t kInvalid = ~uint64_t(0);  // no line number is all ones
   size_t find(uint64_t line) const;  // way index, or npos
+  size_t set_start(uint64_t line) const {
+    return size_t((geometry_.interleave == 1 ? line : line / geometry_.interleave) & (sets_ - 1)) *
+           geometry_.ways;
+  }
   static constexpr size_t npos = ~size_t(0);
   CacheGeometry geometry_;
   uint32_t sets_;

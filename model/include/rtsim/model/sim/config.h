@@ -6,6 +6,7 @@
 // One table (for_each_parameter) is the single source of truth: loading a TOML
 // file, writing the resolved configuration as JSON and the documentation of
 // model/presets/*.toml all walk it, so they cannot drift apart.
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -27,6 +28,7 @@ struct CacheConfig {
   uint32_t mshrs = 8;               // outstanding distinct missing lines
   uint32_t ports = 1;               // accesses accepted per cycle (ports or banks)
   uint32_t fill_latency_cycles = 1; // next level's data arrival to data at the requester
+  uint32_t interleave = 1;          // an L2 slice: it holds every interleave-th line (not a key)
   uint32_t sets() const { return size_bytes / (line_bytes * associativity); }
 };
 
@@ -68,12 +70,40 @@ struct DramConfig {
   double write_drain_low = 0.25;   // a drain stops at this many writes if reads wait
   // Address bits above the access offset, most significant first.
   std::string address_mapping = "row:rank:bank:column:bankgroup:channel";
+  // Energy per command of one channel, set by the part (apply_dram_part cites them).
+  double activate_pj = 2400;      // ACT + its PRE
+  double read_burst_pj = 2700;    // one burst of burst_bytes read
+  double write_burst_pj = 2000;   // one burst written
+  double refresh_pj = 44000;      // one all-bank REF of a rank
   uint32_t banks_per_group() const { return banks / bank_groups; }
 };
+
+// Dynamic energy of the on-chip parts (energy.h). Cache accesses cost what a
+// CACTI table gives for one instance's size (cache_access_pj), times sram_scale.
+struct EnergyConfig {
+  double sram_scale = 1.0;          // 1: the 65 nm table; < 1 for a newer process
+  double box_test_pj = 137;         // one ray-box slab test
+  double triangle_test_pj = 721;    // one ray-triangle test
+  double noc_byte_pj = 4.8;         // one byte across the crossbar (one hop)
+};
+// Energy of one access to an SRAM cache of size_bytes (64-byte lines, one bank):
+// SimTRaX's CACTI table (dkoptacs/simtrax samples/configs/dcacheparams.txt),
+// interpolated in log2(size).
+double cache_access_pj(uint64_t size_bytes);
 
 struct HardwareConfig {
   std::string preset = "mobile";
   uint32_t clock_mhz = 1000;  // accelerator clock; every *_cycles parameter counts it
+
+  // The machine (machine.h): `cores` RT cores, each with its own ray generation,
+  // trv_units TRV and ist_units IST units, shading and L1 caches, joined by a
+  // crossbar to an L2 of l2_slices slices interleaved by line address.
+  uint32_t cores = 1;
+  std::string raygen_dispatch = "static";  // primary tiles to cores: static (round-robin) | dynamic
+  uint32_t l2_slices = 1;
+  uint32_t noc_latency_cycles = 0;  // crossbar traversal, one way
+  uint32_t noc_flit_bytes = 0;      // bytes a crossbar port moves per cycle (0: ideal, unlimited)
+  uint32_t noc_header_bytes = 8;    // address and command of every message
 
   // Ray generation
   double raygen_rays_per_cycle = 1.0;
@@ -107,8 +137,16 @@ struct HardwareConfig {
 
   CacheConfig l1_node{16 * 1024, 64, 4, 2, 8};
   CacheConfig l1_triangle{16 * 1024, 64, 4, 2, 8};
-  CacheConfig l2{512 * 1024, 64, 8, 20, 32, 2, 1};  // two banks
+  CacheConfig l2{512 * 1024, 64, 8, 20, 32, 2, 1};  // the whole L2; mshrs and ports per slice
+  // One slice's geometry: l2 with size_bytes / l2_slices.
+  CacheConfig l2_slice() const {
+    CacheConfig c = l2;
+    c.size_bytes = l2.size_bytes / std::max<uint32_t>(1, l2_slices);
+    c.interleave = std::max<uint32_t>(1, l2_slices);
+    return c;
+  }
   DramConfig dram;
+  EnergyConfig energy;
 
   // Memory image layout (builder/memory_image.h)
   std::string node_format = "bvh2-64";  // builder/node_format.h: bvh2-64 | bvh2-32 | bvh4-128 | ...
@@ -138,8 +176,10 @@ struct ParameterInfo {
 };
 void for_each_parameter(HardwareConfig& config, const std::function<void(ParameterInfo&)>& visit);
 
-std::vector<std::string> preset_names();  // "mobile", "desktop"
+std::vector<std::string> preset_names();  // "mobile", "desktop", "mobile-gpu", "desktop-gpu"
 HardwareConfig preset(const std::string& name);  // throws InputError
+// Where a preset's numbers come from (the head of model/presets/<name>.toml).
+std::string preset_sources(const std::string& name);
 std::vector<std::string> dram_part_names();  // "lpddr4-3200", "ddr4-2400", "gddr6", "lpddr5"
 void apply_dram_part(DramConfig& dram, const std::string& part);  // throws InputError
 

@@ -53,7 +53,7 @@ class DramAddressMap {
   enum Which : uint8_t { Row, Rank, Bank, Column, Channel, BankGroup };
   struct Field {
     Which which;
-    uint32_t shift, bits;
+    uint64_t radix;  // values the field takes (0: all that is left)
   };
   std::vector<Field> fields_;
   uint32_t offset_bits_;

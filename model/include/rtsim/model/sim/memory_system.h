@@ -1,6 +1,7 @@
 #pragma once
-// The memory hierarchy of the functional and loosely-timed levels: one L1 node
-// cache per TRV unit, one L1 triangle cache per IST unit, a shared L2 and DRAM.
+// The memory hierarchy of the functional and loosely-timed levels, as machine.h
+// describes it: one L1 node cache per TRV unit, one L1 triangle cache per IST
+// unit, a crossbar to the L2 slices, DRAM.
 //  - FunctionalMemory: direct calls, tags and counts only, no time.
 //  - LtCache / LtDram: SystemC modules behind TLM-2.0 sockets (blocking transport).
 //    A cache serves a request at its next free port slot, a hit after its hit
@@ -12,10 +13,12 @@
 // Both walk the same CacheModel objects, so their counts follow one definition.
 #include <rtsim/model/sim/cache_model.h>
 #include <rtsim/model/sim/dram.h>
+#include <rtsim/model/sim/machine.h>
 #include <rtsim/model/sim/ray_engine.h>
 
 #include <systemc>
 #include <tlm>
+#include <tlm_utils/multi_passthrough_initiator_socket.h>
 #include <tlm_utils/multi_passthrough_target_socket.h>
 #include <tlm_utils/simple_initiator_socket.h>
 #include <tlm_utils/tlm_quantumkeeper.h>
@@ -33,6 +36,7 @@ struct AccessExtension : tlm::tlm_extension<AccessExtension> {
   RayType ray_type = RayType::Primary;
   uint64_t token = 0;  // the requester's id for the response (cycle level)
   uint64_t first_try_ps = 0;  // when the requester first tried to send it (DRAM latency)
+  int crossbar_port = 0;      // cycle level: the crossbar port the request came in on
   tlm::tlm_extension_base* clone() const override { return new AccessExtension(*this); }
   void copy_from(const tlm::tlm_extension_base& other) override {
     *this = static_cast<const AccessExtension&>(other);
@@ -63,12 +67,13 @@ class FunctionalMemory : public MemoryPort {
   uint32_t line_bytes(Requester who) const override;
   void reset_counters();
 
-  std::vector<std::unique_ptr<CacheModel>> l1_node, l1_triangle;
-  CacheModel l2;
+  MachineShape shape;
+  std::vector<std::unique_ptr<CacheModel>> l1_node, l1_triangle, l2;  // l2: its slices
+  Crossbar noc;
   DramModel dram;
 
  private:
-  void to_l2(const LineAccess& access);
+  void to_l2(uint32_t core, const LineAccess& access);
 };
 
 // The functional hierarchy fed by the core's accesses as one TRV and one IST
@@ -101,6 +106,23 @@ class LtCache : public sc_core::sc_module {
   std::priority_queue<uint64_t, std::vector<uint64_t>, std::greater<uint64_t>> mshr_free_;
 };
 
+// The crossbar at the loosely-timed level: L1s bind to `target` (bind_l1 records
+// each port's core), `to_slice[s]` goes to L2 slice s. A request's delay grows by
+// its way to the slice, the answer's by its way back (Crossbar).
+class LtCrossbar : public sc_core::sc_module {
+ public:
+  tlm_utils::multi_passthrough_target_socket<LtCrossbar> target;
+  tlm_utils::multi_passthrough_initiator_socket<LtCrossbar> to_slice;
+  LtCrossbar(sc_core::sc_module_name name, Crossbar& model, const MachineShape& shape);
+  void bind_l1(tlm_utils::simple_initiator_socket<LtCache>& l1, uint32_t core);
+
+ private:
+  void b_transport(int id, tlm::tlm_generic_payload& payload, sc_core::sc_time& delay);
+  Crossbar& model_;
+  MachineShape shape_;
+  std::vector<uint32_t> core_of_port_;
+};
+
 class LtDram : public sc_core::sc_module {
  public:
   tlm_utils::multi_passthrough_target_socket<LtDram> target;
@@ -124,8 +146,10 @@ class LtSystem : public sc_core::sc_module, public MemoryPort {
 
   RayEngine engine;
   std::vector<FrameFigures> frame_history;
-  std::vector<std::unique_ptr<LtCache>> l1_node, l1_triangle;
-  std::unique_ptr<LtCache> l2;
+  MachineShape shape;
+  Crossbar noc_model;
+  std::vector<std::unique_ptr<LtCache>> l1_node, l1_triangle, l2;  // l2: its slices
+  std::unique_ptr<LtCrossbar> noc;
   std::unique_ptr<LtDram> dram;
 
  private:

@@ -10,6 +10,12 @@
 // Rays go to free TRV slots in the order the slots became free; at the start
 // every slot is free, slot 0 of every unit first, then slot 1, ... so that rays
 // spread over the units (free_slot_order).
+// With several cores the issue order is cut into tiles of raygen.tile pixels
+// (the screen tiles for raygen.order = tiles, runs of that many pixels in the
+// issue order otherwise) and each core issues its tiles in order: tile i goes to
+// core i mod cores (static), or a core that finishes its tile takes the next one
+// not yet taken (dynamic). A core's spawned rays queue on that core. One core
+// issues exactly the single order above.
 #include <rtsim/model/core/ray.h>
 #include <rtsim/model/sim/config.h>
 
@@ -23,6 +29,8 @@ struct IssuePolicy {
   enum class Order { Scanline, Tiles, Morton } order = Order::Tiles;
   uint32_t tile_width = 8, tile_height = 8;
   bool secondary_behind = true;
+  uint32_t cores = 1;
+  bool dynamic = false;  // raygen.dispatch
   static IssuePolicy from(const HardwareConfig& config);
 };
 
@@ -40,28 +48,41 @@ class RayDispatcher {
   RayDispatcher(const IssuePolicy& policy, std::vector<Ray> initial, uint32_t width,
                 uint32_t height, bool spawn);
 
-  // The next ray that is ready at now_ps (index into rays()); false if none.
-  bool next(uint64_t now_ps, uint32_t* ray_index);
-  // Earliest time a queued ray is ready (UINT64_MAX: nothing queued).
-  uint64_t next_ready_ps() const;
-  bool empty() const { return cursor_ >= order_.size() && secondary_.empty(); }
-  // Rays shading spawned (ready at ready_ps), appended to rays().
-  void add_spawned(const std::vector<Ray>& rays, uint64_t ready_ps);
+  // The next ray core `core` issues that is ready at now_ps (index into rays());
+  // false if none.
+  bool next(uint32_t core, uint64_t now_ps, uint32_t* ray_index);
+  // Earliest time a ray queued for the core is ready (UINT64_MAX: nothing queued).
+  uint64_t next_ready_ps(uint32_t core) const;
+  bool empty() const;  // nothing queued for any core
+  // Rays a core's shading spawned (ready at ready_ps), appended to rays().
+  void add_spawned(uint32_t core, const std::vector<Ray>& rays, uint64_t ready_ps);
   const std::vector<Ray>& rays() const { return rays_; }
   // The next frame: the same initial rays again (shading spawns the same secondaries).
   void restart();
+  uint32_t cores() const { return uint32_t(cores_.size()); }
 
  private:
-  IssuePolicy policy_;
-  std::vector<Ray> rays_;
-  size_t initial_count_;
-  std::vector<uint32_t> order_;  // issue order of the initial rays
-  size_t cursor_ = 0;
   struct Spawned {
     uint32_t ray;
     uint64_t ready_ps;
   };
-  std::deque<Spawned> secondary_;
+  struct CoreQueue {
+    size_t cursor = 0, end = 0;  // the core's current tile: order_[cursor, end)
+    size_t next_tile = 0;        // static: the next tile it owns
+    std::deque<Spawned> secondary;
+  };
+  bool primary_left(const CoreQueue& q) const;
+  bool take_tile(uint32_t core);  // moves the core to its next tile; false if none
+  void start_frame();
+
+  IssuePolicy policy_;
+  std::vector<Ray> rays_;
+  size_t initial_count_;
+  std::vector<uint32_t> order_;       // issue order of the initial rays
+  std::vector<size_t> tile_start_;    // order_ cut into tiles; one past the end last
+  size_t next_free_tile_ = 0;         // dynamic
+  size_t secondary_queued_ = 0;
+  std::vector<CoreQueue> cores_;
 };
 
 }  // namespace rtsim::sim

@@ -14,18 +14,21 @@
 //    reservation (pipelines, cache ports, DRAM banks and buses) is made in time
 //    order and nothing depends on the lt quantum, which only sets how often the
 //    engine's thread yields to the SystemC kernel.
+// Units are numbered as in machine.h (TRV unit g of core g / trv.units); every
+// core has its own ray generation and shading.
 // Both levels: a TRV step = one node through the unit's box-test pipeline
 // (trv.nodes_per_cycle, trv.box_test_latency); an IST step = its triangles through
-// the IST pipeline (ist.tests_per_cycle, ist.test_latency), IST unit = TRV unit
-// mod ist.units; stack spills are posted writes, refills reads the ray waits for;
-// a finished ray goes to shading (shading.rays_per_cycle, shading.latency), whose
-// spawned rays are ready after it; ray generation issues at raygen.rays_per_cycle
-// in the RayDispatcher's order.
+// the IST pipeline (ist.tests_per_cycle, ist.test_latency) of its core's IST unit
+// (MachineShape::ist_of_trv); stack spills are posted writes, refills reads the ray waits for;
+// a finished ray goes to its core's shading (shading.rays_per_cycle,
+// shading.latency), whose spawned rays are ready after it; each core's ray
+// generation issues at raygen.rays_per_cycle in the RayDispatcher's order.
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/core/ray_generation.h>
 #include <rtsim/model/core/traversal.h>
 #include <rtsim/model/sim/cache_model.h>
 #include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/machine.h>
 #include <rtsim/model/sim/ray_dispatch.h>
 #include <rtsim/model/sim/stats.h>
 
@@ -45,8 +48,9 @@ inline Requester requester_of(AccessKind kind) {
   return kind == AccessKind::Node || kind == AccessKind::Stack ? Requester::Trv : Requester::Ist;
 }
 
-// Where a unit's line accesses go. Returns when a read's data is there, or when
-// a write was taken (writes are posted). Functional: issue_ps.
+// Where a unit's line accesses go (unit: the global TRV or IST unit number).
+// Returns when a read's data is there, or when a write was taken (writes are
+// posted). Functional: issue_ps.
 class MemoryPort {
  public:
   virtual ~MemoryPort() = default;
@@ -119,10 +123,13 @@ class RayEngine {
   CounterTotals total() const;
   const std::vector<UnitTime>& trv_time() const { return trv_time_; }
   const std::vector<UnitTime>& ist_time() const { return ist_time_; }
-  const UnitTime& shading_time() const { return shading_time_; }
+  const std::vector<UnitTime>& shading_time() const { return shading_time_; }  // per core
   const std::vector<uint64_t>& trv_passes() const { return trv_passes_; }  // per TRV unit
   const std::vector<uint64_t>& ist_tests() const { return ist_tests_; }  // per IST unit
-  uint64_t shaded() const { return shaded_; }
+  const std::vector<uint64_t>& shaded() const { return shaded_; }  // per core
+  const std::vector<uint64_t>& spawned() const { return spawned_count_; }  // per core
+  const MachineShape& shape() const { return shape_; }
+  bool spawned_rays_are_shaded() const { return workload_->spawn_secondary; }  // shading exists
 
  private:
   struct Slot {
@@ -132,6 +139,7 @@ class RayEngine {
     uint64_t start_ps = 0;
     Slot(const TraversalContext& c, uint32_t id, uint32_t u) : traversal(c, id), unit(u) {}
   };
+  // Dispatch: the core in `slot` has rays ready for its idle slots.
   enum class EventKind : uint8_t { Issue, Dependent, Arrive, Complete, Dispatch };
   struct Event {
     uint64_t time_ps, sequence;
@@ -156,6 +164,7 @@ class RayEngine {
   void schedule(uint64_t t, uint32_t slot, EventKind kind);
 
   HardwareConfig config_;
+  MachineShape shape_;
   const Workload* workload_;
   bool timed_;
   uint64_t cycle_ps_;
@@ -163,13 +172,13 @@ class RayEngine {
   std::vector<Slot> slots_;              // by global slot id (unit * slots + slot)
   std::vector<uint32_t> visit_order_;   // free_slot_order
   std::vector<uint64_t> trv_free_, ist_free_;
-  uint64_t shading_free_ = 0, raygen_free_ = 0;
+  std::vector<uint64_t> shading_free_, raygen_free_;  // per core
   uint64_t trv_interval_ps_, ist_interval_ps_, shading_interval_ps_, raygen_interval_ps_;
   uint64_t box_latency_ps_, test_latency_ps_, shading_latency_ps_;
   std::vector<UnitTime> trv_time_, ist_time_;
   std::vector<uint64_t> trv_passes_, ist_tests_;
-  UnitTime shading_time_;
-  uint64_t shaded_ = 0;
+  std::vector<UnitTime> shading_time_;
+  std::vector<uint64_t> shaded_, spawned_count_;
   std::array<CounterTotals, kRayTypeCount> per_type_{};
   uint64_t frame_start_ps_ = 0, end_ps_ = 0;
   uint64_t done_rays_ = 0;
@@ -197,7 +206,7 @@ class RayEngine {
   };
   EventCalendar events_;
   uint64_t sequence_ = 0;
-  std::deque<uint32_t> idle_slots_;
+  std::vector<std::deque<uint32_t>> idle_slots_;  // per core, in free_slot_order
   std::vector<uint64_t> arrive_ps_;  // per slot: when the step's reads are all back
 };
 

@@ -1,7 +1,7 @@
 #pragma once
-// Cycle level ray generation: hands rays, in the RayDispatcher's issue order, to
-// free TRV slots at raygen.rays_per_cycle, never before a ray is ready (spawned
-// rays: after shading).
+// Cycle level ray generation, one per core: hands the core's rays, in the
+// RayDispatcher's issue order, to the core's free TRV slots at
+// raygen.rays_per_cycle, never before a ray is ready (spawned rays: after shading).
 #include <rtsim/model/core/ray.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/ray_dispatch.h>
@@ -12,24 +12,23 @@
 namespace rtsim::sim {
 
 class CycleTrv;
-struct Workload;
 
 class CycleRayGen : public sc_core::sc_module {
  public:
-  CycleRayGen(sc_core::sc_module_name name, const HardwareConfig& config, const Workload& workload);
+  CycleRayGen(sc_core::sc_module_name name, const HardwareConfig& config,
+              RayDispatcher& dispatcher, uint32_t core);
   void slot_free(CycleTrv* trv, uint32_t slot, uint64_t t);
-  void add_rays(const std::vector<Ray>& rays, uint64_t ready_ps);  // from shading
-  const std::vector<Ray>& rays() const { return dispatcher_.rays(); }
-  bool queue_empty() const { return dispatcher_.empty(); }
+  void add_rays(const std::vector<Ray>& rays, uint64_t ready_ps);  // from the core's shading
   uint64_t issued() const { return issued_; }
-  void restart(uint64_t t);  // the next frame
+  void restart(uint64_t t);  // the next frame (after the dispatcher's restart)
   void reset_counters() { stalled_ps = 0; }
   uint64_t stalled_ps = 0;  // rays ready but no free TRV slot
 
  private:
   SC_HAS_PROCESS(CycleRayGen);
   void on_event();
-  RayDispatcher dispatcher_;
+  RayDispatcher& dispatcher_;
+  uint32_t core_;
   uint64_t issued_ = 0;
   uint64_t interval_ps_, next_issue_ps_ = 0;
   std::deque<std::pair<CycleTrv*, uint32_t>> free_slots_;

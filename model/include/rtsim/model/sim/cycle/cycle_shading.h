@@ -1,5 +1,5 @@
 #pragma once
-// Cycle level shading: takes finished rays, and after its latency (throughput
+// Cycle level shading, one per core: takes the core's finished rays, and after its latency (throughput
 // shading.rays_per_cycle) spawns the secondary rays the scene's effects call
 // for through the core's spawn_secondary_rays. Elaborated only when some effect
 // needs secondary rays.
@@ -15,7 +15,7 @@ struct Workload;
 class CycleShading : public sc_core::sc_module {
  public:
   CycleShading(sc_core::sc_module_name name, const HardwareConfig& config, const Workload& workload,
-               CycleSystem& system);
+               CycleSystem& system, uint32_t core);
   void shade(uint32_t ray_index, const Ray& ray, const HitRecord& hit, uint64_t t);
   bool idle() const { return occupancy.resident == 0; }
   void reset_counters();
@@ -32,6 +32,7 @@ class CycleShading : public sc_core::sc_module {
   void on_event();
   const Workload& workload_;
   CycleSystem& system_;
+  uint32_t core_;
   uint64_t interval_ps_, latency_ps_, free_ps_ = 0;
   TimedQueue<Item> queue_;
   std::vector<Ray> out_;

@@ -1,11 +1,13 @@
 #pragma once
-// The cycle-level (approximately timed, event driven) accelerator: ray
-// generation, TRV units, IST units, shading (only if the workload spawns
-// secondary rays), per-unit L1s, shared L2 and DRAM behind TLM-2.0 sockets.
+// The cycle-level (approximately timed, event driven) accelerator, built from
+// machine.h's description: per core a ray generation, TRV units, IST units,
+// shading (only if the workload spawns secondary rays) and per-unit L1s; a
+// crossbar to the L2 slices; DRAM; all joined by TLM-2.0 sockets.
 // Frames run back to back: when every ray of a frame (and every ray it spawned)
 // is done, the counters start again and the same rays are issued once more.
 #include <rtsim/model/sim/cycle/cycle_cache.h>
 #include <rtsim/model/sim/cycle/cycle_ist.h>
+#include <rtsim/model/sim/cycle/cycle_noc.h>
 #include <rtsim/model/sim/cycle/cycle_raygen.h>
 #include <rtsim/model/sim/cycle/cycle_shading.h>
 #include <rtsim/model/sim/cycle/cycle_trv.h>
@@ -22,22 +24,26 @@ class CycleSystem : public sc_core::sc_module {
               std::function<void(uint64_t)> progress);
 
   // Called by the units.
-  CycleIst& ist_for(uint32_t trv_unit) { return *ist[trv_unit % ist.size()]; }
+  CycleIst& ist_for(uint32_t trv_unit) { return *ist[shape.ist_of_trv(trv_unit)]; }
   void ray_finished(CycleTrv& trv, uint32_t slot, uint32_t ray_index, const RayTraversal& traversal,
                     uint64_t t);
-  void spawned(const std::vector<Ray>& rays, uint64_t t);  // from shading
+  void spawned(uint32_t core, const std::vector<Ray>& rays, uint64_t t);  // from a core's shading
+  uint64_t issued() const;  // rays the cores' ray generation issued this frame
   void observe(const Ray& ray, const MemoryAccess& access) const {
     if (workload.observer) workload.observer(ray, access);
   }
 
   const HardwareConfig& config;
   const Workload& workload;
-  std::unique_ptr<CycleRayGen> raygen;
-  std::vector<std::unique_ptr<CycleTrv>> trv;
+  MachineShape shape;
+  RayDispatcher dispatcher;
+  std::vector<std::unique_ptr<CycleRayGen>> raygen;    // per core
+  std::vector<std::unique_ptr<CycleTrv>> trv;           // global TRV unit numbers
   std::vector<std::unique_ptr<CycleIst>> ist;
-  std::unique_ptr<CycleShading> shading;  // null when nothing needs shading
-  std::vector<std::unique_ptr<CycleCache>> l1_node, l1_triangle;
-  std::unique_ptr<CycleCache> l2;
+  std::vector<std::unique_ptr<CycleShading>> shading;  // per core; empty when nothing needs shading
+  std::vector<std::unique_ptr<CycleCache>> l1_node, l1_triangle, l2;  // l2: its slices
+  Crossbar noc_model;
+  std::unique_ptr<CycleCrossbar> noc;
   std::unique_ptr<CycleDram> dram;
   std::array<CounterTotals, kRayTypeCount> per_type{};
   uint64_t rays_done = 0;          // in the last frame

@@ -24,6 +24,7 @@ class CycleTrv : public sc_core::sc_module {
   tlm_utils::simple_initiator_socket<CycleTrv> memory;
   CycleTrv(sc_core::sc_module_name name, const HardwareConfig& config,
            const TraversalContext& context, uint32_t unit, CycleSystem& system);
+  uint32_t unit() const { return unit_; }
 
   uint32_t slots() const { return uint32_t(slots_.size()); }
   void start_ray(uint32_t slot, uint32_t ray_index, const Ray& ray, uint64_t t);
@@ -59,7 +60,7 @@ class CycleTrv : public sc_core::sc_module {
 
   const HardwareConfig& config_;
   CycleSystem& system_;
-  uint32_t unit_;
+  uint32_t unit_;  // global TRV unit number (machine.h)
   uint64_t cycle_ps_, interval_ps_, latency_ps_;
   std::vector<Slot> slots_;
   TimedQueue<Item> queue_;

@@ -1,0 +1,32 @@
+#pragma once
+// Energy of a run from its event counts: every cache access, every byte through
+// the crossbar, every DRAM command, every TRV pass and IST test costs the energy
+// its parameter (energy.*, with the sources in model/src/sim/config.cpp) says.
+// Dynamic energy only: static (leakage, DRAM background) power is not modelled.
+//   energy.<component>.pj, energy.total_pj, energy.pj_per_ray, energy.rays_per_joule
+//   energy.per_type.<ray type>.pj_per_ray: a component's energy shared out by the
+//   bytes (caches, crossbar, DRAM) or ops (TRV, IST) each ray type caused there.
+#include <rtsim/model/core/functional_tracer.h>
+#include <rtsim/model/sim/cache_model.h>
+#include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/stats.h>
+
+#include <array>
+#include <cstdint>
+
+namespace rtsim::sim {
+
+struct EnergyCounts {
+  // Accesses of each cache level (requests plus the dirty lines it wrote down) and
+  // the bytes each ray type asked of it.
+  uint64_t l1_node_accesses = 0, l1_triangle_accesses = 0, l2_accesses = 0;
+  TrafficMatrix l1_node_bytes, l1_triangle_bytes, l2_bytes, dram_bytes;
+  uint64_t noc_bytes = 0;
+  uint64_t dram_activates = 0, dram_read_bursts = 0, dram_write_bursts = 0, dram_refreshes = 0;
+  std::array<CounterTotals, kRayTypeCount> per_type{};  // box tests and triangle tests by type
+};
+
+// Cache energies follow one instance's size (an L1 per unit, an L2 slice).
+void report_energy(StatsRegistry& stats, const HardwareConfig& config, const EnergyCounts& counts);
+
+}  // namespace rtsim::sim

@@ -1,0 +1,94 @@
+#pragma once
+// The machine as data: what instances a HardwareConfig describes, how they are
+// numbered and named, and how they connect. Every fidelity level builds its
+// units, caches and crossbar from this one description, and every statistic is
+// reported under the instance name it gives:
+//
+//   accelerator (clock_mhz)
+//     core<c>            c < cores: raygen, shading,
+//       trv<u>, l1_node<u>        u < trv.units (a TRV unit and its L1 node cache)
+//       ist<i>, l1_triangle<i>    i < ist.units (an IST unit and its L1 triangle cache)
+//     noc                a crossbar: every core's L1s to every L2 slice
+//     l2.slice<s>        s < l2.slices, line index mod slices
+//     dram               dram.channels channels behind the slices
+//
+// Units are numbered globally core-major (TRV unit g = c * trv.units + u), so a
+// one-core machine keeps the numbers it always had. A TRV unit sends leaves to
+// the IST unit u mod ist.units of its own core.
+#include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/stats.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rtsim::sim {
+
+struct MachineShape {
+  uint32_t cores = 1;
+  uint32_t trv_per_core = 1, ist_per_core = 1, slots_per_trv = 1;
+  uint32_t l2_slices = 1;
+  uint32_t l2_line_bytes = 64;
+
+  static MachineShape of(const HardwareConfig& config);
+
+  uint32_t trv_units() const { return cores * trv_per_core; }
+  uint32_t ist_units() const { return cores * ist_per_core; }
+  uint32_t slots() const { return trv_units() * slots_per_trv; }
+  uint32_t core_of_trv(uint32_t trv) const { return trv / trv_per_core; }
+  uint32_t core_of_ist(uint32_t ist) const { return ist / ist_per_core; }
+  uint32_t ist_of_trv(uint32_t trv) const {
+    return core_of_trv(trv) * ist_per_core + (trv % trv_per_core) % ist_per_core;
+  }
+  uint32_t slice_of(uint64_t address) const {
+    return l2_slices == 1 ? 0 : uint32_t((address / l2_line_bytes) % l2_slices);
+  }
+
+  // Instance names, as the statistics use them.
+  static std::string core_name(uint32_t core) { return "core" + std::to_string(core); }
+  std::string trv_name(uint32_t trv) const;          // core1.trv2
+  std::string ist_name(uint32_t ist) const;          // core1.ist0
+  std::string l1_node_name(uint32_t trv) const;      // core1.l1_node2
+  std::string l1_triangle_name(uint32_t ist) const;  // core1.l1_triangle0
+  static std::string slice_name(uint32_t slice) { return "l2.slice" + std::to_string(slice); }
+  // The same with '_' for '.' (SystemC module names may not hold dots).
+  static std::string module_name(const std::string& instance);
+};
+
+// The crossbar between the cores' L1s and the L2 slices. Each core and each
+// slice has one port each way; a message of header + data bytes takes
+// ceil(bytes / flit_bytes) cycles on the sender's outgoing and the receiver's
+// incoming port (both reserved in the order messages are sent, like a cache's
+// ports), then latency_cycles to arrive. Reads send a header and get the line
+// back; writes send the line and get a header back. flit_bytes = 0 is an ideal
+// crossbar: no serialisation, only the latency. One definition of the counts
+// for every level; the functional level counts without time.
+class Crossbar {
+ public:
+  Crossbar(const HardwareConfig& config, const MachineShape& shape, bool timed);
+
+  // When a request of `data_bytes` (0 for a read) sent at t_ps reaches the slice.
+  uint64_t to_slice(uint32_t core, uint32_t slice, uint32_t data_bytes, uint64_t t_ps);
+  // When the response (`data_bytes`: the line for a read, 0 for a write) reaches the core.
+  uint64_t to_core(uint32_t slice, uint32_t core, uint32_t data_bytes, uint64_t t_ps);
+
+  void reset_counters();
+  // noc.*: messages, bytes and flits each way, port utilisation, queueing.
+  void report(StatsRegistry& stats, const std::string& prefix, uint64_t simulated_ps) const;
+  uint64_t bytes() const { return bytes_[0] + bytes_[1]; }
+
+ private:
+  uint64_t send(std::vector<uint64_t>& out_free, uint32_t from, std::vector<uint64_t>& in_free,
+                uint32_t to, uint32_t data_bytes, uint64_t t_ps, int direction);
+
+  bool timed_;
+  uint32_t flit_bytes_, header_bytes_;
+  uint64_t cycle_ps_, latency_ps_;
+  // Per port, when it is next free: [0] toward the slices, [1] toward the cores.
+  std::vector<uint64_t> core_out_free_, slice_in_free_, slice_out_free_, core_in_free_;
+  std::vector<uint64_t> core_in_flits_, slice_in_flits_;  // busy flit-cycles per receiving port
+  uint64_t messages_[2] = {}, bytes_[2] = {}, flits_[2] = {};
+  uint64_t wait_ps_ = 0, wait_max_ps_ = 0;
+};
+
+}  // namespace rtsim::sim

@@ -1,0 +1,84 @@
+#include <rtsim/model/sim/energy.h>
+
+#include <string>
+
+namespace rtsim::sim {
+
+namespace {
+
+// Each ray type's share of a matrix's bytes (all zero when it is empty).
+std::array<double, kRayTypeCount> shares(const TrafficMatrix& m) {
+  std::array<double, kRayTypeCount> out{};
+  const double total = double(m.total());
+  if (total <= 0) return out;
+  for (size_t t = 0; t < kRayTypeCount; ++t) {
+    uint64_t bytes = 0;
+    for (uint64_t b : m.bytes[t]) bytes += b;
+    out[t] = double(bytes) / total;
+  }
+  return out;
+}
+
+}  // namespace
+
+void report_energy(StatsRegistry& s, const HardwareConfig& config, const EnergyCounts& c) {
+  const EnergyConfig& e = config.energy;
+  const DramConfig& d = config.dram;
+  const auto access_pj = [&](const CacheConfig& cache) {
+    return cache_access_pj(cache.size_bytes) * e.sram_scale;
+  };
+  struct Component {
+    const char* name;
+    double pj;
+    std::array<double, kRayTypeCount> share;
+    const char* what;
+  };
+  std::array<double, kRayTypeCount> trv_share{}, ist_share{};
+  uint64_t box_tests = 0, triangle_tests = 0, rays = 0;
+  for (const CounterTotals& t : c.per_type)
+    box_tests += t.box_tests, triangle_tests += t.ist_ops, rays += t.rays;
+  for (size_t t = 0; t < kRayTypeCount; ++t) {
+    trv_share[t] = box_tests ? double(c.per_type[t].box_tests) / double(box_tests) : 0;
+    ist_share[t] = triangle_tests ? double(c.per_type[t].ist_ops) / double(triangle_tests) : 0;
+  }
+  const double dram_pj = double(c.dram_activates) * d.activate_pj +
+                         double(c.dram_read_bursts) * d.read_burst_pj +
+                         double(c.dram_write_bursts) * d.write_burst_pj +
+                         double(c.dram_refreshes) * d.refresh_pj;
+  const Component parts[] = {
+      {"trv", double(box_tests) * e.box_test_pj, trv_share, "TRV ray-box tests"},
+      {"ist", double(triangle_tests) * e.triangle_test_pj, ist_share, "IST ray-triangle tests"},
+      {"l1_node", double(c.l1_node_accesses) * access_pj(config.l1_node), shares(c.l1_node_bytes),
+       "L1 node cache accesses (requests and write-backs)"},
+      {"l1_triangle", double(c.l1_triangle_accesses) * access_pj(config.l1_triangle),
+       shares(c.l1_triangle_bytes), "L1 triangle cache accesses (requests and write-backs)"},
+      {"l2", double(c.l2_accesses) * access_pj(config.l2_slice()), shares(c.l2_bytes),
+       "L2 accesses (requests and write-backs)"},
+      {"noc", double(c.noc_bytes) * e.noc_byte_pj, shares(c.l2_bytes), "bytes through the crossbar"},
+      {"dram", dram_pj, shares(c.dram_bytes), "DRAM activates, read and write bursts, refreshes"},
+  };
+  double total = 0;
+  std::array<double, kRayTypeCount> by_type{};
+  for (const Component& p : parts) {
+    s.set_real(std::string("energy.") + p.name + ".pj", p.pj, "pJ", std::string("energy of ") + p.what);
+    s.set_real(std::string("energy.") + p.name + ".pj_per_ray", rays ? p.pj / double(rays) : 0,
+               "pJ/ray", std::string("energy of ") + p.what + " / rays");
+    total += p.pj;
+    for (size_t t = 0; t < kRayTypeCount; ++t) by_type[t] += p.pj * p.share[t];
+  }
+  s.set_real("energy.total_pj", total, "pJ", "dynamic energy of the run (no leakage, no DRAM background)");
+  s.set_real("energy.pj_per_ray", rays ? total / double(rays) : 0, "pJ/ray", "energy.total_pj / rays");
+  s.set_real("energy.rays_per_joule", total > 0 ? double(rays) / (total * 1e-12) : 0, "rays/J",
+             "rays / dynamic energy");
+  s.set_real("energy.dram_share", total > 0 ? dram_pj / total : 0, "ratio", "DRAM energy / total");
+  for (RayType t : kAllRayTypes) {
+    const CounterTotals& c_t = c.per_type[size_t(t)];
+    if (c_t.rays == 0) continue;
+    s.set_real(std::string("energy.per_type.") + ray_type_name(t) + ".pj_per_ray",
+               by_type[size_t(t)] / double(c_t.rays), "pJ/ray",
+               std::string("energy shared out to ") + ray_type_name(t) +
+                   " rays (by their bytes or ops at each component) / their count");
+  }
+}
+
+}  // namespace rtsim::sim

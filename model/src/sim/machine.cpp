@@ -1,0 +1,111 @@
+#include <rtsim/model/sim/machine.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace rtsim::sim {
+
+MachineShape MachineShape::of(const HardwareConfig& c) {
+  MachineShape m;
+  m.cores = c.cores;
+  m.trv_per_core = c.trv_units;
+  m.ist_per_core = c.ist_units;
+  m.slots_per_trv = c.trv_ray_slots;
+  m.l2_slices = c.l2_slices;
+  m.l2_line_bytes = c.l2.line_bytes;
+  return m;
+}
+
+std::string MachineShape::trv_name(uint32_t trv) const {
+  return core_name(core_of_trv(trv)) + ".trv" + std::to_string(trv % trv_per_core);
+}
+std::string MachineShape::ist_name(uint32_t ist) const {
+  return core_name(core_of_ist(ist)) + ".ist" + std::to_string(ist % ist_per_core);
+}
+std::string MachineShape::l1_node_name(uint32_t trv) const {
+  return core_name(core_of_trv(trv)) + ".l1_node" + std::to_string(trv % trv_per_core);
+}
+std::string MachineShape::l1_triangle_name(uint32_t ist) const {
+  return core_name(core_of_ist(ist)) + ".l1_triangle" + std::to_string(ist % ist_per_core);
+}
+std::string MachineShape::module_name(const std::string& instance) {
+  std::string s = instance;
+  std::replace(s.begin(), s.end(), '.', '_');
+  return s;
+}
+
+Crossbar::Crossbar(const HardwareConfig& c, const MachineShape& m, bool timed)
+    : timed_(timed), flit_bytes_(c.noc_flit_bytes), header_bytes_(c.noc_header_bytes),
+      cycle_ps_(uint64_t(std::llround(c.clock_period_ps()))),
+      latency_ps_(uint64_t(c.noc_latency_cycles) * cycle_ps_),
+      core_out_free_(m.cores, 0), slice_in_free_(m.l2_slices, 0), slice_out_free_(m.l2_slices, 0),
+      core_in_free_(m.cores, 0), core_in_flits_(m.cores, 0), slice_in_flits_(m.l2_slices, 0) {}
+
+uint64_t Crossbar::send(std::vector<uint64_t>& out_free, uint32_t from,
+                        std::vector<uint64_t>& in_free, uint32_t to, uint32_t data_bytes,
+                        uint64_t t, int direction) {
+  const uint32_t bytes = header_bytes_ + data_bytes;
+  const uint64_t flits = flit_bytes_ ? std::max<uint64_t>(1, (bytes + flit_bytes_ - 1) / flit_bytes_) : 0;
+  ++messages_[direction];
+  bytes_[direction] += bytes;
+  flits_[direction] += flits;
+  (direction == 0 ? slice_in_flits_ : core_in_flits_)[to] += flits;
+  if (!timed_) return t;
+  if (flits == 0) return t + latency_ps_;
+  // Both ports carry the message's flits back to back; it waits for the later to free.
+  const uint64_t start = std::max({t, out_free[from], in_free[to]});
+  const uint64_t wait = start - t;
+  wait_ps_ += wait;
+  wait_max_ps_ = std::max(wait_max_ps_, wait);
+  out_free[from] = in_free[to] = start + flits * cycle_ps_;
+  return start + flits * cycle_ps_ + latency_ps_;
+}
+
+uint64_t Crossbar::to_slice(uint32_t core, uint32_t slice, uint32_t data_bytes, uint64_t t) {
+  return send(core_out_free_, core, slice_in_free_, slice, data_bytes, t, 0);
+}
+
+uint64_t Crossbar::to_core(uint32_t slice, uint32_t core, uint32_t data_bytes, uint64_t t) {
+  return send(slice_out_free_, slice, core_in_free_, core, data_bytes, t, 1);
+}
+
+void Crossbar::reset_counters() {
+  std::fill(core_in_flits_.begin(), core_in_flits_.end(), 0);
+  std::fill(slice_in_flits_.begin(), slice_in_flits_.end(), 0);
+  for (int d = 0; d < 2; ++d) messages_[d] = bytes_[d] = flits_[d] = 0;
+  wait_ps_ = wait_max_ps_ = 0;
+}
+
+void Crossbar::report(StatsRegistry& s, const std::string& prefix, uint64_t sim_ps) const {
+  const double cycles = double(sim_ps) / double(cycle_ps_);
+  const char* names[2] = {"to_slices", "to_cores"};
+  const char* what[2] = {"requests and write data, L1s to L2 slices",
+                         "responses and read data, L2 slices to L1s"};
+  for (int d = 0; d < 2; ++d) {
+    const std::string p = prefix + "." + names[d];
+    s.set(p + ".messages", messages_[d], "messages", std::string("crossbar messages: ") + what[d]);
+    s.set(p + ".bytes", bytes_[d], "bytes", "bytes of those messages, headers included");
+    if (flit_bytes_ == 0) continue;
+    s.set(p + ".flits", flits_[d], "flits", "port cycles those messages took (noc.flit_bytes each)");
+    if (!timed_ || cycles <= 0) continue;
+    const std::vector<uint64_t>& ports = d == 0 ? slice_in_flits_ : core_in_flits_;
+    uint64_t max = 0, sum = 0;
+    for (uint64_t f : ports) max = std::max(max, f), sum += f;
+    s.set_real(p + ".max_port_utilisation", std::min(1.0, double(max) / cycles), "ratio",
+               "the busiest receiving port's flit cycles / simulated cycles");
+    s.set_real(p + ".mean_port_utilisation",
+               std::min(1.0, double(sum) / double(ports.size()) / cycles), "ratio",
+               "receiving ports' flit cycles / (ports x simulated cycles)");
+  }
+  s.set(prefix + ".latency_cycles", latency_ps_ / cycle_ps_, "cycles", "crossbar traversal, one way");
+  if (timed_ && flit_bytes_ != 0) {
+    const uint64_t messages = messages_[0] + messages_[1];
+    s.set_real(prefix + ".wait_cycles_mean",
+               messages ? double(wait_ps_) / double(cycle_ps_) / double(messages) : 0, "cycles",
+               "mean cycles a message waited for its two ports (queueing)");
+    s.set_real(prefix + ".wait_cycles_max", double(wait_max_ps_) / double(cycle_ps_), "cycles",
+               "longest wait of a message for its ports");
+  }
+}
+
+}  // namespace rtsim::sim

@@ -1,0 +1,151 @@
+// The machine as data (model/sim/machine.h): one core reproduces the single
+// accelerator rtsim modelled before the redesign, count for count; many cores
+// never go faster than their DRAM or their TRV pipelines allow.
+#include "cli_runner.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include <unistd.h>
+
+namespace {
+
+std::filesystem::path scratch(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("rtsim_machine_" + std::to_string(getpid()) + "_" + name);
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// stats.json as "a.b.c" -> the JSON value.
+void flatten(const nlohmann::json& j, const std::string& prefix,
+             std::map<std::string, nlohmann::json>& out) {
+  if (j.is_object() && j.contains("value") && j.contains("unit")) {
+    out[prefix] = j.at("value");
+    return;
+  }
+  for (auto it = j.begin(); it != j.end(); ++it)
+    flatten(it.value(), prefix.empty() ? it.key() : prefix + "." + it.key(), out);
+}
+
+std::map<std::string, nlohmann::json> read_stats(const std::filesystem::path& dir) {
+  std::ifstream in(dir / "stats.json");
+  std::map<std::string, nlohmann::json> out;
+  flatten(nlohmann::json::parse(in), "", out);
+  return out;
+}
+
+double number(const std::map<std::string, nlohmann::json>& s, const std::string& key) {
+  auto it = s.find(key);
+  if (it == s.end()) throw std::runtime_error("no stat " + key);
+  return it->second.get<double>();
+}
+
+struct GoldenRun {
+  const char* name;  // tests/integration/golden/mobile-<name>.tsv
+  const char* args;  // rtsim simulate arguments (the config file comes from the test)
+  bool scanline;
+};
+
+void PrintTo(const GoldenRun& run, std::ostream* out) { *out << run.name; }
+
+class OneCore : public testing::TestWithParam<GoldenRun> {};
+
+}  // namespace
+
+// The stored stats are those of the single-accelerator model at commit 29dd28a
+// (before the machine redesign), with its keys renamed to the instance names
+// (trv.unit0 -> core0.trv0, l1_node.unit0 -> core0.l1_node0, shading -> core0.shading,
+// raygen -> core0.raygen). Every one of them, counts and ratios, must come out
+// identical; new stats (noc.*, l2.slice_balance, ...) may be added.
+TEST_P(OneCore, ReproducesTheSingleAcceleratorCountForCount) {
+  const GoldenRun& run = GetParam();
+  const auto dir = scratch(run.name);
+  const std::string config = (dir / "machine.toml").string();
+  std::ofstream(config) << "preset = \"mobile\"\ncores = 1\n"
+                        << (run.scanline ? "raygen.order = \"scanline\"\n" : "");
+  const CliResult r = run_rtsim("simulate " + std::string(run.args) + " --config " + config +
+                                " --out-dir " + (dir / "out").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto stats = read_stats(dir / "out");
+  std::ifstream golden(std::string(RTSIM_SOURCE_DIR) + "/tests/integration/golden/mobile-" +
+                       run.name + ".tsv");
+  ASSERT_TRUE(golden) << run.name;
+  std::string line;
+  size_t compared = 0;
+  while (std::getline(golden, line)) {
+    const size_t tab = line.find('\t');
+    ASSERT_NE(tab, std::string::npos) << line;
+    const std::string key = line.substr(0, tab);
+    const nlohmann::json expected = nlohmann::json::parse(line.substr(tab + 1));
+    auto it = stats.find(key);
+    ASSERT_NE(it, stats.end()) << run.name << ": no stat " << key;
+    if (expected.is_number_integer())
+      EXPECT_EQ(it->second.get<uint64_t>(), expected.get<uint64_t>()) << run.name << " " << key;
+    else
+      EXPECT_EQ(it->second.get<double>(), expected.get<double>()) << run.name << " " << key;
+    ++compared;
+  }
+  EXPECT_GT(compared, 250u) << run.name;
+  std::filesystem::remove_all(dir);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Golden, OneCore,
+    testing::Values(
+        GoldenRun{"cornell-functional", "--scene cornell --res 40x40 --fidelity functional", true},
+        GoldenRun{"cornell-lt", "--scene cornell --res 40x40 --fidelity lt", true},
+        GoldenRun{"cornell-cycle", "--scene cornell --res 40x40 --fidelity cycle", true},
+        GoldenRun{"interior-functional", "--scene interior --res 32x32 --frames 2 --fidelity functional", false},
+        GoldenRun{"interior-lt", "--scene interior --res 32x32 --frames 2 --fidelity lt", false},
+        GoldenRun{"interior-cycle", "--scene interior --res 32x32 --frames 2 --fidelity cycle", false}),
+    [](const testing::TestParamInfo<GoldenRun>& info) {
+      std::string n = info.param.name;
+      for (char& c : n)
+        if (c == '-') c = '_';
+      return n;
+    });
+
+// Rays per cycle can exceed neither what the DRAM's peak bandwidth carries for the
+// bytes each ray moves, nor what the cores' TRV pipelines pass for the passes each
+// ray needs; more cores help until one of the two binds.
+TEST(Machine, RaysPerCycleStayUnderTheDramAndTrvBounds) {
+  double previous_rays_per_cycle = 0;
+  for (const int cores : {1, 4, 16}) {
+    const auto dir = scratch("bounds" + std::to_string(cores));
+    const std::string config = (dir / "machine.toml").string();
+    std::ofstream(config) << "preset = \"desktop-gpu\"\ncores = " << cores << "\n";
+    const CliResult r = run_rtsim("simulate --scene cornell --res 48x48 --fidelity cycle --config " +
+                                  config + " --out-dir " + (dir / "out").string());
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto s = read_stats(dir / "out");
+    const double rays = number(s, "rays.total"), cycles = number(s, "time.cycles");
+    const double seconds = number(s, "time.seconds");
+    const double rays_per_cycle = rays / cycles;
+    const double dram_bytes = number(s, "dram.bytes") + number(s, "dram.bytes_written");
+    const double peak_bytes_per_cycle = number(s, "dram.peak_bandwidth") * 1e9 * seconds / cycles;
+    EXPECT_LE(rays_per_cycle, peak_bytes_per_cycle / (dram_bytes / rays)) << cores << " cores";
+    double passes = 0;
+    for (auto& [key, value] : s)
+      if (key.rfind("core", 0) == 0 && key.find(".trv") != std::string::npos &&
+          key.size() > 7 && key.compare(key.size() - 7, 7, ".passes") == 0)
+        passes += value.get<double>();
+    std::ifstream config_in(dir / "out" / "config.json");
+    const nlohmann::json hardware = nlohmann::json::parse(config_in).at("hardware");
+    const double trv_throughput = cores * hardware.at("trv").at("units").get<double>() *
+                                  hardware.at("trv").at("nodes_per_cycle").get<double>();
+    EXPECT_LE(rays_per_cycle, trv_throughput / (passes / rays)) << cores << " cores";
+    EXPECT_EQ(number(s, "machine.cores"), cores);
+    // The work is the same whatever the core count; it only spreads further.
+    EXPECT_GT(rays_per_cycle, previous_rays_per_cycle) << cores << " cores";
+    previous_rays_per_cycle = rays_per_cycle;
+    std::filesystem::remove_all(dir);
+  }
+}
