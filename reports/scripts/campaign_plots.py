@@ -62,6 +62,8 @@ def main():
         (scene, fidelity), base = max(slices.items(), key=lambda kv: len(kv[1]))
         base_figures(base, scene, fidelity, save)
     sweep_figures(runs, save)
+    scaling_figure(runs, save)
+    energy_figure(plain, save)
 
     with open("%s/figures.json" % out_dir, "w") as f:
         json.dump(figures, f, indent=1)
@@ -288,6 +290,98 @@ def sweep_figures(runs, save):
              "DRAM bytes per ray (left, lower is better) and L2 hit rate (right, higher is "
              "better) as %s varies, one line per builder and preset; every other parameter "
              "at its preset value." % key)
+
+
+def scaling_figure(runs, save):
+    """Rays per cycle against a `cores` sweep, with the two bounds no run passes."""
+    series = OrderedDict()
+    for r in runs:
+        if set(r["overrides"]) != {"cores"}:
+            continue
+        cores = hardware_value(r["hardware"], "cores")
+        st = r["stats"]
+        need = ["rays.total", "time.cycles", "dram.bytes", "machine.trv_passes",
+                "machine.peak_trv_passes_per_cycle", "machine.peak_dram_bytes_per_cycle"]
+        if cores is None or not all(finite(st.get(k)) for k in need) or st["time.cycles"] <= 0:
+            continue
+        rays = st["rays.total"]
+        dram_per_ray = (st["dram.bytes"] + st.get("dram.bytes_written", 0)) / rays
+        point = {
+            "rays_per_cycle": rays / st["time.cycles"],
+            "dram_bound": st["machine.peak_dram_bytes_per_cycle"] / dram_per_ray if dram_per_ray > 0 else float("nan"),
+            "trv_bound": st["machine.peak_trv_passes_per_cycle"] / (st["machine.trv_passes"] / rays),
+        }
+        series.setdefault((r["scene"], r["builder"], r["preset"], r["fidelity"]), {})[cores] = point
+    series = OrderedDict((k, v) for k, v in series.items() if len(v) >= 2)
+    if not series:
+        return
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.6))
+    xs_all = sorted({x for s in series.values() for x in s})
+    for i, ((scene, builder, preset, fidelity), points) in enumerate(series.items()):
+        xs = sorted(points)
+        colour = PRESET_COLOURS[i % len(PRESET_COLOURS)]
+        label = "%s / %s" % (scene, builder)
+        ax1.plot(xs, [points[x]["rays_per_cycle"] for x in xs], "o-", color=colour, label=label + ": measured")
+        ax1.plot(xs, [points[x]["dram_bound"] for x in xs], "--", color=colour, label=label + ": DRAM bound")
+        ax1.plot(xs, [points[x]["trv_bound"] for x in xs], ":", color=colour, label=label + ": TRV bound")
+        ax2.plot(xs, [100 * points[x]["rays_per_cycle"] / min(points[x]["dram_bound"], points[x]["trv_bound"])
+                      for x in xs], "o-", color=colour, label=label)
+    for ax in (ax1, ax2):
+        ax.set_xscale("log", base=2)
+        ax.minorticks_off()
+        ax.set_xticks(xs_all)
+        ax.set_xticklabels(["%g" % x for x in xs_all])
+        ax.set_xlabel("RT cores")
+        ax.grid(alpha=0.3)
+    ax1.set_yscale("log")
+    ax1.set_ylabel("rays per cycle [rays/cycle]")
+    ax1.set_title("Throughput against cores")
+    ax1.legend(fontsize=7)
+    ax2.set_ylim(0, 105)
+    ax2.set_ylabel("rays per cycle / the lower bound [%]")
+    ax2.set_title("How close to the binding bound")
+    ax2.legend(fontsize=8)
+    preset = next(iter(series))[2]
+    save(fig, "scaling_cores", "Scaling with RT cores",
+         "Left: rays per cycle (solid) against the number of RT cores on the %s machine, with "
+         "the DRAM bound (dashed: peak DRAM bytes per cycle / DRAM bytes read and written per ray "
+         "at that core count) and the TRV bound (dotted: the cores' box-test passes per cycle / "
+         "passes per ray); no run can lie above either. Right: the measured rate as a share of the "
+         "lower bound: where it stays flat the cores keep up with what memory allows." % preset)
+
+
+def energy_figure(plain, save):
+    """Energy per ray by component, per builder (cycle or lt runs that report it)."""
+    parts = ["trv", "ist", "l1_node", "l1_triangle", "l2", "noc", "dram"]
+    colours = ["#4c72b0", "#dd8452", "#55a868", "#8172b3", "#c44e52", "#937860", "#7f7f7f"]
+    slices = defaultdict(list)
+    for r in plain:
+        if finite(r["stats"].get("energy.pj_per_ray")) and r["fidelity"] != "functional":
+            slices[(r["scene"], r["preset"])].append(r)
+    if not slices:
+        return
+    keys = sorted(slices)
+    fig, axes = plt.subplots(1, len(keys), figsize=(4.2 * len(keys) + 1, 4.4), squeeze=False)
+    for ax, key in zip(axes[0], keys):
+        by_builder = OrderedDict()
+        for r in sorted(slices[key], key=lambda r: r["stats"]["energy.pj_per_ray"]):
+            by_builder.setdefault(r["builder"], r)  # one run per builder (the first fidelity)
+        names = list(by_builder)
+        bottom = [0.0] * len(names)
+        for part, colour in zip(parts, colours):
+            values = [by_builder[n]["stats"].get("energy.%s.pj_per_ray" % part, 0) / 1000 for n in names]
+            ax.bar(range(len(names)), values, bottom=bottom, color=colour, label=part)
+            bottom = [b + v for b, v in zip(bottom, values)]
+        ax.set_xticks(range(len(names)))
+        ax.set_xticklabels(names, rotation=45, ha="right", fontsize=8)
+        ax.set_ylabel("energy per ray [nJ/ray]")
+        ax.set_title("%s / %s" % key)
+        ax.grid(axis="y", alpha=0.3)
+    axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    save(fig, "energy_per_ray", "Energy per ray by component",
+         "Dynamic energy per ray (nJ) split by component, builders sorted by total; per-access "
+         "energies and their sources are the energy.* and dram.*_pj parameters (docs/machine.md). "
+         "Leakage and DRAM background power are not modelled.")
 
 
 if __name__ == "__main__":

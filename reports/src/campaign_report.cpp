@@ -26,7 +26,7 @@ namespace {
 // The stats the figures read; the full stats.json stays in the database.
 bool wanted_stat(const std::string& path) {
   for (const char* prefix : {"dram.", "per_type.", "l1_node.all.", "l1_triangle.all.", "l2.",
-                             "time.", "ops.", "fetches.", "rays."})
+                             "time.", "ops.", "fetches.", "rays.", "energy.", "noc.", "machine."})
     if (path.rfind(prefix, 0) == 0) return true;
   return false;
 }
@@ -140,7 +140,8 @@ CampaignReportFiles write_campaign_report(const CampaignReportOptions& options) 
   results.header = {"scene",       "fidelity",        "preset",          "overrides",
                     "builder",     "cycles",          "ops/ray",         "TRV ops/ray",
                     "IST ops/ray", "node fetches/ray", "DRAM bytes/ray", "L1 node hit",
-                    "L1 tri hit",  "L2 hit",          "host s",          "rays/host s"};
+                    "L1 tri hit",  "L2 hit",          "pJ/ray",          "rays/J",
+                    "host s",      "rays/host s"};
   for (const json* r : ok) {
     const json& h = (*r)["headline"];
     std::string overrides;
@@ -152,6 +153,8 @@ CampaignReportFiles write_campaign_report(const CampaignReportOptions& options) 
                             cell(h["ist_ops_per_ray"]), cell(h["node_fetches_per_ray"]),
                             cell(h["dram_bytes_per_ray"]), cell(h["l1_node_hit_rate"], 3),
                             cell(h["l1_triangle_hit_rate"], 3), cell(h["l2_hit_rate"], 3),
+                            cell((*r)["stats"].value("energy.pj_per_ray", json())),
+                            cell((*r)["stats"].value("energy.rays_per_joule", json()), 3),
                             cell(h["host_seconds"], 3), cell(h["rays_per_host_second"], 3)});
   }
   Table failures;

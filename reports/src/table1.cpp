@@ -149,6 +149,11 @@ void run_cycle_level(Table1& table, const std::map<std::string, std::filesystem:
     row.primary.dram_bytes_per_ray = row.primary.rays ? dram_bytes_of_type(stats, "primary") / row.primary.rays : 0;
     row.ao.dram_bytes_per_ray = row.ao.rays ? dram_bytes_of_type(stats, "ao") / row.ao.rays : 0;
     row.combined.dram_bytes_per_ray = stat_value(stats, {"dram", "bytes_per_ray"});
+    row.combined.pj_per_ray = stat_value(stats, {"energy", "pj_per_ray"});
+    row.rays_per_joule = stat_value(stats, {"energy", "rays_per_joule"});
+    if (row.primary.rays)
+      row.primary.pj_per_ray = stat_value(stats, {"energy", "per_type", "primary", "pj_per_ray"});
+    if (row.ao.rays) row.ao.pj_per_ray = stat_value(stats, {"energy", "per_type", "ao", "pj_per_ray"});
     row.cold_dram_bytes_per_ray = o.frames > 1 ? stat_value(stats, {"frames", "frame1", "dram_bytes_per_ray"})
                                                : row.combined.dram_bytes_per_ray;
     // The invariant of the model: the cycle level counts exactly what the functional level counts.

@@ -86,7 +86,7 @@ TextTable camera_table(const Table1& table, const std::string& camera) {
   TextTable t({"builder", "ops/ray", "red. vs median", "red. vs SAH", "TRV/ray", "IST/ray",
                "box tests/ray", "primary ops/ray", "AO ops/ray", "node fetches/ray",
                "fetch red. vs median", "fetch red. vs SAH", "node B/tri", "DRAM B/ray cold/warm",
-               "cycles", "build s"});
+               "cycles", "pJ/ray", "rays/J", "build s"});
   const Table1Row* median = table.find(camera, "median");
   const Table1Row* sah = table.find(camera, "sah");
   for (const Table1Row& r : table.rows) {
@@ -100,7 +100,7 @@ TextTable camera_table(const Table1& table, const std::string& camera) {
                median ? pct(r.combined.node_fetches_per_ray, median->combined.node_fetches_per_ray) : "-",
                sah ? pct(r.combined.node_fetches_per_ray, sah->combined.node_fetches_per_ray) : "-",
                num(r.node_bytes_per_triangle, 3), dram_cold_warm(r),
-               num(r.cycles, 6),
+               num(r.cycles, 6), num(r.combined.pj_per_ray, 5), num(r.rays_per_joule, 4),
                num(r.build_seconds + r.estimate_seconds, 3)});
   }
   return t;
@@ -128,7 +128,8 @@ nlohmann::json counts_json(const Table1Counts& c) {
           {"node_fetches_per_ray", c.node_fetches_per_ray},
           {"box_tests_per_ray", c.box_tests_per_ray},
           {"dram_bytes_per_ray", c.dram_bytes_per_ray < 0 ? nlohmann::json(nullptr)
-                                                          : nlohmann::json(c.dram_bytes_per_ray)}};
+                                                          : nlohmann::json(c.dram_bytes_per_ray)},
+          {"pj_per_ray", c.pj_per_ray < 0 ? nlohmann::json(nullptr) : nlohmann::json(c.pj_per_ray)}};
 }
 
 }  // namespace
@@ -168,7 +169,7 @@ void write_table1(const Table1& table) {
 
   TextTable csv({"scene", "camera", "builder", "ray_type", "rays", "ops_per_ray", "trv_ops_per_ray",
                  "ist_ops_per_ray", "box_tests_per_ray", "node_fetches_per_ray", "dram_bytes_per_ray",
-                 "cold_dram_bytes_per_ray", "cycles",
+                 "cold_dram_bytes_per_ray", "cycles", "pj_per_ray", "rays_per_joule",
                  "build_seconds", "estimate_seconds", "sah_cost"});
   nlohmann::json json;
   json["scene"] = table.scene_name;
@@ -187,6 +188,8 @@ void write_table1(const Table1& table) {
     nlohmann::json row = {{"camera", r.camera},
                           {"builder", r.builder},
                           {"cycles", r.cycles < 0 ? nlohmann::json(nullptr) : nlohmann::json(r.cycles)},
+                          {"rays_per_joule", r.rays_per_joule < 0 ? nlohmann::json(nullptr)
+                                                                  : nlohmann::json(r.rays_per_joule)},
                           {"cold_dram_bytes_per_ray", r.cold_dram_bytes_per_ray < 0
                                                           ? nlohmann::json(nullptr)
                                                           : nlohmann::json(r.cold_dram_bytes_per_ray)},
@@ -212,7 +215,10 @@ void write_table1(const Table1& table) {
                    c->dram_bytes_per_ray < 0 ? "" : format_number(c->dram_bytes_per_ray, 6),
                    c != &r.combined || r.cold_dram_bytes_per_ray < 0 ? ""
                                                                      : format_number(r.cold_dram_bytes_per_ray, 6),
-                   r.cycles < 0 ? "" : format_number(r.cycles, 9), format_number(r.build_seconds, 4),
+                   r.cycles < 0 ? "" : format_number(r.cycles, 9),
+                   c->pj_per_ray < 0 ? "" : format_number(c->pj_per_ray, 6),
+                   c != &r.combined || r.rays_per_joule < 0 ? "" : format_number(r.rays_per_joule, 6),
+                   format_number(r.build_seconds, 4),
                    format_number(r.estimate_seconds, 4), format_number(r.sah_cost, 6)});
   }
   write_file_atomic(dir / "table1.csv", csv.csv());

@@ -149,6 +149,14 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
     s.set(MachineShape::core_name(c) + ".raygen.stalled_cycles", cycles(f.raygen_stalled_ps[c]),
           "cycles", "cycles a ready ray found no free TRV slot of its core");
   s.set("machine.cores", m.cores, "cores", "RT cores");
+  uint64_t passes = 0;
+  for (uint64_t p : f.trv_passes) passes += p;
+  s.set("machine.trv_passes", passes, "passes", "box-test pipeline passes of every TRV unit");
+  s.set_real("machine.peak_trv_passes_per_cycle", double(m.trv_units()) * config.trv_nodes_per_cycle,
+             "passes/cycle", "TRV units x trv.nodes_per_cycle: no run passes more per cycle");
+  s.set_real("machine.peak_dram_bytes_per_cycle",
+             f.dram->peak_bytes_per_second() * cycle_ps * 1e-12, "bytes/cycle",
+             "the DRAM's peak bandwidth per accelerator cycle (reads and writes share it)");
   report_cache_group(s, "l1_node.all", f.l1_node);
   for (uint32_t u = 0; u < f.l1_node.size(); ++u) f.l1_node[u]->report(s, m.l1_node_name(u));
   report_cache_group(s, "l1_triangle.all", f.l1_triangle);

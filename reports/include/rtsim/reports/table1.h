@@ -43,6 +43,7 @@ struct Table1Counts {
   double ops_per_ray = 0, trv_per_ray = 0, ist_per_ray = 0, node_fetches_per_ray = 0;
   double box_tests_per_ray = 0;  // compares widths fairly: a wide node visit tests more boxes
   double dram_bytes_per_ray = -1;  // < 0: not measured (no cycle-level run)
+  double pj_per_ray = -1;          // dynamic energy (model/sim/energy.h), cycle level
 };
 
 struct Table1Row {
@@ -50,6 +51,7 @@ struct Table1Row {
   Table1Counts combined;
   Table1Counts primary, ao;
   double cycles = -1;                  // the last (steady-state) frame
+  double rays_per_joule = -1;          // cycle level, dynamic energy
   double cold_dram_bytes_per_ray = -1;  // the first frame, cold caches (frames > 1)
   double l1_node_hit_rate = -1, l2_hit_rate = -1;
   double build_seconds = 0, estimate_seconds = 0;
