@@ -147,7 +147,21 @@ uint64_t CacheModel::reserve_port(uint64_t t_ps) {
     // Older than the ring: free (the ring is far longer than any request waits).
     return t_ps;
   }
-  while (any_taken_ && slot <= newest_slot_ && (bit(slot) & mask(slot))) ++slot;
+  // The first free slot from `slot` on, a 64-slot word at a time (a busy L2 slice
+  // under many cores has long runs of taken slots); every slot past the newest is free.
+  if (any_taken_ && slot <= newest_slot_) {
+    while (slot <= newest_slot_) {
+      const uint32_t offset = uint32_t(slot % 64);
+      const uint64_t free_bits = ~(bit(slot) >> offset);  // bit i: slot + i is free
+      const uint32_t run = free_bits ? uint32_t(__builtin_ctzll(free_bits)) : 64;
+      if (run < 64 - offset) {
+        slot += run;
+        break;
+      }
+      slot += 64 - offset;
+    }
+    slot = std::min(slot, newest_slot_ + 1);  // taken up to the newest: the one after it
+  }
   if (!any_taken_ || slot > newest_slot_) {
     // Slots past the newest come into the ring: clear what they overwrite.
     const uint64_t from = any_taken_ ? newest_slot_ + 1 : slot;
