@@ -8,6 +8,7 @@
 #include <rtsim/model/sim/config.h>
 #include <rtsim/reports/child_process.h>
 #include <rtsim/reports/accuracy.h>
+#include <rtsim/reports/simulation_job.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
 #include <rtsim/workloads/progress.h>
@@ -162,11 +163,6 @@ double relative(double value, double reference) {
   return reference != 0 ? (value - reference) / reference : (value == 0 ? 0.0 : HUGE_VAL);
 }
 
-nlohmann::json read_json(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(path.string() + ": missing after the run");
-  return nlohmann::json::parse(in);
-}
 
 EffectSettings frame_settings(uint32_t resolution, uint64_t seed, int ao_samples) {
   EffectSettings s;
@@ -233,7 +229,7 @@ const Camera& pick_camera(const Scene& scene, const std::string& name) {
 class AccuracyRun {
  public:
   explicit AccuracyRun(const AccuracyOptions& options)
-      : o_(options), scene_(load_scene(options.scene)),
+      : o_(options), runner_(options.rtsim_binary), scene_(load_scene(options.scene)),
         camera_(pick_camera(scene_, options.camera)) {
     validate();
     report_.options = options;
@@ -414,22 +410,22 @@ class AccuracyRun {
       for (const char* level : levels) {
         const std::string name = std::string(level) + "-" + std::to_string(res);
         const std::filesystem::path dir = o_.out_dir / "runs" / name;
-        const std::string command =
-            shell_quote(o_.rtsim_binary.string()) + " simulate --scene " + shell_quote(o_.scene) +
-            " --bvh " + shell_quote(tree_file.string()) + " --camera " + shell_quote(camera_.name) +
-            " --fidelity " + level + " --config " + shell_quote(o_.hardware) + " --res " +
-            std::to_string(res) + "x" + std::to_string(res) + " --ao " +
-            std::to_string(report_.scene_ao_samples) + " --seed " + std::to_string(o_.seed) + " --out-dir " +
-            shell_quote(dir.string()) + " > " + shell_quote((o_.out_dir / "runs" / (name + ".log")).string()) +
-            " 2>&1";
-        const auto start = Clock::now();
-        if (std::system(command.c_str()) != 0)
-          throw std::runtime_error("fidelity run failed (" + command + ")");
+        SimulationJob job;
+        job.scene = o_.scene;
+        job.bvh = tree_file;
+        job.camera = camera_.name;
+        job.fidelity = level;
+        job.config = o_.hardware;
+        job.resolution = std::to_string(res) + "x" + std::to_string(res);
+        job.ao_rays = int(report_.scene_ao_samples);
+        job.seed = o_.seed;
+        job.out_dir = dir;
+        const SimulationOutcome run = runner_.simulate(job, o_.out_dir / "runs" / (name + ".log"));
         FidelityPoint p;
-        p.process_seconds = seconds_since(start);
+        p.process_seconds = run.process_seconds;
         p.level = level;
         p.resolution = res;
-        const nlohmann::json s = read_json(dir / "stats.json"), host = read_json(dir / "host.json");
+        const nlohmann::json &s = run.stats, &host = run.host;
         p.rays = uint64_t(stat_value(s, {"rays", "total"}));
         p.cycles = stat_value(s, {"time", "cycles"});
         p.dram_bytes = stat_value(s, {"dram", "bytes"});
@@ -575,21 +571,27 @@ class AccuracyRun {
       // One tree per scene, built once by a child and replayed by every run.
       const std::string key = std::to_string(std::hash<std::string>{}(scene) % 1000000);
       const std::filesystem::path tree = runs_dir / ("tree-" + key + ".bvh");
-      run_child("build --scene " + shell_quote(scene) + " --builder " + shell_quote(o_.builder) +
-                    " --seed " + std::to_string(o_.seed) + " --out " + shell_quote(tree.string()),
-                runs_dir / ("build-" + key + ".log"));
+      BuildJob build;
+      build.scene = scene;
+      build.builder = o_.builder;
+      build.seed = o_.seed;
+      build.out = tree;
+      runner_.build(build, runs_dir / ("build-" + key + ".log"));
       for (uint32_t res : resolutions)
         for (const char* level : {"functional", "cycle"}) {
           if (std::string(level) == "cycle" && res > o_.traffic_cycle_resolution) continue;
           const std::string name = key + "-" + level + "-" + std::to_string(res);
-          const std::filesystem::path dir = runs_dir / name;
-          run_child("simulate --scene " + shell_quote(scene) + " --bvh " + shell_quote(tree.string()) +
-                        " --fidelity " + level + " --config " + shell_quote(o_.hardware) + " --res " +
-                        std::to_string(res) + "x" + std::to_string(res) + " --seed " +
-                        std::to_string(o_.seed) + " --frames " + std::to_string(o_.traffic_frames) +
-                        " --out-dir " + shell_quote(dir.string()),
-                    runs_dir / (name + ".log"));
-          const nlohmann::json st = read_json(dir / "stats.json"), host = read_json(dir / "host.json");
+          SimulationJob job;
+          job.scene = scene;
+          job.bvh = tree;
+          job.fidelity = level;
+          job.config = o_.hardware;
+          job.resolution = std::to_string(res) + "x" + std::to_string(res);
+          job.seed = o_.seed;
+          job.frames = o_.traffic_frames;
+          job.out_dir = runs_dir / name;
+          const SimulationOutcome run = runner_.simulate(job, runs_dir / (name + ".log"));
+          const nlohmann::json &st = run.stats, &host = run.host;
           TrafficPoint p;
           p.scene = scene;
           p.level = level;
@@ -610,14 +612,8 @@ class AccuracyRun {
     }
   }
 
-  void run_child(const std::string& arguments, const std::filesystem::path& log) const {
-    const std::string command = shell_quote(o_.rtsim_binary.string()) + " " + arguments + " > " +
-                                shell_quote(log.string()) + " 2>&1";
-    if (std::system(command.c_str()) != 0)
-      throw std::runtime_error("accuracy run failed (" + command + "; see " + log.string() + ")");
-  }
-
   const AccuracyOptions& o_;
+  JobRunner runner_;
   Scene scene_;
   const Camera& camera_;
   AccuracyReport report_;

@@ -1,5 +1,6 @@
 // Campaign files: parsing, sweep expansion and job identity.
 #include <rtsim/reports/campaign.h>
+#include <rtsim/reports/simulation_job.h>
 
 #include <rtsim/builder/build.h>
 #include <rtsim/builder/builder_registry.h>
@@ -250,26 +251,25 @@ const std::string& CampaignJob::tree_camera() const {
 
 std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir,
                                                          const fs::path& hardware_file) const {
-  const std::string config = !hardware_file.empty() ? hardware_file.string()
-                             : preset_path.empty()  ? preset
-                                                    : preset_path.string();
-  std::vector<std::string> a = {"simulate",
-                                "--scene", scene_path.empty() ? scene : scene_path.string(),
-                                "--builder", builder,
-                                "--fidelity", fidelity,
-                                "--config", config,
-                                "--seed", std::to_string(seed),
-                                "--out-dir", out_dir.string()};
-  if (!camera.empty()) a.insert(a.end(), {"--camera", camera});
-  if (!resolution.empty()) a.insert(a.end(), {"--res", resolution});
-  if (ao_rays >= 0) a.insert(a.end(), {"--ao", std::to_string(ao_rays)});
-  if (!ao_cutoff.empty()) a.insert(a.end(), {"--ao-cutoff", ao_cutoff});
-  if (frames > 0) a.insert(a.end(), {"--frames", std::to_string(frames)});
-  if (!node_format.empty()) a.insert(a.end(), {"--node-format", node_format});
-  if (hardware_file.empty())
-    for (const auto& [k, v] : overrides) a.insert(a.end(), {"--set", k + "=" + v});
-  for (const auto& [k, v] : build_settings) a.insert(a.end(), {"--build-set", k + "=" + v});
-  return a;
+  SimulationJob job;
+  job.scene = scene_path.empty() ? scene : scene_path.string();
+  job.builder = builder;
+  job.fidelity = fidelity;
+  job.config = !hardware_file.empty() ? hardware_file.string()
+               : preset_path.empty()  ? preset
+                                      : preset_path.string();
+  job.seed = seed;
+  job.out_dir = out_dir;
+  job.camera = camera;
+  job.resolution = resolution;
+  job.ao_rays = ao_rays;
+  job.ao_cutoff = ao_cutoff;
+  job.frames = frames > 0 ? uint32_t(frames) : 0;
+  job.node_format = node_format;
+  // With a hardware file the overrides are in it.
+  if (hardware_file.empty()) job.overrides.assign(overrides.begin(), overrides.end());
+  job.build_settings.assign(build_settings.begin(), build_settings.end());
+  return job.arguments();
 }
 
 namespace {

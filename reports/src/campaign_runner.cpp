@@ -1,5 +1,6 @@
 // Campaign execution: one child process per job, result files, resume, collect, emit.
 #include <rtsim/reports/campaign_runner.h>
+#include <rtsim/reports/simulation_job.h>
 
 #include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/bvh_file.h>
@@ -71,47 +72,11 @@ struct Child {
   Clock::time_point start;
 };
 
-// fork + exec with the log as stdout/stderr. The child dies with the runner
-// (PR_SET_PDEATHSIG), so a kill -9 of the runner never leaves orphans that keep
-// writing into a job directory the next run reuses.
 Child spawn(const fs::path& binary, const std::vector<std::string>& args, const fs::path& log) {
-  std::vector<std::string> words;
-  words.push_back(binary.string());
-  words.insert(words.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (std::string& w : words) argv.push_back(w.data());
-  argv.push_back(nullptr);
-  const std::string log_path = log.string();
-  const pid_t parent = getpid();
   Child c;
   c.start = Clock::now();
-  c.pid = fork();
-  if (c.pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
-  if (c.pid == 0) {
-    // Only async-signal-safe calls from here on.
-    prctl(PR_SET_PDEATHSIG, SIGKILL);
-    if (getppid() != parent) _exit(126);  // the runner died before prctl took effect
-    const int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    const int null_fd = open("/dev/null", O_RDONLY | O_CLOEXEC);
-    if (fd < 0 || null_fd < 0) _exit(126);
-    dup2(null_fd, 0);
-    dup2(fd, 1);
-    dup2(fd, 2);
-    execv(argv[0], argv.data());
-    const char msg[] = "rtsim campaign: cannot execute the job binary\n";
-    (void)!write(2, msg, sizeof msg - 1);
-    _exit(127);
-  }
+  c.pid = spawn_child(binary, args, log);
   return c;
-}
-
-std::string describe_exit(int status) {
-  if (WIFEXITED(status)) return "exit code " + std::to_string(WEXITSTATUS(status));
-  if (WIFSIGNALED(status)) {
-    const int sig = WTERMSIG(status);
-    return "killed by signal " + std::to_string(sig) + " (" + strsignal(sig) + ")";
-  }
-  return "ended with wait status " + std::to_string(status);
 }
 
 // Reads a JSON output of a job; null if absent or unreadable (the reason in `why`).
@@ -221,18 +186,20 @@ JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, con
   const fs::path tree = cached_tree(tree_cache, campaign, job);
   fs::create_directories(tree_cache);
   discard_damaged_tree(tree);
-  std::string build = shell_quote(binary.string()) + " build --scene " +
-                      shell_quote(job.scene_path.empty() ? job.scene : job.scene_path.string()) +
-                      " --builder " + shell_quote(job.builder) + " --seed " +
-                      (job.build_settings.count("seed") ? job.build_settings.at("seed")
-                                                        : std::to_string(job.seed)) +
-                      " --out \"$T\" --metrics-out \"$T.metrics.json\"";
-  // The seed and the camera have their own flags (--camera after a build.camera
-  // setting would undo it).
-  for (const auto& [k, v] : job.build_settings)
-    if (k != "seed" && k != "camera") build += " --build-set " + shell_quote(k + "=" + v);
-  if (!job.tree_camera().empty()) build += " --camera " + shell_quote(job.tree_camera());
-  if (!job.node_format.empty()) build += " --node-format " + shell_quote(job.node_format);
+  BuildJob build_job;
+  build_job.scene = job.scene_path.empty() ? job.scene : job.scene_path.string();
+  build_job.builder = job.builder;
+  build_job.seed = job.build_settings.count("seed") ? uint64_t(std::stoull(job.build_settings.at("seed")))
+                                                    : job.seed;
+  build_job.build_settings.assign(job.build_settings.begin(), job.build_settings.end());
+  build_job.camera = job.tree_camera();
+  build_job.node_format = job.node_format;
+  build_job.out = "$T";
+  build_job.metrics_out = "$T.metrics.json";
+  // The tree's path is the script's $T: those two words stay unquoted for the shell.
+  std::string build = shell_quote(binary.string());
+  for (const std::string& word : build_job.arguments())
+    build += " " + (word.rfind("$T", 0) == 0 ? "\"" + word + "\"" : shell_quote(word));
   // The builder parameters went to the build; the saved tree carries them (simulate
   // refuses --build-set with --bvh, which would change nothing).
   std::string simulate = "exec " + shell_quote(binary.string());

@@ -6,6 +6,7 @@
 #include <rtsim/model/sim/config.h>
 #include <rtsim/reports/child_process.h>
 #include <rtsim/reports/results_store.h>
+#include <rtsim/reports/simulation_job.h>
 #include <rtsim/reports/table1.h>
 #include <rtsim/reports/text_table.h>
 #include <rtsim/workloads/error.h>
@@ -85,64 +86,32 @@ void write_floats(const std::filesystem::path& path, const std::vector<float>& v
 // Cycle-level runs: one `rtsim simulate` process each (SystemC elaborates once per process).
 void run_cycle_level(Table1& table, const std::map<std::string, std::filesystem::path>& tree_files) {
   const Table1Options& o = table.options;
-  struct Job {
-    Table1Row* row;
-    std::filesystem::path dir, log;
-    std::string command;
-  };
-  std::vector<Job> jobs;
+  std::vector<SimulationJob> jobs;
+  std::vector<std::filesystem::path> logs;
+  char res[32];
+  std::snprintf(res, sizeof res, "%ux%u", o.width, o.height);
   for (Table1Row& row : table.rows) {
-    Job job;
-    job.row = &row;
-    job.dir = o.out_dir / "runs" / (row.camera + "-" + row.builder);
-    job.log = o.out_dir / "runs" / (row.camera + "-" + row.builder + ".log");
-    char res[32];
-    std::snprintf(res, sizeof res, "%ux%u", o.width, o.height);
-    job.command = shell_quote(o.rtsim_binary.string()) + " simulate --scene " + shell_quote(o.scene) +
-                  " --builder " + shell_quote(row.builder) + " --bvh " +
-                  shell_quote(tree_files.at(tree_key(row.builder, row.camera, o.build)).string()) +
-                  " --camera " + shell_quote(row.camera) + " --fidelity cycle --config " +
-                  shell_quote(o.hardware) + " --node-format " + shell_quote(o.node_format) +
-                  " --res " + res + " --ao " + std::to_string(o.ao_samples) +
-                  " --seed " + std::to_string(o.seed) + " --frames " + std::to_string(o.frames) +
-                  " --out-dir " + shell_quote(job.dir.string()) +
-                  " > " + shell_quote(job.log.string()) + " 2>&1";
+    SimulationJob job;
+    job.scene = o.scene;
+    job.builder = row.builder;
+    job.bvh = tree_files.at(tree_key(row.builder, row.camera, o.build));
+    job.camera = row.camera;
+    job.fidelity = "cycle";
+    job.config = o.hardware;
+    job.node_format = o.node_format;
+    job.resolution = res;
+    job.ao_rays = o.ao_samples;
+    job.seed = o.seed;
+    job.frames = o.frames;
+    job.out_dir = o.out_dir / "runs" / (row.camera + "-" + row.builder);
     jobs.push_back(job);
+    logs.push_back(o.out_dir / "runs" / (row.camera + "-" + row.builder + ".log"));
   }
-  std::filesystem::create_directories(o.out_dir / "runs");
-  Progress progress("table1: cycle level", jobs.size(), "runs");
-  std::atomic<size_t> next{0};
-  std::mutex failure_mutex;
-  std::string failure;
-  auto worker = [&] {
-    for (size_t i = next++; i < jobs.size(); i = next++) {
-      const int status = std::system(jobs[i].command.c_str());
-      if (status != 0) {
-        // The reason is the last line the run printed, not just "see the log".
-        std::string said;
-        try {
-          said = read_input_file(jobs[i].log, kMaxConfigFileBytes);
-        } catch (const std::exception&) {
-        }
-        while (!said.empty() && (said.back() == '\n' || said.back() == '\r')) said.pop_back();
-        if (said.rfind('\n') != std::string::npos) said = said.substr(said.rfind('\n') + 1);
-        std::lock_guard<std::mutex> lock(failure_mutex);
-        failure = "the cycle-level run of " + jobs[i].row->camera + "/" + jobs[i].row->builder +
-                  " failed: " + (said.empty() ? "no output" : said) + " (log " + jobs[i].log.string() + ")";
-      }
-      progress.advance();
-    }
-  };
-  std::vector<std::thread> threads;
-  for (uint32_t t = 0; t < std::max(1u, o.jobs); ++t) threads.emplace_back(worker);
-  for (std::thread& t : threads) t.join();
-  if (!failure.empty()) throw std::runtime_error(failure);
-
-  for (Job& job : jobs) {
-    std::ifstream in(job.dir / "stats.json");
-    if (!in) throw std::runtime_error((job.dir / "stats.json").string() + ": missing after the run");
-    const nlohmann::json stats = nlohmann::json::parse(in);
-    Table1Row& row = *job.row;
+  const std::vector<SimulationOutcome> outcomes =
+      JobRunner(o.rtsim_binary).simulate_all(jobs, logs, o.jobs, "table1: cycle level");
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    const nlohmann::json& stats = outcomes[i].stats;
+    Table1Row& row = table.rows[i];
     row.cycles = stat_value(stats, {"time", "cycles"});
     row.l1_node_hit_rate = stat_value(stats, {"l1_node", "all", "hit_rate"});
     row.l2_hit_rate = stat_value(stats, {"l2", "hit_rate"});
