@@ -1,5 +1,7 @@
 #include "cli_util.h"
 
+#include <nlohmann/json.hpp>
+
 #include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/bvh_file.h>
 #include <rtsim/workloads/config_reader.h>
@@ -182,6 +184,20 @@ void load_workload(Workload& out, const std::string& scene, const std::string& c
     BvhFileHeader header;
     out.bvh = load_bvh(bvh_file, &out.scene, &header);
     out.params.builder = header.builder;
+    // The tree must have been built for the node format's width: a binary tree in
+    // 6-wide records would run, but measure neither tree nor format.
+    uint32_t built_width = 2;  // binary trees leave "width" out
+    try {
+      const nlohmann::json saved = nlohmann::json::parse(header.params_json);
+      if (saved.is_object() && saved.contains("width")) built_width = saved.at("width").get<uint32_t>();
+    } catch (const nlohmann::json::exception&) {
+    }
+    if (built_width != out.params.width)
+      throw InputError("--bvh", bvh_file + " holds a tree built for width " + std::to_string(built_width) +
+                                    "; node format " + rtsim::node_format(node_format).name +
+                                    " needs width " + std::to_string(out.params.width) +
+                                    " (rtsim build --node-format " + rtsim::node_format(node_format).name +
+                                    ")");
   }
 }
 

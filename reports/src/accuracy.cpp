@@ -229,7 +229,9 @@ const Camera& pick_camera(const Scene& scene, const std::string& name) {
 class AccuracyRun {
  public:
   explicit AccuracyRun(const AccuracyOptions& options)
-      : o_(options), runner_(options.rtsim_binary), scene_(load_scene(options.scene)),
+      : o_(options), runner_(options.rtsim_binary),
+        hardware_node_format_(sim::load_hardware_config(options.hardware).node_format),
+        scene_(load_scene(options.scene)),
         camera_(pick_camera(scene_, options.camera)) {
     validate();
     report_.options = options;
@@ -576,6 +578,7 @@ class AccuracyRun {
       build.builder = o_.builder;
       build.seed = o_.seed;
       build.out = tree;
+      build.node_format = hardware_node_format_;  // the tree for the format its runs fetch
       runner_.build(build, runs_dir / ("build-" + key + ".log"));
       for (uint32_t res : resolutions)
         for (const char* level : {"functional", "cycle"}) {
@@ -614,6 +617,7 @@ class AccuracyRun {
 
   const AccuracyOptions& o_;
   JobRunner runner_;
+  std::string hardware_node_format_;
   Scene scene_;
   const Camera& camera_;
   AccuracyReport report_;

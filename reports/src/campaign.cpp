@@ -549,6 +549,12 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
       json identity = resolved;
       for (const char* spelling : {"preset", "preset_file_hash", "set"}) identity.erase(spelling);
       identity["hardware"] = hardware_for(job, typed_overrides, where);
+      // A preset with a wide node format builds its trees for that width too (the
+      // job's key already holds the format, through the hardware).
+      if (job.node_format.empty()) {
+        const std::string format = identity["hardware"].at("memory").at("node_format");
+        if (format != sim::HardwareConfig{}.node_format) job.node_format = format;
+      }
       job.resolved = resolved;
       // json objects keep keys sorted, so dump() is canonical.
       job.config_hash = content_hash_hex(identity.dump());

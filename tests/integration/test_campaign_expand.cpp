@@ -197,6 +197,24 @@ node_format = ["bvh2-64", "bvh8-80q"]
   EXPECT_NE(bad.find("bvh8-80q"), std::string::npos) << bad;  // lists the known formats
 }
 
+// A preset whose memory.node_format is wide (the GPU presets' bvh6-64q) builds its
+// trees for that width, as the axis does: a binary tree would not fit its records.
+TEST(CampaignExpand, APresetsWideNodeFormatBuildsTheTreeForIt) {
+  const Campaign c = parse(R"(
+[sweep]
+scene = "interior"
+builder = "sah"
+preset = ["mobile", "desktop-gpu"]
+)");
+  ASSERT_EQ(c.jobs.size(), 2u);
+  for (const CampaignJob& j : c.jobs) {
+    const std::vector<std::string> args = j.simulate_arguments("/o");
+    const bool gpu = j.preset == "desktop-gpu";
+    EXPECT_EQ(j.node_format, gpu ? "bvh6-64q" : "") << j.label;
+    EXPECT_EQ(std::find(args.begin(), args.end(), "--node-format") != args.end(), gpu) << j.label;
+  }
+}
+
 TEST(CampaignExpand, BadInputNamesFileAndKey) {
   EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\nbuildr = \"x\"\n")
                 .find("key 'sweep.buildr': is unknown"),

@@ -153,3 +153,23 @@ TEST(Machine, RaysPerCycleStayUnderTheDramAndTrvBounds) {
     std::filesystem::remove_all(dir);
   }
 }
+
+// A saved tree must have been built for the node format's width: a binary tree in
+// the GPU presets' 6-wide records is refused, naming the flag and the fix.
+TEST(Machine, ASavedTreeOfAnotherWidthIsRefused) {
+  const auto dir = scratch("width");
+  const std::string tree = (dir / "binary.bvh").string();
+  ASSERT_EQ(run_rtsim("build --scene cornell --out " + tree).exit_code, 0);
+  const CliResult r = run_rtsim("simulate --scene cornell --res 16x16 --config desktop-gpu --bvh " + tree +
+                                " --out-dir " + (dir / "out").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--bvh"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("width 2"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--node-format bvh6-64q"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out" / "stats.json"));
+  const std::string wide = (dir / "wide.bvh").string();
+  ASSERT_EQ(run_rtsim("build --scene cornell --node-format bvh6-64q --out " + wide).exit_code, 0);
+  EXPECT_EQ(run_rtsim("simulate --scene cornell --res 16x16 --config desktop-gpu --bvh " + wide +
+                      " --out-dir " + (dir / "out").string()).exit_code, 0);
+  std::filesystem::remove_all(dir);
+}

@@ -48,11 +48,8 @@ CacheModel::CacheModel(const CacheConfig& config, const std::string& name, uint6
             name),
       hit_ps_(uint64_t(config.hit_latency_cycles) * cycle_ps),
       fill_ps_(uint64_t(config.fill_latency_cycles) * cycle_ps),
-      port_interval_ps_(std::max<uint64_t>(1, cycle_ps / std::max<uint32_t>(1, config.ports))),
+      ports_(std::max<uint64_t>(1, cycle_ps / std::max<uint32_t>(1, config.ports)), kPortHorizonPs),
       cycle_ps_(cycle_ps) {
-  ring_slots_ = 64;
-  while (ring_slots_ < 2 * (kPortHorizonPs / port_interval_ps_ + 1)) ring_slots_ *= 2;
-  taken_bits_.assign(ring_slots_ / 64, 0);
 }
 
 void CacheModel::count(const LineAccess& a, Outcome outcome) {
@@ -138,51 +135,11 @@ uint64_t CacheModel::reserve_port(uint64_t t_ps) {
   // Port slots of one interval each. Requests come nearly in time order, but one
   // that waited upstream (an MSHR, say) may come after later ones: it takes the
   // first free slot from its own time on, not the slot after the latest taken.
-  // The ring (sized in the constructor) remembers every slot within
-  // kPortHorizonPs of the newest, and more; no request comes that late.
-  const auto bit = [&](uint64_t slot) -> uint64_t& { return taken_bits_[(slot % ring_slots_) / 64]; };
-  const auto mask = [](uint64_t slot) { return uint64_t(1) << (slot % 64); };
-  uint64_t slot = t_ps / port_interval_ps_;
-  if (any_taken_ && slot + ring_slots_ <= newest_slot_) {
-    // Older than the ring: free (the ring is far longer than any request waits).
-    return t_ps;
-  }
-  // The first free slot from `slot` on, a 64-slot word at a time (a busy L2 slice
-  // under many cores has long runs of taken slots); every slot past the newest is free.
-  if (any_taken_ && slot <= newest_slot_) {
-    while (slot <= newest_slot_) {
-      const uint32_t offset = uint32_t(slot % 64);
-      const uint64_t free_bits = ~(bit(slot) >> offset);  // bit i: slot + i is free
-      const uint32_t run = free_bits ? uint32_t(__builtin_ctzll(free_bits)) : 64;
-      if (run < 64 - offset) {
-        slot += run;
-        break;
-      }
-      slot += 64 - offset;
-    }
-    slot = std::min(slot, newest_slot_ + 1);  // taken up to the newest: the one after it
-  }
-  if (!any_taken_ || slot > newest_slot_) {
-    // Slots past the newest come into the ring: clear what they overwrite.
-    const uint64_t from = any_taken_ ? newest_slot_ + 1 : slot;
-    if (slot - from >= ring_slots_) {
-      std::fill(taken_bits_.begin(), taken_bits_.end(), 0);
-    } else {
-      for (uint64_t s = from; s <= slot;) {
-        if (s % 64 == 0 && s + 63 <= slot) {
-          bit(s) = 0;  // a whole word at once
-          s += 64;
-        } else {
-          bit(s) &= ~mask(s);
-          ++s;
-        }
-      }
-    }
-    newest_slot_ = slot;
-    any_taken_ = true;
-  }
-  bit(slot) |= mask(slot);
-  const uint64_t start = std::max(t_ps, slot * port_interval_ps_);
+  const uint64_t slot = t_ps / ports_.interval_ps();
+  if (ports_.forgotten(slot)) return t_ps;  // the ring is far longer than any request waits
+  const uint64_t free = ports_.first_free(slot);
+  ports_.take(free);
+  const uint64_t start = std::max(t_ps, free * ports_.interval_ps());
   counters_.port_wait_ps += start - t_ps;
   return start;
 }

@@ -38,11 +38,17 @@ Crossbar::Crossbar(const HardwareConfig& c, const MachineShape& m, bool timed)
     : timed_(timed), flit_bytes_(c.noc_flit_bytes), header_bytes_(c.noc_header_bytes),
       cycle_ps_(uint64_t(std::llround(c.clock_period_ps()))),
       latency_ps_(uint64_t(c.noc_latency_cycles) * cycle_ps_),
-      core_out_free_(m.cores, 0), slice_in_free_(m.l2_slices, 0), slice_out_free_(m.l2_slices, 0),
-      core_in_free_(m.cores, 0), core_in_flits_(m.cores, 0), slice_in_flits_(m.l2_slices, 0) {}
+      core_in_flits_(m.cores, 0), slice_in_flits_(m.l2_slices, 0) {
+  // Reservations reach a DRAM access ahead of the calls (microseconds).
+  constexpr uint64_t kHorizonPs = 8'000'000;
+  if (!timed_ || flit_bytes_ == 0) return;  // no port timing
+  core_out_.assign(m.cores, PortSlots(cycle_ps_, kHorizonPs));
+  core_in_.assign(m.cores, PortSlots(cycle_ps_, kHorizonPs));
+  slice_in_.assign(m.l2_slices, PortSlots(cycle_ps_, kHorizonPs));
+  slice_out_.assign(m.l2_slices, PortSlots(cycle_ps_, kHorizonPs));
+}
 
-uint64_t Crossbar::send(std::vector<uint64_t>& out_free, uint32_t from,
-                        std::vector<uint64_t>& in_free, uint32_t to, uint32_t data_bytes,
+uint64_t Crossbar::send(PortSlots* out_port, PortSlots* in_port, uint32_t to, uint32_t data_bytes,
                         uint64_t t, int direction) {
   const uint32_t bytes = header_bytes_ + data_bytes;
   const uint64_t flits = flit_bytes_ ? std::max<uint64_t>(1, (bytes + flit_bytes_ - 1) / flit_bytes_) : 0;
@@ -52,21 +58,39 @@ uint64_t Crossbar::send(std::vector<uint64_t>& out_free, uint32_t from,
   (direction == 0 ? slice_in_flits_ : core_in_flits_)[to] += flits;
   if (!timed_) return t;
   if (flits == 0) return t + latency_ps_;
-  // Both ports carry the message's flits back to back; it waits for the later to free.
-  const uint64_t start = std::max({t, out_free[from], in_free[to]});
-  const uint64_t wait = start - t;
+  PortSlots& out = *out_port;
+  PortSlots& in = *in_port;
+  // Each flit in the first cycle from t on in which both ports are free.
+  uint64_t slot = t / cycle_ps_, last = slot;
+  for (uint64_t f = 0; f < flits; ++f) {
+    for (;;) {
+      const uint64_t a = out.first_free(slot), b = in.first_free(a);
+      if (b == a) break;
+      slot = b;
+    }
+    slot = out.first_free(slot);
+    if (!out.forgotten(slot)) out.take(slot);
+    if (!in.forgotten(slot)) in.take(slot);
+    last = slot++;
+  }
+  const uint64_t unblocked = t + flits * cycle_ps_;
+  const uint64_t sent = std::max(unblocked, (last + 1) * cycle_ps_);
+  const uint64_t wait = sent - unblocked;
   wait_ps_ += wait;
   wait_max_ps_ = std::max(wait_max_ps_, wait);
-  out_free[from] = in_free[to] = start + flits * cycle_ps_;
-  return start + flits * cycle_ps_ + latency_ps_;
+  return sent + latency_ps_;
 }
 
 uint64_t Crossbar::to_slice(uint32_t core, uint32_t slice, uint32_t data_bytes, uint64_t t) {
-  return send(core_out_free_, core, slice_in_free_, slice, data_bytes, t, 0);
+  const bool ports = !core_out_.empty();
+  return send(ports ? &core_out_[core] : nullptr, ports ? &slice_in_[slice] : nullptr, slice,
+              data_bytes, t, 0);
 }
 
 uint64_t Crossbar::to_core(uint32_t slice, uint32_t core, uint32_t data_bytes, uint64_t t) {
-  return send(slice_out_free_, slice, core_in_free_, core, data_bytes, t, 1);
+  const bool ports = !core_in_.empty();
+  return send(ports ? &slice_out_[slice] : nullptr, ports ? &core_in_[core] : nullptr, core,
+              data_bytes, t, 1);
 }
 
 void Crossbar::reset_counters() {

@@ -13,6 +13,7 @@
 #include <rtsim/model/core/cache_tags.h>
 #include <rtsim/model/core/fetch.h>
 #include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/port_slots.h>
 #include <rtsim/model/sim/stats.h>
 
 #include <array>
@@ -96,12 +97,9 @@ class CacheModel {
 
   CacheConfig config_;
   CacheTags tags_;
-  uint64_t hit_ps_, fill_ps_, port_interval_ps_, cycle_ps_;
-  // Port slots (time / interval) taken, as a ring of bits over the last
-  // ring_slots_ slots up to the newest taken (a slot older than that is free).
-  std::vector<uint64_t> taken_bits_;
-  uint64_t ring_slots_ = 0, newest_slot_ = 0;
-  bool any_taken_ = false;
+  uint64_t hit_ps_, fill_ps_;
+  PortSlots ports_;
+  uint64_t cycle_ps_;
   Counters counters_;
   TrafficMatrix requested_, filled_;
   struct Mshr {

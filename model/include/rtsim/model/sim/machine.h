@@ -16,6 +16,7 @@
 // one-core machine keeps the numbers it always had. A TRV unit sends leaves to
 // the IST unit u mod ist.units of its own core.
 #include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/port_slots.h>
 #include <rtsim/model/sim/stats.h>
 
 #include <cstdint>
@@ -57,9 +58,11 @@ struct MachineShape {
 
 // The crossbar between the cores' L1s and the L2 slices. Each core and each
 // slice has one port each way; a message of header + data bytes takes
-// ceil(bytes / flit_bytes) cycles on the sender's outgoing and the receiver's
-// incoming port (both reserved in the order messages are sent, like a cache's
-// ports), then latency_cycles to arrive. Reads send a header and get the line
+// ceil(bytes / flit_bytes) flits, each in the first cycle from its send time on
+// in which both the sender's outgoing and the receiver's incoming port are free
+// (PortSlots: reservations made out of time order, as the lt level makes them,
+// still find the cycles free at their own time; no head-of-line blocking, as
+// with virtual output queues), then latency_cycles to arrive. Reads send a header and get the line
 // back; writes send the line and get a header back. flit_bytes = 0 is an ideal
 // crossbar: no serialisation, only the latency. One definition of the counts
 // for every level; the functional level counts without time.
@@ -78,14 +81,15 @@ class Crossbar {
   uint64_t bytes() const { return bytes_[0] + bytes_[1]; }
 
  private:
-  uint64_t send(std::vector<uint64_t>& out_free, uint32_t from, std::vector<uint64_t>& in_free,
-                uint32_t to, uint32_t data_bytes, uint64_t t_ps, int direction);
+  // out and in are null without port timing (untimed, or an ideal crossbar).
+  uint64_t send(PortSlots* out, PortSlots* in, uint32_t to, uint32_t data_bytes, uint64_t t_ps,
+                int direction);
 
   bool timed_;
   uint32_t flit_bytes_, header_bytes_;
   uint64_t cycle_ps_, latency_ps_;
-  // Per port, when it is next free: [0] toward the slices, [1] toward the cores.
-  std::vector<uint64_t> core_out_free_, slice_in_free_, slice_out_free_, core_in_free_;
+  // Each port's taken cycles.
+  std::vector<PortSlots> core_out_, slice_in_, slice_out_, core_in_;
   std::vector<uint64_t> core_in_flits_, slice_in_flits_;  // busy flit-cycles per receiving port
   uint64_t messages_[2] = {}, bytes_[2] = {}, flits_[2] = {};
   uint64_t wait_ps_ = 0, wait_max_ps_ = 0;

@@ -1,0 +1,34 @@
+#pragma once
+// The cycles (slots) a port is taken, for reservations made out of time order.
+// The loosely-timed level reserves a request's port at the time the request gets
+// there, which can lie ahead of a later call's (a response after a DRAM access is
+// reserved before a hit's that returns sooner). A single "next free" time would
+// make the sooner one wait behind the later one; the slots let it take a free
+// cycle at its own time. Used by the caches' ports and the crossbar's.
+// A ring of bits remembers every slot within `horizon_ps` of the newest taken, and
+// more; a slot older than the ring counts as free (no request comes that late).
+#include <cstdint>
+#include <vector>
+
+namespace rtsim::sim {
+
+class PortSlots {
+ public:
+  PortSlots(uint64_t interval_ps, uint64_t horizon_ps);
+  uint64_t interval_ps() const { return interval_ps_; }
+  // The first slot from `slot` on that is free.
+  uint64_t first_free(uint64_t slot) const;
+  // Older than the ring remembers: free, and not to be taken (its bit is a newer slot's).
+  bool forgotten(uint64_t slot) const { return any_taken_ && slot + ring_slots_ <= newest_slot_; }
+  void take(uint64_t slot);
+
+ private:
+  uint64_t& word(uint64_t slot) { return bits_[(slot % ring_slots_) / 64]; }
+  uint64_t word(uint64_t slot) const { return bits_[(slot % ring_slots_) / 64]; }
+  uint64_t interval_ps_;
+  uint64_t ring_slots_ = 64, newest_slot_ = 0;
+  bool any_taken_ = false;
+  std::vector<uint64_t> bits_;
+};
+
+}  // namespace rtsim::sim

@@ -1,0 +1,52 @@
+#include <rtsim/model/sim/port_slots.h>
+
+#include <algorithm>
+
+namespace rtsim::sim {
+
+PortSlots::PortSlots(uint64_t interval_ps, uint64_t horizon_ps)
+    : interval_ps_(std::max<uint64_t>(1, interval_ps)) {
+  while (ring_slots_ < 2 * (horizon_ps / interval_ps_ + 1)) ring_slots_ *= 2;
+  bits_.assign(ring_slots_ / 64, 0);
+}
+
+uint64_t PortSlots::first_free(uint64_t slot) const {
+  if (!any_taken_ || slot > newest_slot_ || forgotten(slot)) return slot;
+  // A 64-slot word at a time: a busy port has long runs of taken slots. Every slot
+  // past the newest is free.
+  while (slot <= newest_slot_) {
+    const uint32_t offset = uint32_t(slot % 64);
+    const uint64_t free_bits = ~(word(slot) >> offset);  // bit i: slot + i is free
+    const uint32_t run = free_bits ? uint32_t(__builtin_ctzll(free_bits)) : 64;
+    // Bits past the newest may be left from an older lap of the ring: those are free.
+    if (run < 64 - offset) return std::min(slot + run, newest_slot_ + 1);
+    slot += 64 - offset;
+  }
+  return newest_slot_ + 1;
+}
+
+void PortSlots::take(uint64_t slot) {
+  const auto mask = [](uint64_t s) { return uint64_t(1) << (s % 64); };
+  if (!any_taken_ || slot > newest_slot_) {
+    // Slots past the newest come into the ring: clear what they overwrite.
+    const uint64_t from = any_taken_ ? newest_slot_ + 1 : slot;
+    if (slot - from >= ring_slots_) {
+      std::fill(bits_.begin(), bits_.end(), 0);
+    } else {
+      for (uint64_t s = from; s <= slot;) {
+        if (s % 64 == 0 && s + 63 <= slot) {
+          word(s) = 0;  // a whole word at once
+          s += 64;
+        } else {
+          word(s) &= ~mask(s);
+          ++s;
+        }
+      }
+    }
+    newest_slot_ = slot;
+    any_taken_ = true;
+  }
+  word(slot) |= mask(slot);
+}
+
+}  // namespace rtsim::sim
