@@ -151,8 +151,11 @@ void run_simulate(const SimulateOptions& o) {
   std::printf("  L1 node hit %.3f  L1 tri hit %.3f  L2 hit %.3f  DRAM %.1f B/ray\n",
               s.number("l1_node.all.hit_rate"), s.number("l1_triangle.all.hit_rate"),
               s.number("l2.hit_rate"), s.number("dram.bytes_per_ray"));
-  std::printf("  host %.3f s, %.0f simulated rays per host second; results in %s\n",
-              result.host_seconds, result.host_seconds > 0 ? double(result.rays) / result.host_seconds : 0.0,
+  std::printf("  %llu cores, L2 slice balance %.3f, %.0f pJ/ray (dynamic)\n",
+              static_cast<unsigned long long>(s.number("machine.cores")), s.number("l2.slice_balance"),
+              s.number("energy.pj_per_ray"));
+  std::printf("  host %.3f s, %.0f simulated rays per CPU second; results in %s\n",
+              result.host_seconds, result.cpu_seconds > 0 ? double(result.rays) / result.cpu_seconds : 0.0,
               dir.string().c_str());
 }
 
