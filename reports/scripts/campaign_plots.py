@@ -363,9 +363,13 @@ def energy_figure(plain, save):
     keys = sorted(slices)
     fig, axes = plt.subplots(1, len(keys), figsize=(4.2 * len(keys) + 1, 4.4), squeeze=False)
     for ax, key in zip(axes[0], keys):
-        by_builder = OrderedDict()
-        for r in sorted(slices[key], key=lambda r: r["stats"]["energy.pj_per_ray"]):
-            by_builder.setdefault(r["builder"], r)  # one run per builder (the first fidelity)
+        # One run per builder: the cycle level's where there is one.
+        chosen = {}
+        for r in slices[key]:
+            if r["builder"] not in chosen or r["fidelity"] == "cycle":
+                chosen[r["builder"]] = r
+        by_builder = OrderedDict(
+            (b, r) for b, r in sorted(chosen.items(), key=lambda kv: kv[1]["stats"]["energy.pj_per_ray"]))
         names = list(by_builder)
         bottom = [0.0] * len(names)
         for part, colour in zip(parts, colours):
@@ -379,7 +383,8 @@ def energy_figure(plain, save):
         ax.grid(axis="y", alpha=0.3)
     axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     save(fig, "energy_per_ray", "Energy per ray by component",
-         "Dynamic energy per ray (nJ) split by component, builders sorted by total; per-access "
+         "Dynamic energy per ray (nJ) split by component (cycle-level runs where there are), builders "
+         "sorted by total; per-access "
          "energies and their sources are the energy.* and dram.*_pj parameters (docs/machine.md). "
          "Leakage and DRAM background power are not modelled.")
 
