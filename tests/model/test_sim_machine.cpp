@@ -113,3 +113,35 @@ TEST(SimMachine, FunctionalHierarchyRoutesEachCoresMissesToTheLinesSlice) {
   EXPECT_EQ(s.number("noc.to_slices.messages"), 4);
   EXPECT_EQ(s.number("noc.to_cores.bytes"), 4 * (64 + c.noc_header_bytes));
 }
+
+// A core can have L1 caches of its own ([core.N] tables); everything else about the
+// machine stays uniform. Bad per-core keys are refused, naming the key.
+TEST(SimMachine, ACoreCanHaveItsOwnL1Caches) {
+  const HardwareConfig c = parse_hardware_config(
+      "cores = 2\n[core.1]\nl1_node.size_bytes = 1024\nl1_triangle.associativity = 2\n"
+      "[l1_node]\nsize_bytes = 32768\n",
+      "het.toml");
+  EXPECT_EQ(c.l1_node_of(0).size_bytes, 32768u);
+  EXPECT_EQ(c.l1_node_of(1).size_bytes, 1024u);  // the core's own, whatever the key order
+  EXPECT_EQ(c.l1_triangle_of(1).associativity, 2u);
+  EXPECT_EQ(c.l1_triangle_of(1).size_bytes, c.l1_triangle.size_bytes);
+  EXPECT_NE(to_json(c).find("\"core\""), std::string::npos);
+  FunctionalMemory m(c);
+  EXPECT_EQ(m.l1_node[0]->config().size_bytes, 32768u);
+  EXPECT_EQ(m.l1_node[c.trv_units]->config().size_bytes, 1024u);  // core 1's first TRV unit
+  const auto error = [](const std::string& text) {
+    try {
+      parse_hardware_config(text, "bad.toml");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error("cores = 2\n[core.2]\nl1_node.size_bytes = 1024\n").find("core.2"), std::string::npos);
+  EXPECT_NE(error("cores = 2\n[core.1]\nl1_node.line_bytes = 128\n").find("core.1.l1_node.line_bytes"),
+            std::string::npos);
+  EXPECT_NE(error("cores = 2\n[core.1]\ntrv.units = 2\n").find("per-core key"), std::string::npos);
+  EXPECT_NE(error("cores = 2\n[core.one]\nl1_node.size_bytes = 1024\n").find("core.<N>"), std::string::npos);
+  EXPECT_NE(error("cores = 2\n[core.1]\nl1_node.size_bytes = 1000\n").find("core.1.l1_node.size_bytes"),
+            std::string::npos);
+}

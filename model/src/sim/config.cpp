@@ -506,6 +506,19 @@ void validate(const HardwareConfig& c) {
                                         "l2.line_bytes x l2.associativity");
     }
   }
+  for (const auto& [core, caches] : c.core_caches) {
+    const std::string key = "core." + std::to_string(core);
+    if (core >= c.cores)
+      throw InputError(key, "the machine has " + std::to_string(c.cores) + " cores (0.." +
+                                std::to_string(c.cores - 1) + ")");
+    check_cache(key + ".l1_node", caches.l1_node);
+    check_cache(key + ".l1_triangle", caches.l1_triangle);
+    if (caches.l1_node.line_bytes != c.l1_node.line_bytes)
+      throw InputError(key + ".l1_node.line_bytes", "must equal l1_node.line_bytes (one line size per level)");
+    if (caches.l1_triangle.line_bytes != c.l1_triangle.line_bytes)
+      throw InputError(key + ".l1_triangle.line_bytes",
+                       "must equal l1_triangle.line_bytes (one line size per level)");
+  }
   if (c.l1_node.line_bytes > c.l2.line_bytes)
     throw InputError("l1_node.line_bytes", "must not exceed l2.line_bytes");
   if (c.l1_triangle.line_bytes > c.l2.line_bytes)
@@ -626,7 +639,12 @@ HardwareConfig parse_hardware_config(const std::string& toml_text, const std::st
   }
   std::map<std::string, ParameterInfo> params;
   for_each_parameter(config, [&](ParameterInfo& p) { params.emplace(p.key, p); });
+  std::vector<std::pair<std::string, const toml::node*>> per_core;
   for (auto& [key, node] : leaves) {
+    if (key.rfind("core.", 0) == 0) {  // after every machine-wide key, whatever the order
+      per_core.emplace_back(key, node);
+      continue;
+    }
     auto it = params.find(key);
     if (it == params.end() && node->is_table()) {
       // An empty section ([l2] with no keys) is harmless; an empty table that is
@@ -639,6 +657,29 @@ HardwareConfig parse_hardware_config(const std::string& toml_text, const std::st
                                     "is now bvh2-32)");
     if (it == params.end()) throw InputError(where + key, "unknown key");
     set_from_toml(it->second, *node, where);
+  }
+  for (auto& [key, node] : per_core) {
+    // core.<N>.<l1_node|l1_triangle>.<field>
+    const size_t dot = key.find('.', 5);
+    const std::string index = key.substr(5, dot == std::string::npos ? std::string::npos : dot - 5);
+    if (index.empty() || index.size() > 3 || index.find_first_not_of("0123456789") != std::string::npos)
+      throw InputError(where + key, "per-core keys are core.<N>.<key>, N a core number");
+    const uint32_t core = uint32_t(std::stoul(index));
+    const std::string rest = dot == std::string::npos ? "" : key.substr(dot + 1);
+    auto [entry, fresh] = config.core_caches.try_emplace(core);
+    if (fresh) entry->second = {config.l1_node, config.l1_triangle};
+    bool known = false;
+    for (const char* level : {"l1_node", "l1_triangle"}) {
+      CacheConfig& cache = std::string(level) == "l1_node" ? entry->second.l1_node : entry->second.l1_triangle;
+      cache_parameters(level, cache, "", [&](ParameterInfo& p) {
+        if (p.key != rest) return;
+        set_from_toml(p, *node, where + "core." + index + ".");
+        known = true;
+      });
+    }
+    if (!known)
+      throw InputError(where + key, "unknown per-core key: a core can differ in its l1_node.* and "
+                                    "l1_triangle.* caches only");
   }
   try {
     validate(config);
@@ -677,6 +718,13 @@ std::string to_json(const HardwareConfig& config_in) {
     else if (p.u32) leaf = *p.u32;
     else leaf = *p.f64;
   });
+  for (auto& [core, caches] : config.core_caches)
+    for (const char* level : {"l1_node", "l1_triangle"})
+      cache_parameters(level, std::string(level) == "l1_node" ? caches.l1_node : caches.l1_triangle, "",
+                       [&](ParameterInfo& p) {
+                         const std::string field = p.key.substr(p.key.find('.') + 1);
+                         out["core"][std::to_string(core)][level][field] = *p.u32;
+                       });
   return out.dump(2);
 }
 

@@ -24,9 +24,6 @@ std::array<double, kRayTypeCount> shares(const TrafficMatrix& m) {
 void report_energy(StatsRegistry& s, const HardwareConfig& config, const EnergyCounts& c) {
   const EnergyConfig& e = config.energy;
   const DramConfig& d = config.dram;
-  const auto access_pj = [&](const CacheConfig& cache) {
-    return cache_access_pj(cache.size_bytes) * e.sram_scale;
-  };
   struct Component {
     const char* name;
     double pj;
@@ -48,12 +45,11 @@ void report_energy(StatsRegistry& s, const HardwareConfig& config, const EnergyC
   const Component parts[] = {
       {"trv", double(box_tests) * e.box_test_pj, trv_share, "TRV ray-box tests"},
       {"ist", double(triangle_tests) * e.triangle_test_pj, ist_share, "IST ray-triangle tests"},
-      {"l1_node", double(c.l1_node_accesses) * access_pj(config.l1_node), shares(c.l1_node_bytes),
+      {"l1_node", c.l1_node_pj * e.sram_scale, shares(c.l1_node_bytes),
        "L1 node cache accesses (requests and write-backs)"},
-      {"l1_triangle", double(c.l1_triangle_accesses) * access_pj(config.l1_triangle),
-       shares(c.l1_triangle_bytes), "L1 triangle cache accesses (requests and write-backs)"},
-      {"l2", double(c.l2_accesses) * access_pj(config.l2_slice()), shares(c.l2_bytes),
-       "L2 accesses (requests and write-backs)"},
+      {"l1_triangle", c.l1_triangle_pj * e.sram_scale, shares(c.l1_triangle_bytes),
+       "L1 triangle cache accesses (requests and write-backs)"},
+      {"l2", c.l2_pj * e.sram_scale, shares(c.l2_bytes), "L2 accesses (requests and write-backs)"},
       {"noc", double(c.noc_bytes) * e.noc_byte_pj, shares(c.l2_bytes), "bytes through the crossbar"},
       {"dram", dram_pj, shares(c.dram_bytes), "DRAM activates, read and write bursts, refreshes"},
   };

@@ -28,9 +28,9 @@ tlm::tlm_generic_payload* PayloadPool::get() {
 FunctionalMemory::FunctionalMemory(const HardwareConfig& c)
     : shape(MachineShape::of(c)), noc(c, shape, false), dram(c.dram, c.l2.line_bytes) {
   for (uint32_t u = 0; u < shape.trv_units(); ++u)
-    l1_node.push_back(std::make_unique<CacheModel>(c.l1_node, "l1_node"));
+    l1_node.push_back(std::make_unique<CacheModel>(c.l1_node_of(shape.core_of_trv(u)), "l1_node"));
   for (uint32_t u = 0; u < shape.ist_units(); ++u)
-    l1_triangle.push_back(std::make_unique<CacheModel>(c.l1_triangle, "l1_triangle"));
+    l1_triangle.push_back(std::make_unique<CacheModel>(c.l1_triangle_of(shape.core_of_ist(u)), "l1_triangle"));
   for (uint32_t s = 0; s < shape.l2_slices; ++s)
     l2.push_back(std::make_unique<CacheModel>(c.l2_slice(), "l2"));
 }
@@ -189,7 +189,7 @@ LtSystem::LtSystem(sc_core::sc_module_name name, const HardwareConfig& config,
   for (uint32_t u = 0; u < shape.trv_units(); ++u) {
     const std::string instance = shape.l1_node_name(u);
     l1_node.push_back(std::make_unique<LtCache>(MachineShape::module_name(instance).c_str(),
-                                                config.l1_node, cycle_ps));
+                                                config.l1_node_of(shape.core_of_trv(u)), cycle_ps));
     trv_ports_.push_back(std::make_unique<tlm_utils::simple_initiator_socket<LtSystem>>(
         MachineShape::module_name(shape.trv_name(u) + "_memory").c_str()));
     trv_ports_.back()->bind(l1_node.back()->target);
@@ -198,7 +198,7 @@ LtSystem::LtSystem(sc_core::sc_module_name name, const HardwareConfig& config,
   for (uint32_t u = 0; u < shape.ist_units(); ++u) {
     const std::string instance = shape.l1_triangle_name(u);
     l1_triangle.push_back(std::make_unique<LtCache>(MachineShape::module_name(instance).c_str(),
-                                                    config.l1_triangle, cycle_ps));
+                                                    config.l1_triangle_of(shape.core_of_ist(u)), cycle_ps));
     ist_ports_.push_back(std::make_unique<tlm_utils::simple_initiator_socket<LtSystem>>(
         MachineShape::module_name(shape.ist_name(u) + "_memory").c_str()));
     ist_ports_.back()->bind(l1_triangle.back()->target);

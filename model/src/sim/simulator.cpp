@@ -106,16 +106,16 @@ EnergyCounts energy_counts(const MachineFigures& f,
                            const std::array<CounterTotals, kRayTypeCount>& per_type,
                            const DramConfig& dram) {
   EnergyCounts e;
-  const auto level = [](const std::vector<const CacheModel*>& caches, uint64_t& accesses,
-                        TrafficMatrix& bytes) {
+  const auto level = [](const std::vector<const CacheModel*>& caches, double& pj, TrafficMatrix& bytes) {
     for (const CacheModel* c : caches) {
-      accesses += c->counters().accesses + c->counters().writebacks;
+      pj += double(c->counters().accesses + c->counters().writebacks) *
+            cache_access_pj(c->config().size_bytes);
       bytes.add(c->requested());
     }
   };
-  level(f.l1_node, e.l1_node_accesses, e.l1_node_bytes);
-  level(f.l1_triangle, e.l1_triangle_accesses, e.l1_triangle_bytes);
-  level(f.l2, e.l2_accesses, e.l2_bytes);
+  level(f.l1_node, e.l1_node_pj, e.l1_node_bytes);
+  level(f.l1_triangle, e.l1_triangle_pj, e.l1_triangle_bytes);
+  level(f.l2, e.l2_pj, e.l2_bytes);
   for (const CacheModel* c : f.l2) e.dram_bytes.add(c->filled());
   e.noc_bytes = f.noc->bytes();
   const DramModel::Counters& d = f.dram->counters();

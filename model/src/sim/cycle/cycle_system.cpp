@@ -29,15 +29,15 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
   for (uint32_t i = 0; i < shape.ist_units(); ++i) {
     ist.push_back(std::make_unique<CycleIst>(module(shape.ist_name(i)).c_str(), cfg, *this));
     l1_triangle.push_back(std::make_unique<CycleCache>(module(shape.l1_triangle_name(i)).c_str(),
-                                                       cfg.l1_triangle, cycle_ps));
+                                                       cfg.l1_triangle_of(shape.core_of_ist(i)), cycle_ps));
     ist.back()->memory.bind(l1_triangle.back()->target);
     noc->bind_l1(l1_triangle.back()->next, shape.core_of_ist(i));
   }
   for (uint32_t u = 0; u < shape.trv_units(); ++u) {
     trv.push_back(
         std::make_unique<CycleTrv>(module(shape.trv_name(u)).c_str(), cfg, *work.context, u, *this));
-    l1_node.push_back(
-        std::make_unique<CycleCache>(module(shape.l1_node_name(u)).c_str(), cfg.l1_node, cycle_ps));
+    l1_node.push_back(std::make_unique<CycleCache>(module(shape.l1_node_name(u)).c_str(),
+                                                   cfg.l1_node_of(shape.core_of_trv(u)), cycle_ps));
     trv.back()->memory.bind(l1_node.back()->target);
     noc->bind_l1(l1_node.back()->next, shape.core_of_trv(u));
     ist_for(u).serve(trv.back().get());

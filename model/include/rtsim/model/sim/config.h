@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -137,6 +138,20 @@ struct HardwareConfig {
 
   CacheConfig l1_node{16 * 1024, 64, 4, 2, 8};
   CacheConfig l1_triangle{16 * 1024, 64, 4, 2, 8};
+  // Cores whose L1 caches differ from the rest: `[core.N]` tables of l1_node.* and
+  // l1_triangle.* keys on top of the machine's values (line sizes stay the machine's).
+  struct CoreCaches {
+    CacheConfig l1_node, l1_triangle;
+  };
+  std::map<uint32_t, CoreCaches> core_caches;
+  const CacheConfig& l1_node_of(uint32_t core) const {
+    auto it = core_caches.find(core);
+    return it == core_caches.end() ? l1_node : it->second.l1_node;
+  }
+  const CacheConfig& l1_triangle_of(uint32_t core) const {
+    auto it = core_caches.find(core);
+    return it == core_caches.end() ? l1_triangle : it->second.l1_triangle;
+  }
   CacheConfig l2{512 * 1024, 64, 8, 20, 32, 2, 1};  // the whole L2; mshrs and ports per slice
   // One slice's geometry: l2 with size_bytes / l2_slices.
   CacheConfig l2_slice() const {

@@ -17,16 +17,16 @@
 namespace rtsim::sim {
 
 struct EnergyCounts {
-  // Accesses of each cache level (requests plus the dirty lines it wrote down) and
-  // the bytes each ray type asked of it.
-  uint64_t l1_node_accesses = 0, l1_triangle_accesses = 0, l2_accesses = 0;
+  // Each cache level's accesses (requests plus the dirty lines it wrote down) times
+  // cache_access_pj of the instance's size, summed over its instances, and the
+  // bytes each ray type asked of it.
+  double l1_node_pj = 0, l1_triangle_pj = 0, l2_pj = 0;
   TrafficMatrix l1_node_bytes, l1_triangle_bytes, l2_bytes, dram_bytes;
   uint64_t noc_bytes = 0;
   uint64_t dram_activates = 0, dram_read_bursts = 0, dram_write_bursts = 0, dram_refreshes = 0;
   std::array<CounterTotals, kRayTypeCount> per_type{};  // box tests and triangle tests by type
 };
 
-// Cache energies follow one instance's size (an L1 per unit, an L2 slice).
 void report_energy(StatsRegistry& stats, const HardwareConfig& config, const EnergyCounts& counts);
 
 }  // namespace rtsim::sim
