@@ -49,7 +49,9 @@ void RayEngine::EventCalendar::push(const Event& e) {
   const uint64_t bucket = e.time_ps / bucket_ps_;
   if (in_buckets_ == 0 && overflow_.empty()) base_ = bucket;  // events never go back in time
   if (bucket < base_ + kWindow) {
-    buckets_[bucket % kWindow].push_back(e);
+    std::vector<Event>& b = buckets_[bucket % kWindow];
+    b.push_back(e);
+    if (heaps_) std::push_heap(b.begin(), b.end());  // the earliest on top (operator< is inverted)
     ++in_buckets_;
   } else {
     overflow_.push(e);
@@ -58,7 +60,9 @@ void RayEngine::EventCalendar::push(const Event& e) {
 
 void RayEngine::EventCalendar::migrate() {
   while (!overflow_.empty() && overflow_.top().time_ps / bucket_ps_ < base_ + kWindow) {
-    buckets_[(overflow_.top().time_ps / bucket_ps_) % kWindow].push_back(overflow_.top());
+    std::vector<Event>& b = buckets_[(overflow_.top().time_ps / bucket_ps_) % kWindow];
+    b.push_back(overflow_.top());
+    if (heaps_) std::push_heap(b.begin(), b.end());
     ++in_buckets_;
     overflow_.pop();
   }
@@ -73,12 +77,19 @@ bool RayEngine::EventCalendar::pop(Event* out) {
   for (;;) {
     std::vector<Event>& b = buckets_[base_ % kWindow];
     if (!b.empty()) {
-      // A bucket holds events of one cycle: take the earliest (time, then sequence).
-      size_t best = 0;
-      for (size_t i = 1; i < b.size(); ++i)
-        if (b[best] < b[i]) best = i;  // operator< is inverted for the max-heap
-      *out = b[best];
-      b[best] = b.back();
+      // A bucket holds the events of one cycle; the earliest (time, then sequence)
+      // goes first. Few rays in flight leave a handful per bucket, found fastest by a
+      // scan; thousands leave hundreds, kept as a heap. Both give the same order.
+      if (heaps_) {
+        std::pop_heap(b.begin(), b.end());
+        *out = b.back();
+      } else {
+        size_t best = 0;
+        for (size_t i = 1; i < b.size(); ++i)
+          if (b[best] < b[i]) best = i;  // operator< is inverted for the max-heap
+        *out = b[best];
+        b[best] = b.back();
+      }
       b.pop_back();
       --in_buckets_;
       return true;
@@ -99,7 +110,7 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
       trv_time_(shape_.trv_units()), ist_time_(shape_.ist_units()),
       trv_passes_(shape_.trv_units(), 0), ist_tests_(shape_.ist_units(), 0),
       shading_time_(shape_.cores), shaded_(shape_.cores, 0), spawned_count_(shape_.cores, 0),
-      events_(cycle_ps_) {
+      events_(cycle_ps_, /*heaps=*/shape_.slots() > 512) {
   trv_interval_ps_ = interval_ps(config.trv_nodes_per_cycle, cycle_ps_);
   ist_interval_ps_ = interval_ps(config.ist_tests_per_cycle, cycle_ps_);
   shading_interval_ps_ = interval_ps(config.shading_rays_per_cycle, cycle_ps_);

@@ -191,7 +191,8 @@ class RayEngine {
   // at a fraction of its cost (most events fall within a few hundred cycles).
   class EventCalendar {
    public:
-    explicit EventCalendar(uint64_t bucket_ps) : bucket_ps_(std::max<uint64_t>(1, bucket_ps)) {}
+    EventCalendar(uint64_t bucket_ps, bool heaps)
+        : bucket_ps_(std::max<uint64_t>(1, bucket_ps)), heaps_(heaps) {}
     void push(const Event& e);
     bool pop(Event* out);
     bool empty() const { return in_buckets_ == 0 && overflow_.empty(); }
@@ -200,6 +201,7 @@ class RayEngine {
     static constexpr uint64_t kWindow = 4096;  // buckets
     void migrate();                            // overflow events now inside the window
     uint64_t bucket_ps_, base_ = 0;            // base_: the bucket of the earliest event
+    bool heaps_;                               // buckets as heaps (many rays in flight)
     std::vector<std::vector<Event>> buckets_ = std::vector<std::vector<Event>>(kWindow);
     size_t in_buckets_ = 0;
     std::priority_queue<Event> overflow_;
