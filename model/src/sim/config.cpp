@@ -658,7 +658,8 @@ HardwareConfig parse_hardware_config(const std::string& toml_text, const std::st
     if (it == params.end()) throw InputError(where + key, "unknown key");
     set_from_toml(it->second, *node, where);
   }
-  for (auto& [key, node] : per_core) {
+  for (auto& [key, value] : per_core) {
+    const toml::node* node = value;  // a plain variable: lambdas may not capture bindings (C++17)
     // core.<N>.<l1_node|l1_triangle>.<field>
     const size_t dot = key.find('.', 5);
     const std::string index = key.substr(5, dot == std::string::npos ? std::string::npos : dot - 5);
@@ -718,13 +719,15 @@ std::string to_json(const HardwareConfig& config_in) {
     else if (p.u32) leaf = *p.u32;
     else leaf = *p.f64;
   });
-  for (auto& [core, caches] : config.core_caches)
-    for (const char* level : {"l1_node", "l1_triangle"})
+  for (auto& [index, caches] : config.core_caches)
+    for (const char* level : {"l1_node", "l1_triangle"}) {
+      const std::string core = std::to_string(index);  // lambdas may not capture bindings (C++17)
       cache_parameters(level, std::string(level) == "l1_node" ? caches.l1_node : caches.l1_triangle, "",
                        [&](ParameterInfo& p) {
                          const std::string field = p.key.substr(p.key.find('.') + 1);
-                         out["core"][std::to_string(core)][level][field] = *p.u32;
+                         out["core"][core][level][field] = *p.u32;
                        });
+    }
   return out.dump(2);
 }
 
