@@ -52,8 +52,9 @@ uint64_t FunctionalMemory::access(Requester who, uint32_t unit, const LineAccess
                                   uint64_t issue_ps) {
   const bool trv = who == Requester::Trv;
   CacheModel& l1 = *(trv ? l1_node : l1_triangle)[unit];
-  const uint32_t core = trv ? shape.core_of_trv(unit) : shape.core_of_ist(unit);
   const CacheModel::Result r = l1.access(a);
+  if (!r.writeback.dirty && !r.fetch) return issue_ps;  // a hit: nothing goes to the L2
+  const uint32_t core = trv ? shape.core_of_trv(unit) : shape.core_of_ist(unit);
   const uint32_t l1_line = l1.config().line_bytes;
   const CacheModel& slices = *l2.front();
   if (r.writeback.dirty)

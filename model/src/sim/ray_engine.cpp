@@ -121,7 +121,7 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
   const uint32_t count = shape_.slots();
   slots_.reserve(count);
   for (uint32_t id = 0; id < count; ++id)
-    slots_.emplace_back(*workload.context, id, id / config.trv_ray_slots);
+    slots_.emplace_back(*workload.context, id, id / config.trv_ray_slots, shape_);
   arrive_ps_.assign(count, 0);
 }
 
@@ -153,7 +153,7 @@ uint64_t RayEngine::issue(MemoryPort& port, Slot& slot, const std::vector<Memory
     const uint64_t line_bytes = line_bytes_[size_t(who)];
     const uint64_t line = a.address & ~(line_bytes - 1);
     if (a.address + a.bytes <= line + line_bytes) {
-      const uint32_t unit = who == Requester::Trv ? slot.unit : shape_.ist_of_trv(slot.unit);
+      const uint32_t unit = who == Requester::Trv ? slot.unit : slot.ist;
       const uint64_t done = port.access(who, unit, LineAccess{line, a.bytes, a.kind, type, a.write}, t);
       return a.write ? t : std::max(t, done);
     }
@@ -164,7 +164,7 @@ uint64_t RayEngine::issue(MemoryPort& port, Slot& slot, const std::vector<Memory
   uint64_t ready = t;
   for (const LineAccess& line : lines_) {
     const Requester who = requester_of(line.kind);
-    const uint32_t unit = who == Requester::Trv ? slot.unit : shape_.ist_of_trv(slot.unit);
+    const uint32_t unit = who == Requester::Trv ? slot.unit : slot.ist;
     const uint64_t done = port.access(who, unit, line, t);
     if (!line.write) ready = std::max(ready, done);
   }
@@ -175,7 +175,7 @@ uint64_t RayEngine::issue(MemoryPort& port, Slot& slot, const std::vector<Memory
 
 bool RayEngine::start_next_ray(Slot& slot, uint64_t now_ps, uint64_t* start_ps) {
   uint32_t ray = 0;
-  const uint32_t core = shape_.core_of_trv(slot.unit);
+  const uint32_t core = slot.core;
   if (!dispatcher_.next(core, now_ps, &ray)) return false;
   slot.ray = ray;
   slot.traversal.reset(dispatcher_.rays()[ray]);
@@ -200,7 +200,7 @@ void RayEngine::finish(Slot& slot, uint64_t t) {
   const Ray ray = trv.ray();
   spawn_secondary_rays(*workload_->scene, workload_->plan, workload_->settings, ray, slot.ray,
                        trv.hit(), spawned_);
-  const uint32_t core = shape_.core_of_trv(slot.unit);
+  const uint32_t core = slot.core;
   ++shaded_[core];
   spawned_count_[core] += spawned_.size();
   uint64_t ready = 0;
@@ -257,7 +257,7 @@ void RayEngine::run_rounds(MemoryPort& port, const std::function<void(uint64_t)>
         issue(port, slot, reads, 0, reads.size(), 0);
         trv.process();
         if (node_step) trv_passes_[slot.unit] += passes;
-        else ist_tests_[shape_.ist_of_trv(slot.unit)] += trv.last_step_tests();
+        else ist_tests_[slot.ist] += trv.last_step_tests();
         const std::vector<MemoryAccess>& stack = trv.stack_accesses();
         issue(port, slot, stack, 0, stack.size(), 0);
       }
@@ -288,7 +288,7 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
                           const std::function<void(uint64_t)>& progress) {
   uint64_t reported = done_rays_;
   idle_slots_.assign(shape_.cores, {});
-  for (uint32_t id : visit_order_) idle_slots_[shape_.core_of_trv(slots_[id].unit)].push_back(id);
+  for (uint32_t id : visit_order_) idle_slots_[slots_[id].core].push_back(id);
   for (uint32_t core = 0; core < shape_.cores; ++core)
     schedule(frame_start_ps_, core, EventKind::Dispatch);
   Event e{};
@@ -332,7 +332,7 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
         } else {
           trv.process();
           const uint32_t tests = trv.last_step_tests();
-          const uint32_t ist = shape_.ist_of_trv(slot.unit);
+          const uint32_t ist = slot.ist;
           const uint64_t start = std::max(t, ist_free_[ist]);
           ist_free_[ist] = start + tests * ist_interval_ps_;
           ist_time_[ist].busy_ps += tests * ist_interval_ps_;
@@ -355,7 +355,7 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
         finish(slot, next);
         uint64_t start = 0;
         if (start_next_ray(slot, next, &start)) schedule(start, e.slot, EventKind::Issue);
-        else idle_slots_[shape_.core_of_trv(slot.unit)].push_back(e.slot);
+        else idle_slots_[slot.core].push_back(e.slot);
         break;
       }
       case EventKind::Dispatch: break;

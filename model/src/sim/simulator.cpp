@@ -104,7 +104,7 @@ struct MachineFigures {
 // The energy model's event counts from the figures (energy.h).
 EnergyCounts energy_counts(const MachineFigures& f,
                            const std::array<CounterTotals, kRayTypeCount>& per_type,
-                           const DramConfig& dram) {
+                           const TrafficMatrix& dram_bytes, const DramConfig& dram) {
   EnergyCounts e;
   const auto level = [](const std::vector<const CacheModel*>& caches, double& pj, TrafficMatrix& bytes) {
     for (const CacheModel* c : caches) {
@@ -116,7 +116,7 @@ EnergyCounts energy_counts(const MachineFigures& f,
   level(f.l1_node, e.l1_node_pj, e.l1_node_bytes);
   level(f.l1_triangle, e.l1_triangle_pj, e.l1_triangle_bytes);
   level(f.l2, e.l2_pj, e.l2_bytes);
-  for (const CacheModel* c : f.l2) e.dram_bytes.add(c->filled());
+  e.dram_bytes = dram_bytes;
   e.noc_bytes = f.noc->bytes();
   const DramModel::Counters& d = f.dram->counters();
   e.dram_activates = d.activates;
@@ -198,7 +198,7 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
   filled.report(s, "dram.bytes_by_type", "bytes read from DRAM");
   s.set_real("dram.bytes_per_ray", rays ? double(f.dram->counters().bytes) / double(rays) : 0,
              "bytes/ray", "DRAM bytes read / rays");
-  report_energy(s, config, energy_counts(f, per_type, config.dram));
+  report_energy(s, config, energy_counts(f, per_type, filled, config.dram));
 }
 
 void report_layout(StatsRegistry& s, const MemoryImage& image, uint64_t triangles) {

@@ -12,6 +12,7 @@ constexpr uint64_t kWriteToken = uint64_t(1) << 32;  // a posted write: nobody w
 CycleTrv::CycleTrv(sc_core::sc_module_name name, const HardwareConfig& config,
                    const TraversalContext& context, uint32_t unit, CycleSystem& system)
     : sc_module(name), memory("memory"), config_(config), system_(system), unit_(unit),
+      ist_(system.ist_for(unit)),  // the IST units are built first
       cycle_ps_(uint64_t(std::llround(config.clock_period_ps()))) {
   interval_ps_ = uint64_t(std::llround(double(cycle_ps_) / config.trv_nodes_per_cycle));
   latency_ps_ = uint64_t(config.trv_box_test_latency) * cycle_ps_;
@@ -89,13 +90,12 @@ tlm::tlm_sync_enum CycleTrv::nb_transport_bw(tlm::tlm_generic_payload& p, tlm::t
 void CycleTrv::handle(const Item& item) {
   const uint64_t now = now_ps();
   if (item.kind == Item::IstSpace) {  // the IST unit has room again
-    CycleIst& ist = system_.ist_for(unit_);
-    while (!waiting_for_ist_.empty() && ist.can_accept()) {
+    while (!waiting_for_ist_.empty() && ist_.can_accept()) {
       const uint32_t s = waiting_for_ist_.front();
       waiting_for_ist_.pop_front();
       if (waiting_for_ist_.empty()) occupancy.stalled_ps += now - stalled_since_;
       slots_[s].phase = Phase::InIst;
-      ist.accept(this, s, &slots_[s].traversal, slots_[s].ray, now);
+      ist_.accept(this, s, &slots_[s].traversal, slots_[s].ray, now);
     }
     return;
   }
@@ -143,10 +143,9 @@ void CycleTrv::next_action(uint32_t s) {
       send(s, slot.traversal.step_reads());
       break;
     case TraversalAction::TestTriangles: {
-      CycleIst& ist = system_.ist_for(unit_);
-      if (ist.can_accept() && waiting_for_ist_.empty()) {
+      if (ist_.can_accept() && waiting_for_ist_.empty()) {
         slot.phase = Phase::InIst;
-        ist.accept(this, s, &slot.traversal, slot.ray, now);
+        ist_.accept(this, s, &slot.traversal, slot.ray, now);
       } else {
         slot.phase = Phase::WaitIst;
         if (waiting_for_ist_.empty()) stalled_since_ = now;  // the unit starts stalling

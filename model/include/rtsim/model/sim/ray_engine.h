@@ -134,10 +134,12 @@ class RayEngine {
  private:
   struct Slot {
     RayTraversal traversal;
-    uint32_t ray = 0, unit = 0;
+    uint32_t ray = 0;
+    uint32_t unit = 0, ist = 0, core = 0;  // its TRV unit, that unit's IST unit and core
     bool active = false;
     uint64_t start_ps = 0;
-    Slot(const TraversalContext& c, uint32_t id, uint32_t u) : traversal(c, id), unit(u) {}
+    Slot(const TraversalContext& c, uint32_t id, uint32_t u, const MachineShape& m)
+        : traversal(c, id), unit(u), ist(m.ist_of_trv(u)), core(m.core_of_trv(u)) {}
   };
   // Dispatch: the core in `slot` has rays ready for its idle slots.
   enum class EventKind : uint8_t { Issue, Dependent, Arrive, Complete, Dispatch };

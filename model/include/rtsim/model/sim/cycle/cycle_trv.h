@@ -17,6 +17,7 @@
 
 namespace rtsim::sim {
 
+class CycleIst;
 class CycleSystem;
 
 class CycleTrv : public sc_core::sc_module {
@@ -61,6 +62,7 @@ class CycleTrv : public sc_core::sc_module {
   const HardwareConfig& config_;
   CycleSystem& system_;
   uint32_t unit_;  // global TRV unit number (machine.h)
+  CycleIst& ist_;  // the IST unit of its core that tests its leaves
   uint64_t cycle_ps_, interval_ps_, latency_ps_;
   std::vector<Slot> slots_;
   TimedQueue<Item> queue_;
