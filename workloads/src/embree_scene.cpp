@@ -33,9 +33,13 @@ RTCDevice shared_embree_device() {
   return device;
 }
 
-EmbreeScene::EmbreeScene(const Scene& scene) : EmbreeScene(scene, std::string()) {}
+EmbreeScene::EmbreeScene(const Scene& scene, Quality quality) { build(scene, std::string(), quality); }
 
 EmbreeScene::EmbreeScene(const Scene& scene, const std::string& device_config) {
+  build(scene, device_config, Quality::oracle);
+}
+
+void EmbreeScene::build(const Scene& scene, const std::string& device_config, Quality quality) {
   if (device_config.empty()) {
     device_ = shared_embree_device();
     rtcRetainDevice(device_);
@@ -45,9 +49,12 @@ EmbreeScene::EmbreeScene(const Scene& scene, const std::string& device_config) {
     rtcSetDeviceErrorFunction(device_, report_embree_error, nullptr);
   }
   scene_ = rtcNewScene(device_);
-  rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+  const RTCBuildQuality build_quality =
+      quality == Quality::fast ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_HIGH;
+  rtcSetSceneBuildQuality(scene_, build_quality);
   rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
   RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+  if (quality == Quality::fast) rtcSetGeometryBuildQuality(geom, build_quality);
   // Embree reads vertex buffers with 16-byte loads: give it one float of padding.
   auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
       geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),

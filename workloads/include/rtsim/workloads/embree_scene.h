@@ -20,7 +20,12 @@ struct EmbreeHit {
 
 class EmbreeScene {
  public:
-  explicit EmbreeScene(const Scene& scene);
+  // oracle: Embree's high-quality tree, for the reference traces and every query
+  // whose answer could depend on tie-breaking (which of two equally near triangles
+  // is hit). fast: its low-quality (Morton) tree, a sixth of the build time, for
+  // passes that cast few rays per build and read only hit distances (the AO pass).
+  enum class Quality { oracle, fast };
+  explicit EmbreeScene(const Scene& scene, Quality quality = Quality::oracle);
   // On a device of its own with this Embree configuration, e.g.
   // "tri_accel=bvh4.triangle4" to pin Embree's own tree to BVH4 (benchmarks).
   EmbreeScene(const Scene& scene, const std::string& device_config);
@@ -36,6 +41,7 @@ class EmbreeScene {
   RTCScene handle() const { return scene_; }
 
  private:
+  void build(const Scene& scene, const std::string& device_config, Quality quality);
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
 };
