@@ -1,7 +1,7 @@
 // Build speed: our binned sah vs Embree's medium build (rtcBuildBVH) on the default
 // scene and, when fetched (RTSIM_CACHE/<name>/scene.toml), on dragon-small, dragon and
-// black_forest; and the AO-BVH total (AO pass with K = 4, the default, and K = 16 + build)
-// vs sah. Run with
+// black_forest; and the AO-BVH total (AO pass + build) vs sah, for K = 4 and 16 rays
+// per estimate and G = 1, 16, 64 triangles sharing one. Run with
 //   bench_build --benchmark_counters_tabular=true
 // Threads: RTSIM_BENCH_THREADS (default 2, this machine's cores).
 // Scenes: RTSIM_BENCH_SCENES, a comma-separated list (default: the above).
@@ -32,12 +32,13 @@ const rtsim::Scene& scene_named(const std::string& name) {
 }
 
 void run_build(benchmark::State& state, const std::string& scene_name, const std::string& builder,
-               uint32_t ao_rays) {
+               uint32_t ao_rays, uint32_t ao_share = 1) {
   const rtsim::Scene& scene = scene_named(scene_name);
   rtsim::BuildParams params;
   params.builder = builder;
   params.threads = bench_threads();
   params.ao_rays = ao_rays;
+  params.ao_share = ao_share;
   double estimate = 0, build = 0;
   for (auto _ : state) {
     rtsim::BuildReport report;
@@ -60,10 +61,13 @@ void register_scene(const std::string& scene) {
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime()
         ->MinTime(2.0);
-  // K = 4 is the default; K = 16 the old default, which the goal also names.
-  for (uint32_t k : {4u, 16u})
-    benchmark::RegisterBenchmark(("build/" + scene + "/aobvh_K" + std::to_string(k)).c_str(),
-                                 [scene, k](benchmark::State& s) { run_build(s, scene, "aobvh", k); })
+  // K = 4 is the default, K = 16 the old one; G triangles share one estimate
+  // (G = 1: one per triangle).
+  const std::pair<uint32_t, uint32_t> variants[] = {{4, 1}, {4, 16}, {4, 64}, {16, 1}, {16, 16}};
+  for (auto [k, g] : variants)
+    benchmark::RegisterBenchmark(
+        ("build/" + scene + "/aobvh_K" + std::to_string(k) + "_G" + std::to_string(g)).c_str(),
+        [scene, k = k, g = g](benchmark::State& s) { run_build(s, scene, "aobvh", k, g); })
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime()
         ->MinTime(2.0);

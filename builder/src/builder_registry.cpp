@@ -134,7 +134,11 @@ const std::vector<BuilderParameter>& builder_parameters() {
         "osah: primary rays per side (width; the command line sets the height too)", &P::osah_width, 1,
         16384, {"osah"});
     add("osah_height", "", "pixels", "osah: primary rays, height", &P::osah_height, 1, 16384, {"osah"});
-    add("ao_rays", "--ao-rays", "rays", "aobvh: AO rays per triangle (K)", &P::ao_rays, 1, 65536, kOcclusion);
+    add("ao_rays", "--ao-rays", "rays", "aobvh: AO rays per estimate (K; per triangle with ao_share 1)",
+        &P::ao_rays, 1, 65536, kOcclusion);
+    add("ao_share", "--ao-share", "triangles",
+        "aobvh: at most this many nearby, like-facing triangles share one K-ray estimate", &P::ao_share, 1,
+        4096, kOcclusion);
     add("ao_cutoff_relative", "--ao-cutoff", "x scene diagonal",
         "aobvh, rdh: AO ray length x scene diagonal (< 0: the scene's setting, default 0.05)",
         &P::ao_cutoff_relative, -kInf, kInf, {"aobvh", "aosbvh", "rdh", "rdh-sbvh"});

@@ -94,6 +94,15 @@ def k_panel(ax, data):
     for k, v in zip(measured, rmse):
         ax.annotate(k["setting"], (k["cpu_seconds"], on_floor(v, floor)), textcoords="offset points",
                     xytext=(4, 4), fontsize=7)
+    # Shared estimates (G triangles per K-ray estimate), against the same reference.
+    shares = [k for k in data.get("knobs", []) if k["family"] == "ao_share"]
+    if shares:
+        srmse = [k["occlusion_rmse"] for k in shares]
+        ax.plot([k["cpu_seconds"] for k in shares], [on_floor(v, floor) for v in srmse], marker="^",
+                color="#55a868", label="shared estimates, RMSE")
+        for k, v in zip(shares, srmse):
+            ax.annotate(k["setting"].split(" ")[0], (k["cpu_seconds"], on_floor(v, floor)),
+                        textcoords="offset points", xytext=(4, -10), fontsize=7, color="#55a868")
     xs = [k["cpu_seconds"] for k in ks]
     ax.set_xscale("log")
     ax.set_yscale("log")
@@ -104,12 +113,15 @@ def k_panel(ax, data):
     twin = ax.twinx()
     twin.plot(xs, [k["ops_per_ray"] for k in ks], marker="s", color="#c44e52", linestyle="--",
               label="tree ops/ray (right; last point %s)" % ref_name)
+    if shares:
+        twin.plot([k["cpu_seconds"] for k in shares], [k["ops_per_ray"] for k in shares], marker="v",
+                  color="#8c613c", linestyle=":", label="shared: tree ops/ray (right)")
     twin.set_ylabel("TRV+IST ops/ray", color="#c44e52")
     twin.tick_params(axis="y", colors="#c44e52")
     lines = ax.get_legend_handles_labels()
     more = twin.get_legend_handles_labels()
     ax.legend(lines[0] + more[0], lines[1] + more[1], fontsize=7, loc="upper center")
-    ax.set_title("AO-BVH: AO rays per primitive K (reference %s)" % ref_name, fontsize=10)
+    ax.set_title("AO-BVH: AO rays per primitive K, shared by G (reference %s)" % ref_name, fontsize=10)
 
 
 def builder_panel(ax, data):

@@ -36,6 +36,7 @@ AccuracyOptions quick_accuracy_options(AccuracyOptions base) {
   base.knob_resolution = 48;
   base.ao_rays_per_primitive = {1, 4, 16, 64};
   base.ao_rays_reference = 256;
+  base.ao_shares = {1, 16};
   base.sbvh_alphas = {1e-3f, 1e-5f};
   base.ao_image_resolution = 48;
   base.ao_samples = {1, 4, 16, 64};
@@ -273,6 +274,8 @@ class AccuracyRun {
     for (uint32_t k : o_.ao_rays_per_primitive)
       if (k == 0 || k >= o_.ao_rays_reference)
         throw InputError("ao_rays_per_primitive", "each K must be 1..reference-1");
+    for (uint32_t g : o_.ao_shares)
+      if (g == 0) throw InputError("ao_shares", "each share must be at least 1 triangle");
     for (uint32_t n : o_.ao_samples)
       if (n == 0 || n >= o_.ao_samples_reference)
         throw InputError("ao_samples", "each count must be 1..reference-1");
@@ -329,34 +332,60 @@ class AccuracyRun {
   }
 
   void builder_knobs() {
-    const size_t steps = o_.ao_rays_per_primitive.size() + 1 + o_.sah_bins.size() + o_.sbvh_alphas.size() + 1;
+    const size_t steps = o_.ao_rays_per_primitive.size() + 1 + o_.ao_shares.size() + o_.sah_bins.size() +
+                         o_.sbvh_alphas.size() + 1;
     Progress progress("accuracy: builder knobs", steps, "trees");
     const BuildParams defaults = base_params();
 
-    // AO rays per primitive: the reference K first, its values are what the others approach.
+    // AO rays per primitive (no sharing): the reference K first, its values are what
+    // the others approach.
     std::vector<KnobPoint> k_points;
     std::vector<uint32_t> ks = o_.ao_rays_per_primitive;
     ks.push_back(o_.ao_rays_reference);
-    std::vector<float> ref_values, ref_weights;
     std::vector<std::pair<std::vector<float>, std::vector<float>>> per_k(ks.size());
+    auto keep_if_default = [&](const BuildParams& p, Bvh* bvh) {
+      if (o_.builder == "aobvh" && p.ao_rays == defaults.ao_rays && p.ao_share == defaults.ao_share)
+        main_tree_ = std::make_unique<Bvh>(std::move(*bvh));
+    };
     for (size_t i = ks.size(); i-- > 0;) {
       BuildParams p = defaults;
       p.builder = "aobvh";
       p.ao_rays = ks[i];
+      p.ao_share = 1;
       Bvh bvh;
       BuildReport br;
       KnobPoint point = build_point("ao_rays", "K=" + std::to_string(ks[i]), ks[i], p, &bvh, &br);
       point.reference = i + 1 == ks.size();
       per_k[i] = {occlusion_values_of(br, p.ao_weight_floor), br.weights};
-      if (o_.builder == "aobvh" && ks[i] == defaults.ao_rays) main_tree_ = std::make_unique<Bvh>(std::move(bvh));
+      keep_if_default(p, &bvh);
       k_points.insert(k_points.begin(), point);
       progress.advance();
     }
+    const std::vector<float>& ref_values = per_k.back().first;
+    const std::vector<float>& ref_weights = per_k.back().second;
     for (size_t i = 0; i < ks.size(); ++i) {
-      k_points[i].occlusion_rmse = rmse(per_k[i].first, per_k.back().first, &k_points[i].occlusion_max_error);
-      k_points[i].weight_rmse = rmse(per_k[i].second, per_k.back().second);
+      k_points[i].occlusion_rmse = rmse(per_k[i].first, ref_values, &k_points[i].occlusion_max_error);
+      k_points[i].weight_rmse = rmse(per_k[i].second, ref_weights);
     }
     relative_to_reference(k_points);
+
+    // Shared estimates at the default K, against the same reference (K rays per triangle).
+    std::vector<KnobPoint> share_points;
+    for (uint32_t g : o_.ao_shares) {
+      BuildParams p = defaults;
+      p.builder = "aobvh";
+      p.ao_share = g;
+      Bvh bvh;
+      BuildReport br;
+      KnobPoint point = build_point("ao_share", "G=" + std::to_string(g) + " (K=" + std::to_string(p.ao_rays) + ")",
+                                    g, p, &bvh, &br);
+      point.occlusion_rmse = rmse(occlusion_values_of(br, p.ao_weight_floor), ref_values, &point.occlusion_max_error);
+      point.weight_rmse = rmse(br.weights, ref_weights);
+      point.ops_error = relative(point.ops_per_ray, k_points.back().ops_per_ray);
+      keep_if_default(p, &bvh);
+      share_points.push_back(point);
+      progress.advance();
+    }
 
     // Binned vs full-sweep SAH: the full sweep is the exact (reference) one.
     std::vector<KnobPoint> bin_points;
@@ -396,7 +425,7 @@ class AccuracyRun {
       main_params_.builder = "aobvh";
     }
     progress.advance();
-    for (auto* list : {&k_points, &bin_points, &alpha_points})
+    for (auto* list : {&k_points, &share_points, &bin_points, &alpha_points})
       report_.knobs.insert(report_.knobs.end(), list->begin(), list->end());
   }
 

@@ -139,6 +139,34 @@ void knob_recommendations(const AccuracyReport& r, std::vector<Recommendation>& 
                  "ranking to be roughly right.";
     out.push_back(rec);
   }
+  // Shared AO estimates: the largest G up to which no tree costs more than `tol`
+  // extra ops/ray against the K-rays-per-triangle reference.
+  auto shares = family(r, "ao_share");
+  std::sort(shares.begin(), shares.end(), [](const KnobPoint* a, const KnobPoint* b) { return a->value < b->value; });
+  const KnobPoint* ref_k = reference_of(ks);
+  if (!shares.empty() && ref_k) {
+    const KnobPoint* chosen = nullptr;
+    for (const KnobPoint* g : shares) {
+      if (!(g->ops_error <= tol)) break;
+      chosen = g;
+    }
+    Recommendation rec;
+    rec.topic = "AO-BVH estimates shared by nearby triangles (G)";
+    if (chosen) {
+      rec.setting = "--ao-share " + integer(chosen->value);
+      rec.why = "up to G=" + integer(chosen->value) + " no tree costs more than " + pct(tol, 2) + " ops/ray above K=" +
+                integer(ref_k->value) + " per triangle (G=" + integer(chosen->value) + ": " +
+                num(chosen->ops_per_ray) + ", " + pct(chosen->ops_error) + ", occlusion RMSE " +
+                num(chosen->occlusion_rmse, 3) + ") while estimating + building takes " + secs(chosen->cpu_seconds) +
+                " of CPU (G=" + integer(shares.front()->value) + ": " + secs(shares.front()->cpu_seconds) +
+                "). One seed: the tree's seed spread (docs/build-speed.md) is of the same size on some scenes.";
+    } else {
+      rec.setting = "--ao-share 1";
+      rec.why = "already G=" + integer(shares.front()->value) + " costs " + pct(shares.front()->ops_error) +
+                " ops/ray against K=" + integer(ref_k->value) + " per triangle.";
+    }
+    out.push_back(rec);
+  }
   const auto bins = family(r, "sah_bins");
   if (const KnobPoint* ref = reference_of(bins)) {
     const KnobPoint* binned = nullptr;

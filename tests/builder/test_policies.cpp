@@ -5,9 +5,11 @@
 #include <rtsim/builder/metrics.h>
 #include <rtsim/builder/occlusion.h>
 #include <rtsim/builder/validate_bvh.h>
+#include <rtsim/workloads/embree_scene.h>
 #include <rtsim/workloads/procedural.h>
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
 #include <limits>
@@ -167,6 +169,62 @@ TEST(Policies, OcclusionValuesAreDeterministicAndMeaningful) {
   EXPECT_EQ(a, b);
   EXPECT_LT(a[0], 0.2f);   // under the ceiling at x ~ 0
   EXPECT_GT(a[19], 0.9f);  // x ~ 0.95: open sky
+}
+
+TEST(Policies, EmbreesFastTreeGivesTheSameOcclusionValues) {
+  // The AO pass casts through Embree's low-quality tree: it must not change the values.
+  for (const char* name : {"cornell", "interior"}) {
+    const Scene scene = make_procedural_scene(name);
+    OcclusionParams params;
+    params.cutoff = scene.ao_cutoff();
+    params.rays = 4;
+    const EmbreeScene oracle(scene), fast(scene, EmbreeScene::Quality::fast);
+    EXPECT_EQ(estimate_occlusion(scene, oracle, params), estimate_occlusion(scene, fast, params)) << name;
+  }
+}
+
+// A thin slab over the ground: its top faces open sky, its bottom faces the ground
+// just below. Both sides are dense grids of small triangles in the same cells.
+Scene slab_over_ground(int cells) {
+  Scene scene = test::empty_scene("slab");
+  const float step = 1.0f / float(cells);
+  for (int i = 0; i < cells; ++i)
+    for (int j = 0; j < cells; ++j) {
+      const float x = i * step, y = j * step;
+      test::add_triangle(scene, vec3(x, y, 0), vec3(x + step, y, 0), vec3(x, y + step, 0));  // top: +z
+      test::add_triangle(scene, vec3(x, y, -0.002f), vec3(x, y + step, -0.002f), vec3(x + step, y, -0.002f));  // bottom: -z
+    }
+  test::add_triangle(scene, vec3(-20, -20, -0.03f), vec3(20, -20, -0.03f), vec3(0, 20, -0.03f));  // ground, +z
+  return scene;
+}
+
+TEST(Policies, SharedOcclusionPoolsOnlyLikeFacingNeighbours) {
+  const Scene scene = slab_over_ground(64);
+  const size_t per_side = 64 * 64;
+  const EmbreeScene embree(scene, EmbreeScene::Quality::fast);
+  OcclusionParams params;
+  params.cutoff = 0.5f;
+  params.rays = 16;
+  uint64_t per_triangle_rays = 0, shared_rays = 0;
+  const std::vector<float> single = estimate_occlusion(scene, embree, params, &per_triangle_rays);
+  EXPECT_EQ(per_triangle_rays, scene.triangle_count() * params.rays);
+  params.share = 64;
+  const std::vector<float> shared = estimate_occlusion(scene, embree, params, &shared_rays);
+  EXPECT_LT(shared_rays * 8, per_triangle_rays);  // fewer rays by about the group size
+  size_t top_distinct = 0;
+  for (size_t i = 0; i < per_side; ++i) {
+    const size_t top = 2 * i, bottom = 2 * i + 1;
+    EXPECT_GT(shared[top], 0.95f) << top;      // open sky, never pooled with the bottom
+    EXPECT_LT(shared[bottom], 0.35f) << bottom;  // the ground 2.8% of the cutoff below
+    EXPECT_GT(single[top], 0.95f);
+    EXPECT_LT(single[bottom], 0.35f);
+    top_distinct += i == 0 || shared[top] != shared[top - 2];
+  }
+  EXPECT_LT(top_distinct, per_side / 4);  // neighbours did share their estimates
+  // The groups and the rays do not depend on the thread count.
+  std::vector<float> one_thread;
+  tbb::task_arena(1).execute([&] { one_thread = estimate_occlusion(scene, embree, params); });
+  EXPECT_EQ(one_thread, shared);
 }
 
 TEST(Policies, CoreBuildersAreBitIdenticalForAnyThreadCount) {

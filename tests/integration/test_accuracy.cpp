@@ -63,21 +63,28 @@ TEST(Accuracy, QuickRunOnCornellWritesASaneReport) {
   }
 
   // 2. Builder knobs: the occlusion values converge on the K = 256 values.
-  std::map<int, double> occlusion_rmse;
+  std::map<int, double> occlusion_rmse, shared_rmse;
   std::set<std::string> families;
   for (const auto& k : j["knobs"]) {
     families.insert(k["family"].get<std::string>());
     if (k["reference"].get<bool>()) EXPECT_EQ(k["ops_error"].get<double>(), 0.0) << k["setting"];
     EXPECT_GT(k["ops_per_ray"].get<double>(), 0.0) << k["setting"];
     if (k["family"] == "ao_rays") occlusion_rmse[int(k["value"].get<double>())] = k["occlusion_rmse"];
+    if (k["family"] == "ao_share") shared_rmse[int(k["value"].get<double>())] = k["occlusion_rmse"];
     if (k["family"] == "sbvh_alpha") EXPECT_GE(k["references"].get<uint64_t>(), j["triangles"].get<uint64_t>());
   }
-  EXPECT_EQ(families, (std::set<std::string>{"ao_rays", "sah_bins", "sbvh_alpha"}));
+  EXPECT_EQ(families, (std::set<std::string>{"ao_rays", "ao_share", "sah_bins", "sbvh_alpha"}));
   ASSERT_EQ(occlusion_rmse.size(), 5u);
   EXPECT_EQ(occlusion_rmse[256], 0.0);
   EXPECT_GT(occlusion_rmse[1], occlusion_rmse[16]);
   EXPECT_GT(occlusion_rmse[16], occlusion_rmse[64]);
   EXPECT_GT(occlusion_rmse[64], 0.0);
+  // Shared estimates (quick: G = 1 and 16 at the default K = 4): G = 1 is the K = 4
+  // per-triangle estimate; Cornell's triangles are each far wider than the sharing
+  // cell, so none is pooled with another and G = 16 changes nothing.
+  ASSERT_EQ(shared_rmse.size(), 2u);
+  EXPECT_EQ(shared_rmse[1], occlusion_rmse[4]);
+  EXPECT_EQ(shared_rmse[16], shared_rmse[1]);
 
   // 3. AO rays per pixel: the image error falls with the ray count, time does not.
   const auto& ao = j["ao_rays_per_pixel"];
@@ -129,7 +136,7 @@ TEST(Accuracy, QuickRunOnCornellWritesASaneReport) {
   EXPECT_EQ(csv.rfind("scene,section,setting", 0), 0u);
   size_t lines = 0;
   for (char c : csv) lines += c == '\n';
-  size_t occlusion_rows = occlusion_rmse.size();
+  size_t occlusion_rows = occlusion_rmse.size() + shared_rmse.size();
   EXPECT_EQ(lines, 1 + 2 * j["fidelity"].size() + j["knobs"].size() + occlusion_rows + ao.size() +
                        res["points"].size() + traffic_rows);
   std::filesystem::remove_all(dir);

@@ -27,14 +27,15 @@ Bvh build_occlusion_weighted(const Scene& scene, const BuildParams& params, Buil
   } else {
     OcclusionParams ao;
     ao.rays = params.ao_rays;
+    ao.share = params.ao_share;
     ao.cutoff = ao_cutoff(scene, params);
     ao.both_sides = params.ao_both_sides;
     ao.seed = params.seed;
     with_threads(params.threads, [&] {
-      EmbreeScene embree(scene);
-      values = estimate_occlusion(scene, embree, ao);
+      // Only hit distances are read, so Embree's fast build gives the same values.
+      EmbreeScene embree(scene, EmbreeScene::Quality::fast);
+      values = estimate_occlusion(scene, embree, ao, &r.ao_rays);
     });
-    r.ao_rays = uint64_t(n) * params.ao_rays;
   }
   r.weights = occlusion_weights(values, params.ao_weight_floor, &r.sanitised_values, params.ao_normalise);
   double sum = 0;

@@ -41,7 +41,9 @@ struct BuildParams {
   float osah_w = 0.9f;
   uint32_t osah_width = 256, osah_height = 256;  // primary rays cast for visibility
   // aobvh
-  uint32_t ao_rays = 4;           // K AO rays per primitive (docs/build-speed.md: K = 4..64 give the same mean ops/ray)
+  uint32_t ao_rays = 4;           // K AO rays per estimate (docs/build-speed.md: K = 4..64 give the same mean ops/ray)
+  uint32_t ao_share = 16;         // at most this many nearby triangles share one estimate (occlusion.h;
+                                  // docs/build-speed.md: within 0.2% ops/ray of 1 on the fetched scenes)
   float ao_cutoff_relative = -1;  // < 0: the scene's ao.cutoff_relative
   float ao_weight_floor = 0.05f;  // w = floor + (1 - floor) * occlusion value
   // true: weights scaled to mean 1 (T2 keeps meaning one average triangle test;

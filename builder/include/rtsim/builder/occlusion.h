@@ -10,6 +10,16 @@
 // A zero-area triangle has no side to shoot from: its value is 1 (no information,
 // so it keeps the plain SAH weight).
 //
+// Shared estimates (share > 1): nearby triangles facing the same way pool their rays.
+// Triangles are grouped by orientation (24 classes, within about 55 degrees) and by
+// a grid cell no wider than a quarter of the cutoff, and each such run, in Morton
+// order, is cut into near-equal groups of at most `share`. A group casts K rays in
+// all, spread over its members, and each member gets the group's mean. K then counts
+// rays per group, not per triangle: about K / share rays per triangle where the
+// mesh is dense, up to K where it is sparse. share = 1 is the patent's per-triangle
+// estimate exactly (the same rays, the same values). docs/build-speed.md measures
+// what sharing costs in tree quality.
+//
 // Visibility (OSAH): a triangle is visible if any primary ray of the camera
 // (one through each pixel centre of a width x height image) hits it first.
 #include <rtsim/workloads/embree_scene.h>
@@ -21,15 +31,17 @@
 namespace rtsim {
 
 struct OcclusionParams {
-  uint32_t rays = 16;         // K per triangle
+  uint32_t rays = 16;         // K per estimate (per triangle when share = 1)
+  uint32_t share = 1;         // at most this many triangles share one estimate
   float cutoff = 1.0f;        // absolute AO ray length
   bool both_sides = false;
   uint64_t seed = 1;
 };
 
-// Deterministic: values depend on (seed, triangle, ray index) only.
+// Deterministic: values depend on the scene, the parameters and the triangle ids
+// only, not on the thread count. *rays_cast: the AO rays cast.
 std::vector<float> estimate_occlusion(const Scene& scene, const EmbreeScene& embree,
-                                      const OcclusionParams& params);
+                                      const OcclusionParams& params, uint64_t* rays_cast = nullptr);
 
 std::vector<uint8_t> estimate_visibility(const Scene& scene, const EmbreeScene& embree,
                                          const Camera& camera, uint32_t width, uint32_t height);

@@ -37,6 +37,9 @@ struct AccuracyOptions {
   uint32_t knob_resolution = 128;
   std::vector<uint32_t> ao_rays_per_primitive = {1, 4, 16, 64};
   uint32_t ao_rays_reference = 256;
+  // ... and the triangles that share one estimate (at the default K; the reference
+  // stays ao_rays_reference rays per triangle)
+  std::vector<uint32_t> ao_shares = {1, 4, 16, 64};
   std::vector<uint32_t> sah_bins = {32, 0};  // 0 = full sweep
   std::vector<float> sbvh_alphas = {1e-3f, 1e-5f, 1e-7f};
   // 3. AO rays per pixel against a reference image
