@@ -127,6 +127,11 @@ const std::vector<BuilderParameter>& builder_parameters() {
         &P::sbvh_reference_budget, 1, kInf, kSplitting);
     add("sbvh_split_limit", "--sbvh-split-limit", "splits", "sbvh: times one reference may be split",
         &P::sbvh_split_limit, 0, 7, kSplitting);
+    add("treelet_passes", "--treelet-passes", "passes",
+        "sbvh: bottom-up passes of treelet restructuring after the build (0 = none)", &P::treelet_passes, 0,
+        16, {"sbvh", "aosbvh"});
+    add("treelet_leaves", "--treelet-leaves", "leaves", "sbvh: leaves of each restructured treelet",
+        &P::treelet_leaves, 3, 8, {"sbvh", "aosbvh"});
     add("camera", "", "", "the camera the tree is built for (the workload's)", &P::camera, 0, 0,
         {"osah", "rdh", "rdh-sbvh"});
     add("osah_w", "--osah-w", "", "osah: visibility weight in mixed nodes", &P::osah_w, 0, 1, {"osah"});

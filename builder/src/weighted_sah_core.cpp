@@ -1,5 +1,7 @@
 #include "weighted_sah_core.h"
 
+#include "treelet.h"
+
 #include <rtsim/builder/metrics.h>
 
 #include <rtsim/workloads/error.h>
@@ -1040,10 +1042,24 @@ Bvh Builder::run_once(bool spatial_at_root, CoreStats* stats) {
 
 Bvh build_weighted_sah(const Scene& scene, const CoreConfig& config, CoreStats* stats) {
   Builder builder(scene, config);
-  if (config.threads == 0) return builder.run(stats);
+  auto build = [&] {
+    Bvh bvh = builder.run(stats);
+    if (config.treelet_passes == 0) return bvh;
+    TreeletConfig treelets;
+    treelets.t1 = config.t1, treelets.t2 = config.t2;
+    treelets.leaves = config.treelet_leaves, treelets.passes = config.treelet_passes;
+    treelets.max_depth = config.max_depth;
+    treelets.max_leaf_size = config.max_leaf_size;
+    treelets.weights = config.weights;
+    TreeletStats treelet_stats;
+    bvh = restructure_treelets(bvh, treelets, &treelet_stats);
+    if (stats) stats->treelets_restructured = treelet_stats.restructured;
+    return bvh;
+  };
+  if (config.threads == 0) return build();
   tbb::task_arena arena{int(config.threads)};
   Bvh result;
-  arena.execute([&] { result = builder.run(stats); });
+  arena.execute([&] { result = build(); });
   return result;
 }
 

@@ -44,6 +44,9 @@ struct CoreConfig {
   float sbvh_alpha = 1e-5f;
   float reference_budget = 2.0f;     // total references <= budget * N
   uint32_t split_limit = 7;          // times one reference may be split again (max 7)
+  // Policy: treelet restructuring after the build (treelet.h); 0 passes = none.
+  uint32_t treelet_passes = 0;
+  uint32_t treelet_leaves = 7;
   // Policy: sample rays (RDH), nullptr = none; rdh_prior = k pseudo-rays (> 0).
   const RaySamples* rays = nullptr;
   float rdh_prior = 8.0f;
@@ -56,6 +59,7 @@ struct CoreStats {
   uint64_t median_splits = 0;   // object/index-median fallbacks (no usable SAH split or depth limit)
   uint64_t working_bytes = 0;   // peak bytes of the builder's own arrays
   uint64_t ray_node_pairs = 0;  // rdh: sample rays summed over the nodes they meet
+  uint64_t treelets_restructured = 0;
 };
 
 // Throws InputError for an empty scene or parameters that cannot be met.

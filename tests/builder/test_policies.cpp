@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -288,6 +289,36 @@ TEST(Policies, SbvhIsNoDearerThanSahOnInteriorAndThreadCountFree) {
   EXPECT_LT(sah_cost(one, p.t1, p.t2), sah);
   p.threads = 2;
   EXPECT_TRUE(same_tree(one, build_bvh(scene, p)));
+}
+
+TEST(Policies, TreeletRestructuringLowersTheCostAndKeepsEveryTriangle) {
+  // The greedy top-down sbvh on interior leaves a lot to restructure (82.7 -> 74.3
+  // when measured): the pass must lower the cost, keep every triangle, add no
+  // reference, keep leaves within their size (also when it merges them), and not
+  // depend on the threads.
+  const Scene scene = make_procedural_scene("interior");
+  auto triangles_of = [](const Bvh& bvh) {
+    std::vector<uint32_t> t = bvh.prim_refs;
+    std::sort(t.begin(), t.end());
+    t.erase(std::unique(t.begin(), t.end()), t.end());
+    return t;
+  };
+  BuildParams p;
+  p.builder = "sbvh";
+  for (uint32_t max_leaf : {4u, 8u}) {
+    p.max_leaf_size = max_leaf;
+    p.treelet_passes = 0;
+    const Bvh greedy = build_bvh(scene, p);
+    p.treelet_passes = 2;
+    p.threads = 1;
+    const Bvh one = build_bvh(scene, p);
+    expect_valid(one, scene, p);
+    EXPECT_LT(sah_cost(one, p.t1, p.t2), 0.97 * sah_cost(greedy, p.t1, p.t2)) << max_leaf;
+    EXPECT_EQ(triangles_of(one), triangles_of(greedy)) << max_leaf;
+    EXPECT_LE(one.prim_refs.size(), greedy.prim_refs.size()) << max_leaf;
+    p.threads = 2;
+    EXPECT_TRUE(same_tree(one, build_bvh(scene, p))) << max_leaf;
+  }
 }
 
 }  // namespace

@@ -45,6 +45,7 @@ Bvh build_occlusion_weighted(const Scene& scene, const BuildParams& params, Buil
   detail::CoreConfig config = core_config(params);
   config.weights = &r.weights;
   config.spatial_splits = spatial_splits;
+  if (spatial_splits) config.treelet_passes = params.treelet_passes, config.treelet_leaves = params.treelet_leaves;
   return run_core(scene, config, r);
 }
 }  // namespace

@@ -7,6 +7,8 @@ namespace rtsim::builders {
 Bvh build_sbvh(const Scene& scene, const BuildParams& params, BuildReport& report) {
   detail::CoreConfig config = core_config(params);
   config.spatial_splits = true;
+  config.treelet_passes = params.treelet_passes;
+  config.treelet_leaves = params.treelet_leaves;
   return run_core(scene, config, report);
 }
 

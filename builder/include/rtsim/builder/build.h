@@ -29,6 +29,8 @@ struct BuildParams {
   float sbvh_alpha = 1e-5f;
   float sbvh_reference_budget = 2.0f;  // x N triangles (Embree's embree-sbvh capacity: 2 x N)
   uint32_t sbvh_split_limit = 7;       // times one reference may be split (0..7)
+  uint32_t treelet_passes = 2;         // sbvh: treelet restructuring passes after the build (docs/build-speed.md)
+  uint32_t treelet_leaves = 7;         // leaves per restructured treelet (3..8)
   // osah: P_i = osah_w * V_i / V + (1 - osah_w) * A_i / A in nodes holding both
   // visible and hidden triangles (osah_w = 0: exactly the SAH tree). A faithful
   // build of this rule can make the camera's own primary rays dearer: it lowers
