@@ -4,9 +4,10 @@
 // descendants and rebuilds the inner nodes above them in the topology of least SAH
 // cost (exhaustively, by dynamic programming over subsets). The greedy top-down
 // builder fixes each split before it sees the ones below; this lets a later, better
-// grouping replace it. Treelet leaves that are tree leaves may also merge into one
-// leaf of at most max_leaf_size triangles when that is cheaper; no reference is
-// added or lost.
+// grouping replace it. A treelet is only rebuilt when no taller than before (SAH
+// alone grows chains that rays pay for). Treelet leaves that are tree leaves may
+// also merge into one leaf of at most max_leaf_size triangles when that is
+// cheaper; no reference is added or lost.
 //
 // Cost: the same as metrics' sah_cost (inner node 2*T1 x area, leaf T2 x summed
 // weight x area). Deterministic: a treelet only touches its root's subtree, and the
@@ -24,7 +25,6 @@ struct TreeletConfig {
   float t2 = 1.0f;
   uint32_t leaves = 7;       // treelet size, 3..8
   uint32_t passes = 2;       // bottom-up passes over the tree
-  uint32_t max_depth = 64;   // a restructure that would pass it is not taken
   uint32_t max_leaf_size = 4;  // treelet leaves that fit together may become one leaf
   const std::vector<float>* weights = nullptr;  // per triangle; nullptr = all 1
 };

@@ -1048,7 +1048,6 @@ Bvh build_weighted_sah(const Scene& scene, const CoreConfig& config, CoreStats* 
     TreeletConfig treelets;
     treelets.t1 = config.t1, treelets.t2 = config.t2;
     treelets.leaves = config.treelet_leaves, treelets.passes = config.treelet_passes;
-    treelets.max_depth = config.max_depth;
     treelets.max_leaf_size = config.max_leaf_size;
     treelets.weights = config.weights;
     TreeletStats treelet_stats;

@@ -292,16 +292,26 @@ TEST(Policies, SbvhIsNoDearerThanSahOnInteriorAndThreadCountFree) {
 }
 
 TEST(Policies, TreeletRestructuringLowersTheCostAndKeepsEveryTriangle) {
-  // The greedy top-down sbvh on interior leaves a lot to restructure (82.7 -> 74.3
-  // when measured): the pass must lower the cost, keep every triangle, add no
-  // reference, keep leaves within their size (also when it merges them), and not
-  // depend on the threads.
+  // On interior the greedy top-down sbvh costs 82.7 and the restructured one 80.5
+  // (measured): the pass must lower the cost, make no leaf deeper, keep every
+  // triangle, add no reference, keep leaves within their size (also when it merges
+  // them), and not depend on the threads.
   const Scene scene = make_procedural_scene("interior");
   auto triangles_of = [](const Bvh& bvh) {
     std::vector<uint32_t> t = bvh.prim_refs;
     std::sort(t.begin(), t.end());
     t.erase(std::unique(t.begin(), t.end()), t.end());
     return t;
+  };
+  auto height_of = [](const Bvh& bvh) {
+    std::vector<uint32_t> depth(bvh.nodes.size(), 0);
+    uint32_t most = 0;
+    for (size_t i = 0; i < bvh.nodes.size(); ++i) {
+      most = std::max(most, depth[i]);
+      const BvhNode& n = bvh.nodes[i];
+      for (uint32_t c = 0; !n.is_leaf() && c < n.children; ++c) depth[n.index + c] = depth[i] + 1;
+    }
+    return most;
   };
   BuildParams p;
   p.builder = "sbvh";
@@ -313,7 +323,8 @@ TEST(Policies, TreeletRestructuringLowersTheCostAndKeepsEveryTriangle) {
     p.threads = 1;
     const Bvh one = build_bvh(scene, p);
     expect_valid(one, scene, p);
-    EXPECT_LT(sah_cost(one, p.t1, p.t2), 0.97 * sah_cost(greedy, p.t1, p.t2)) << max_leaf;
+    EXPECT_LT(sah_cost(one, p.t1, p.t2), 0.985 * sah_cost(greedy, p.t1, p.t2)) << max_leaf;
+    EXPECT_LE(height_of(one), height_of(greedy)) << max_leaf;
     EXPECT_EQ(triangles_of(one), triangles_of(greedy)) << max_leaf;
     EXPECT_LE(one.prim_refs.size(), greedy.prim_refs.size()) << max_leaf;
     p.threads = 2;
