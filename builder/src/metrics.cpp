@@ -314,6 +314,7 @@ BvhMetrics compute_metrics(const Bvh& bvh, const Scene& scene, const BuildParams
   m.build_seconds = report.build_seconds;
   m.peak_memory_bytes = report.peak_memory_bytes;
   m.spatial_splits = report.spatial_splits;
+  m.treelets_restructured = report.treelets_restructured;
   m.forced_splits = report.forced_splits;
   m.median_splits = report.median_splits;
   m.sanitised_values = report.sanitised_values;
@@ -344,6 +345,7 @@ std::string metrics_json(const BvhMetrics& m) {
   j["peak_memory_bytes_per_triangle"] =
       m.triangles ? double(m.peak_memory_bytes) / double(m.triangles) : 0.0;
   j["spatial_splits"] = m.spatial_splits;
+  j["treelets_restructured"] = m.treelets_restructured;
   j["forced_splits"] = m.forced_splits;
   j["median_splits"] = m.median_splits;
   j["sanitised_values"] = m.sanitised_values;

@@ -42,12 +42,8 @@ class Restructurer {
   }
 
   void run(TreeletStats* stats) {
-    if (stats) stats->cost_before = cost_[0];
     for (uint32_t pass = 0; pass < config_.passes; ++pass) optimise(0);
-    if (stats) {
-      stats->cost_after = cost_[0];
-      stats->restructured = restructured_.load();
-    }
+    if (stats) stats->restructured = restructured_.load();
   }
 
   // Depth-first flatten, the builders' layout: a node's children adjacent, the left

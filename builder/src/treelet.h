@@ -30,8 +30,7 @@ struct TreeletConfig {
 };
 
 struct TreeletStats {
-  uint64_t restructured = 0;  // treelets rebuilt
-  double cost_before = 0, cost_after = 0;
+  uint64_t restructured = 0;  // treelets rebuilt, over all passes
 };
 
 // `bvh` must be binary and depth-first flattened (every builder's output). Returns

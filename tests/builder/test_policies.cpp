@@ -318,10 +318,13 @@ TEST(Policies, TreeletRestructuringLowersTheCostAndKeepsEveryTriangle) {
   for (uint32_t max_leaf : {4u, 8u}) {
     p.max_leaf_size = max_leaf;
     p.treelet_passes = 0;
-    const Bvh greedy = build_bvh(scene, p);
+    BuildReport greedy_report, report;
+    const Bvh greedy = build_bvh(scene, p, &greedy_report);
+    EXPECT_EQ(greedy_report.treelets_restructured, 0u);
     p.treelet_passes = 2;
     p.threads = 1;
-    const Bvh one = build_bvh(scene, p);
+    const Bvh one = build_bvh(scene, p, &report);
+    EXPECT_GT(report.treelets_restructured, 0u);
     expect_valid(one, scene, p);
     EXPECT_LT(sah_cost(one, p.t1, p.t2), 0.985 * sah_cost(greedy, p.t1, p.t2)) << max_leaf;
     EXPECT_LE(height_of(one), height_of(greedy)) << max_leaf;

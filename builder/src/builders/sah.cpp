@@ -26,6 +26,7 @@ Bvh run_core(const Scene& scene, const detail::CoreConfig& config, BuildReport& 
   report.build_seconds = seconds_since(start);
   report.references = stats.references;
   report.spatial_splits = stats.spatial_splits;
+  report.treelets_restructured = stats.treelets_restructured;
   report.forced_splits = stats.forced_splits;
   report.median_splits = stats.median_splits;
   report.peak_memory_bytes = std::max<uint64_t>(report.peak_memory_bytes, stats.working_bytes);

@@ -83,6 +83,7 @@ struct BuildReport {
   std::vector<uint8_t> visibility;  // osah: per-triangle visibility from the camera
   uint64_t references = 0;      // prim_refs (> N only with spatial splits)
   uint64_t spatial_splits = 0;  // sbvh: nodes split spatially
+  uint64_t treelets_restructured = 0;  // sbvh: treelets rebuilt after the build (all passes)
   uint64_t forced_splits = 0;   // nodes over max_leaf_size split although a leaf was cheaper
   uint64_t median_splits = 0;   // fallback median splits (no usable SAH split / depth limit)
   uint64_t sanitised_values = 0;  // NaN/invalid weights or occlusion values replaced by 1

@@ -41,6 +41,7 @@ struct BvhMetrics {
   double estimate_seconds = 0, build_seconds = 0, metrics_seconds = 0;
   uint64_t peak_memory_bytes = 0;
   uint64_t spatial_splits = 0, forced_splits = 0, median_splits = 0, sanitised_values = 0;
+  uint64_t treelets_restructured = 0;
 };
 
 // weights/visibility empty = all 1 / no visibility rule.
