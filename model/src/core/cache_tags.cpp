@@ -37,23 +37,6 @@ CacheTags::CacheTags(const CacheGeometry& geometry, const std::string& name) : g
   dirty_.assign(ways, 0);
 }
 
-size_t CacheTags::find(uint64_t line) const {
-  const size_t first = set_start(line);
-  const uint64_t* set = &tags_[first];
-  for (uint32_t w = 0; w < geometry_.ways; ++w)
-    if (set[w] == line) return first + w;
-  return npos;
-}
-
-bool CacheTags::lookup(uint64_t address, bool make_dirty, uint64_t* ready_ps) {
-  const size_t way = find(address >> line_shift_);
-  if (way == npos) return false;
-  last_use_[way] = ++clock_;
-  dirty_[way] = dirty_[way] || make_dirty;
-  if (ready_ps) *ready_ps = ready_ps_[way];
-  return true;
-}
-
 void CacheTags::set_ready(uint64_t address, uint64_t ready_ps) {
   const size_t way = find(address >> line_shift_);
   if (way != npos) ready_ps_[way] = ready_ps;

@@ -3,6 +3,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <new>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 #include <string>
 
 namespace rtsim {
@@ -13,6 +18,20 @@ inline void prefetch(const void* p, size_t bytes) {
   const char* c = static_cast<const char*>(p);
   for (size_t off = 0; off < bytes; off += 64) __builtin_prefetch(c + off);
   __builtin_prefetch(c + bytes - 1);
+}
+
+// Asks Linux to back [p, p + bytes) with huge pages (a hint). The node blocks
+// and triangles of a million-triangle scene span ~100 MB that rays visit at
+// random: with 4 KiB pages nearly every step's prefetch also misses the TLB.
+template <typename T>
+void reserve_on_huge_pages(std::vector<T>& v, size_t count) {
+  v.reserve(count);
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  constexpr uintptr_t kHuge = uintptr_t(2) << 20;
+  const uintptr_t begin = (reinterpret_cast<uintptr_t>(v.data()) + kHuge - 1) & ~(kHuge - 1);
+  const uintptr_t end = (reinterpret_cast<uintptr_t>(v.data()) + count * sizeof(T)) & ~(kHuge - 1);
+  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#endif
 }
 }  // namespace
 
@@ -53,28 +72,35 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
     throw InputError("traversal.stack_entry_bytes", "must be at least 1");
   // The image checked the tree's links (children after their parent), so no BVH
   // handed to the core can make a ray loop forever.
+  reserve_on_huge_pages(triangles_, image.slot_count());
   triangles_.resize(image.slot_count());
   for (uint32_t s = 0; s < image.slot_count(); ++s) {
     const uint32_t t = image.slot_triangle(s);
     triangles_[s] = PackedTriangle{scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2)};
   }
   if (own_box_records_ || bvh.empty()) return;
-  links_per_record_ = image.format().width;
-  heads_.resize(image.record_count());
-  links_.resize(heads_.size() * links_per_record_);
+  const uint32_t width = image.format().width;
+  const uint32_t pairs = (width + 1) / 2;
+  targets_offset_ = sizeof(RecordHead) + pairs * sizeof(BoxPairLanes);
+  block_bytes_ = (targets_offset_ + width * sizeof(ChildTarget) + 15) & ~size_t(15);
+  reserve_on_huge_pages(blocks_, image.record_count() * block_bytes_ / sizeof(Chunk));
+  blocks_.assign(image.record_count() * block_bytes_ / sizeof(Chunk), Chunk{});
   for (uint32_t n = 0; n < bvh.nodes.size(); ++n) {
     if (!image.has_record(n)) continue;
     const uint32_t r = image.record_ordinal(n);
     const BvhNode& node = bvh.nodes[n];
     const uint32_t children = node.is_leaf() ? 0 : node.children;
-    heads_[r] = RecordHead{image.node_address(n), n, children};
+    unsigned char* block = reinterpret_cast<unsigned char*>(blocks_.data()) + size_t(r) * block_bytes_;
+    new (block) RecordHead{image.node_address(n), n, children};
+    BoxPairLanes* lanes = new (block + sizeof(RecordHead)) BoxPairLanes[pairs]{};
+    ChildTarget* targets = new (block + targets_offset_) ChildTarget[width]{};
     const Aabb* boxes = children ? image.record_boxes(n) : nullptr;
     for (uint32_t k = 0; k < children; ++k) {
       const uint32_t c = node.index + k;
       const BvhNode& child = bvh.nodes[c];
-      links_[size_t(r) * links_per_record_ + k] =
-          child.is_leaf() ? ChildLink{boxes[k], c, image.leaf_first(c), child.count}
-                          : ChildLink{boxes[k], c, image.record_ordinal(c), 0};
+      lanes[k / 2].set(int(k % 2), boxes[k]);
+      targets[k] = child.is_leaf() ? ChildTarget{c, image.leaf_first(c), child.count}
+                                   : ChildTarget{c, image.record_ordinal(c), 0};
     }
   }
   root_record_ = image.record_ordinal(0);
@@ -107,49 +133,11 @@ void RayTraversal::reset(const Ray& ray, TraversalMode mode) {
     action_ = TraversalAction::Done;
     return;
   }
-  box_ray_ = RayBoxPrecompute(ray.origin, ray.direction);
+  box_ray_ = RayBoxLanes(RayBoxPrecompute(ray.origin, ray.direction));
   tri_ray_ = RayTrianglePrecompute(ray.origin, ray.direction);
   // The root record is always fetched: it holds the child boxes (the root's own
   // box is never needed), or in bvh2-32 its own box.
   action_ = TraversalAction::FetchNode;
-}
-
-const std::vector<MemoryAccess>& RayTraversal::step_reads() const {
-  reads_.clear();
-  const MemoryImage& image = context_->image();
-  if (action_ == TraversalAction::FetchNode) {
-    const uint64_t address = context_->own_box_records()
-                                 ? image.node_address(current_node_)
-                                 : context_->record_head(current_record_).address;
-    reads_.push_back({address, image.node_bytes(), AccessKind::Node, false});
-  } else if (action_ == TraversalAction::TestTriangles) {
-    if (leaf_cursor_ == 0 && image.indexed())
-      reads_.push_back({image.prim_refs_address(current_node_), leaf_count_ * 4u,
-                        AccessKind::PrimRef, false});
-    const uint32_t end = std::min(leaf_count_, leaf_cursor_ + context_->config().triangles_per_step);
-    for (uint32_t k = leaf_cursor_; k < end; ++k)
-      reads_.push_back({image.slot_address(leaf_slot_ + k), image.triangle_bytes(),
-                        AccessKind::Triangle, false});
-  }
-  return reads_;
-}
-
-uint32_t RayTraversal::step_independent_reads() const {
-  // Only the triangles behind a prim-ref list wait: they need the addresses it holds.
-  switch (action_) {
-    case TraversalAction::FetchNode: return 1;
-    case TraversalAction::TestTriangles:
-      if (leaf_cursor_ == 0 && context_->image().indexed()) return 1;
-      return std::min(leaf_count_ - leaf_cursor_, context_->config().triangles_per_step);
-    case TraversalAction::Done: break;
-  }
-  return 0;
-}
-
-uint32_t RayTraversal::step_box_tests() const {
-  if (action_ != TraversalAction::FetchNode) return 0;
-  if (context_->own_box_records()) return 1;
-  return context_->record_head(current_record_).children;
 }
 
 uint64_t RayTraversal::spill_address(uint32_t position) const {
@@ -157,7 +145,7 @@ uint64_t RayTraversal::spill_address(uint32_t position) const {
   return stack_area_ + uint64_t(std::min(position, last)) * context_->config().stack_entry_bytes;
 }
 
-void RayTraversal::push(const StackEntry& entry) {
+void RayTraversal::push(uint32_t node, uint32_t target, uint32_t leaf_count, float tnear) {
   const uint32_t limit = context_->config().stack_limit;
   if (stack_.size() >= limit) {
     ++counters_.stack_overflows;
@@ -169,7 +157,10 @@ void RayTraversal::push(const StackEntry& entry) {
                                  context_->config().stack_entry_bytes, AccessKind::Stack, true});
     }
   }
-  stack_.push_back(entry);
+  // Stored field by field: an entry built on the stack and copied in whole would
+  // be read back wider than it was written (a stalled store forward).
+  StackEntry& entry = stack_.emplace_back();
+  entry.node = node, entry.target = target, entry.leaf_count = leaf_count, entry.tnear = tnear;
   counters_.max_stack_depth = std::max(counters_.max_stack_depth, uint32_t(stack_.size()));
 }
 
@@ -181,24 +172,23 @@ void RayTraversal::enter_leaf(uint32_t node) {
   action_ = TraversalAction::TestTriangles;
 }
 
-void RayTraversal::enter(const StackEntry& entry) {
-  current_node_ = entry.node;
+void RayTraversal::enter(uint32_t node, uint32_t target, uint32_t leaf_count) {
+  current_node_ = node;
   if (context_->own_box_records()) {
     action_ = TraversalAction::FetchNode;
-  } else if (entry.leaf_count > 0) {
+  } else if (leaf_count > 0) {
     // The leaf's range came with its parent's record: straight to IST.
-    leaf_slot_ = entry.target;
-    leaf_count_ = entry.leaf_count;
+    leaf_slot_ = target;
+    leaf_count_ = leaf_count;
     leaf_cursor_ = 0;
     action_ = TraversalAction::TestTriangles;
     prefetch(&context_->slot_data(leaf_slot_), leaf_count_ * sizeof(PackedTriangle));
     prefetch(context_->image().slot_addresses() + leaf_slot_, leaf_count_ * sizeof(uint64_t));
   } else {
-    current_record_ = entry.target;
+    current_record_ = target;
     action_ = TraversalAction::FetchNode;
-    // The record's size, not its child count: reading that now would wait for it.
-    prefetch(&context_->record_head(current_record_), sizeof(TraversalContext::RecordHead));
-    prefetch(context_->record_links(current_record_), context_->record_link_bytes());
+    // The block's size, not its child count: reading that now would wait for it.
+    prefetch(context_->record_block(current_record_), context_->record_block_bytes());
   }
 }
 
@@ -215,7 +205,7 @@ void RayTraversal::pop_next() {
     }
     // Closest-hit: a subtree entered beyond the closest hit cannot hold a nearer one.
     if (entry.tnear > tfar_) continue;
-    enter(entry);
+    enter(entry.node, entry.target, entry.leaf_count);
     return;
   }
   action_ = TraversalAction::Done;
@@ -245,27 +235,37 @@ void RayTraversal::process_child_boxes_node() {
     return;
   }
   // The child boxes as the record decodes them (quantized formats: conservative).
-  const TraversalContext::ChildLink* links = context_->record_links(current_record_);
-  StackEntry hits[kMaxBvhWidth];
-  uint32_t hit_count = 0;
+  const BoxPairLanes* pairs = context_->record_box_pairs(current_record_);
+  const TraversalContext::ChildTarget* targets = context_->record_targets(current_record_);
+  float t_entry[kMaxBvhWidth + 1];
+  uint32_t hit_mask = 0;
+  for (uint32_t k = 0; k < children; k += 2)
+    hit_mask |= intersect_box_pair(box_ray_, pairs[k / 2], ray_.tmin, tfar_, &t_entry[k]) << k;
+  hit_mask &= (1u << children) - 1;  // an odd count leaves an unused lane
   counters_.box_tests += children;
   last_box_tests_ = children;
-  for (uint32_t k = 0; k < children; ++k) {
-    float t = 0.0f;
-    if (!intersect_box(box_ray_, links[k].box, ray_.tmin, tfar_, &t)) continue;
-    // Insertion by entry distance; equal distances keep child order, so the
-    // order is fixed.
+  // The hit children by entry distance (insertion; equal distances keep child
+  // order, so the order is fixed), as indices: the entries are built only where
+  // they are stored.
+  uint32_t order[kMaxBvhWidth];
+  uint32_t hit_count = 0;
+  for (; hit_mask; hit_mask &= hit_mask - 1) {
+    const uint32_t k = uint32_t(__builtin_ctz(hit_mask));
     uint32_t at = hit_count++;
-    for (; at > 0 && hits[at - 1].tnear > t; --at) hits[at] = hits[at - 1];
-    hits[at] = StackEntry{links[k].node, links[k].target, links[k].leaf_count, t};
+    for (; at > 0 && t_entry[order[at - 1]] > t_entry[k]; --at) order[at] = order[at - 1];
+    order[at] = k;
   }
   if (hit_count == 0) {
     pop_next();
     return;
   }
   // Nearest child next; the others pushed farthest first, so they pop nearest first.
-  for (uint32_t h = hit_count; h-- > 1;) push(hits[h]);
-  enter(hits[0]);
+  for (uint32_t h = hit_count; h-- > 1;) {
+    const TraversalContext::ChildTarget& c = targets[order[h]];
+    push(c.node, c.target, c.leaf_count, t_entry[order[h]]);
+  }
+  const TraversalContext::ChildTarget& nearest = targets[order[0]];
+  enter(nearest.node, nearest.target, nearest.leaf_count);
 }
 
 void RayTraversal::process_own_box_node() {
@@ -273,7 +273,7 @@ void RayTraversal::process_own_box_node() {
   float t_entry = 0.0f;
   ++counters_.box_tests;
   last_box_tests_ = 1;
-  if (!intersect_box(box_ray_, context_->image().record_boxes(current_node_)[0], ray_.tmin,
+  if (!intersect_box(box_ray_.scalar, context_->image().record_boxes(current_node_)[0], ray_.tmin,
                      tfar_, &t_entry)) {
     pop_next();
     return;
@@ -289,7 +289,7 @@ void RayTraversal::process_own_box_node() {
   const bool reversed = ray_.direction[axis] < 0.0f;
   const uint32_t first = reversed ? n.index + 1 : n.index;
   const uint32_t second = reversed ? n.index : n.index + 1;
-  push(StackEntry{second, 0, 0, t_entry});
+  push(second, 0, 0, t_entry);
   current_node_ = first;
   action_ = TraversalAction::FetchNode;
 }

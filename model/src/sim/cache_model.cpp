@@ -52,40 +52,10 @@ CacheModel::CacheModel(const CacheConfig& config, const std::string& name, uint6
       cycle_ps_(cycle_ps) {
 }
 
-void CacheModel::count(const LineAccess& a, Outcome outcome) {
-  ++counters_.accesses;
-  if (a.write) ++counters_.writes;
-  requested_.add(a.ray_type, a.kind, a.bytes);
-  switch (outcome) {
-    case Outcome::Hit: ++counters_.hits; break;
-    case Outcome::Miss: ++counters_.misses; break;
-    case Outcome::Merged: ++counters_.mshr_merges; break;
-    case Outcome::Blocked: break;
-  }
-}
-
 Eviction CacheModel::install(uint64_t line, bool dirty) {
   const Eviction e = tags_.insert(line, dirty);
   if (e.dirty) ++counters_.writebacks;
   return e;
-}
-
-CacheModel::Result CacheModel::access(const LineAccess& a, uint64_t now_ps) {
-  Result r;
-  uint64_t ready = 0;
-  if (tags_.lookup(a.line, a.write, &ready)) {
-    // lt: a read of a line whose fill has not landed yet merges and waits for it.
-    r.outcome = ready > now_ps && !a.write ? Outcome::Merged : Outcome::Hit;
-    r.ready_ps = ready;
-    count(a, r.outcome);
-    return r;
-  }
-  r.outcome = Outcome::Miss;
-  r.fetch = !a.write;
-  if (r.fetch) filled_.add(a.ray_type, a.kind, config_.line_bytes);
-  r.writeback = install(a.line, a.write);
-  count(a, r.outcome);
-  return r;
 }
 
 void CacheModel::set_arrival(uint64_t line, uint64_t ready_ps) { tags_.set_ready(line, ready_ps); }

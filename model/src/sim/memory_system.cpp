@@ -48,21 +48,6 @@ void FunctionalMemory::to_l2(uint32_t core, const LineAccess& a) {
   if (r.fetch) dram.count_access(a.line, false);
 }
 
-uint64_t FunctionalMemory::access(Requester who, uint32_t unit, const LineAccess& a,
-                                  uint64_t issue_ps) {
-  const bool trv = who == Requester::Trv;
-  CacheModel& l1 = *(trv ? l1_node : l1_triangle)[unit];
-  const CacheModel::Result r = l1.access(a);
-  if (!r.writeback.dirty && !r.fetch) return issue_ps;  // a hit: nothing goes to the L2
-  const uint32_t core = trv ? shape.core_of_trv(unit) : shape.core_of_ist(unit);
-  const uint32_t l1_line = l1.config().line_bytes;
-  const CacheModel& slices = *l2.front();
-  if (r.writeback.dirty)
-    to_l2(core, {slices.line_of(r.writeback.line), l1_line, AccessKind::Stack, a.ray_type, true});
-  if (r.fetch) to_l2(core, {slices.line_of(a.line), l1_line, a.kind, a.ray_type, false});
-  return issue_ps;
-}
-
 void FunctionalMemory::reset_counters() {
   for (auto& c : l1_node) c->reset_counters();
   for (auto& c : l1_triangle) c->reset_counters();

@@ -1,4 +1,5 @@
 #include <rtsim/model/sim/ray_engine.h>
+#include <rtsim/model/sim/memory_system.h>
 
 #include <algorithm>
 #include <cmath>
@@ -142,7 +143,8 @@ void RayEngine::reset_counters() {
   std::fill(spawned_count_.begin(), spawned_count_.end(), 0);
 }
 
-uint64_t RayEngine::issue(MemoryPort& port, Slot& slot, const std::vector<MemoryAccess>& list,
+template <class Port>
+uint64_t RayEngine::issue(Port& port, Slot& slot, const std::vector<MemoryAccess>& list,
                           size_t begin, size_t end, uint64_t t) {
   if (begin == end) return t;
   const RayType type = slot.traversal.ray().type;
@@ -234,13 +236,15 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
       frame_start_ps_ = end_ps_;
     }
     if (timed_) run_timed(port, sync, progress);
+    else if (auto* functional = dynamic_cast<FunctionalMemory*>(&port)) run_rounds(*functional, progress);
     else run_rounds(port, progress);
     frame_end(frame + 1 == frames);
   }
   progress(done_rays_);
 }
 
-void RayEngine::run_rounds(MemoryPort& port, const std::function<void(uint64_t)>& progress) {
+template <class Port>
+void RayEngine::run_rounds(Port& port, const std::function<void(uint64_t)>& progress) {
   uint64_t reported = done_rays_;
   bool any_active = true;
   while (any_active || !dispatcher_.empty()) {
@@ -259,7 +263,7 @@ void RayEngine::run_rounds(MemoryPort& port, const std::function<void(uint64_t)>
         if (node_step) trv_passes_[slot.unit] += passes;
         else ist_tests_[slot.ist] += trv.last_step_tests();
         const std::vector<MemoryAccess>& stack = trv.stack_accesses();
-        issue(port, slot, stack, 0, stack.size(), 0);
+        if (!stack.empty()) issue(port, slot, stack, 0, stack.size(), 0);
       }
       if (trv.done()) finish(slot, 0);
       else any_active = true;

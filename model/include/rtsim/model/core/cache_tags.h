@@ -71,4 +71,24 @@ class CacheTags {
   std::vector<uint8_t> dirty_;
 };
 
+// The hit path is inline: every line access of every level asks it.
+inline size_t CacheTags::find(uint64_t line) const {
+  // Every way is compared, without an early exit: which way hits is random, so a
+  // branch on it mispredicts; a line is in at most one way.
+  const size_t first = set_start(line);
+  const uint64_t* set = &tags_[first];
+  size_t way = npos;
+  for (uint32_t w = 0; w < geometry_.ways; ++w) way = set[w] == line ? first + w : way;
+  return way;
+}
+
+inline bool CacheTags::lookup(uint64_t address, bool make_dirty, uint64_t* ready_ps) {
+  const size_t way = find(address >> line_shift_);
+  if (way == npos) return false;
+  last_use_[way] = ++clock_;
+  dirty_[way] = dirty_[way] || make_dirty;
+  if (ready_ps) *ready_ps = ready_ps_[way];
+  return true;
+}
+
 }  // namespace rtsim

@@ -8,6 +8,10 @@
 #include <cstring>
 #include <limits>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace rtsim {
 
 // gamma(n) = n*u / (1 - n*u), u = 2^-24 (pbrt's bound on n rounded float ops).
@@ -55,6 +59,72 @@ inline bool intersect_box(const RayBoxPrecompute& r, const Aabb& box, float tmin
   }
   *t_entry = t_near;
   return t_near <= t_far;
+}
+
+// Two child boxes laid out for one 4-lane slab test: per axis, lanes
+// {lo of box 0, lo of box 1, hi of box 0, hi of box 1}. A wide record's boxes
+// are a run of these pairs (the traversal context builds them once).
+struct BoxPairLanes {
+  float axis[3][4];
+  void set(int slot, const Aabb& box) {  // slot 0 or 1
+    for (int a = 0; a < 3; ++a) axis[a][slot] = box.lo[a], axis[a][2 + slot] = box.hi[a];
+  }
+};
+
+// The ray's slab-test data broadcast to four lanes, made once per ray.
+struct RayBoxLanes {
+#if defined(__SSE2__)
+  __m128 origin[3], inv_direction[3], near_is_hi[3];  // near_is_hi: all-ones lanes
+#endif
+  RayBoxPrecompute scalar;
+  RayBoxLanes() = default;
+  explicit RayBoxLanes(const RayBoxPrecompute& r) : scalar(r) {
+#if defined(__SSE2__)
+    for (int a = 0; a < 3; ++a) {
+      origin[a] = _mm_set1_ps(r.origin[a]);
+      inv_direction[a] = _mm_set1_ps(r.inv_direction[a]);
+      near_is_hi[a] = _mm_castsi128_ps(_mm_set1_epi32(-r.near_is_hi[a]));
+    }
+#endif
+  }
+};
+
+// intersect_box for both boxes of a pair at once, with exactly its answers (the
+// same operations in the same order per lane, so traversal is bit-identical).
+// Far distances are kept negated so that one max serves both bounds: -min(a, b)
+// is max(-a, -b), and a NaN leaves the running bound unchanged either way.
+// Returns a hit mask (bit i: box i) and writes both entry distances.
+inline uint32_t intersect_box_pair(const RayBoxLanes& r, const BoxPairLanes& pair, float tmin,
+                                   float tmax, float t_entry[2]) {
+#if defined(__SSE2__)
+  constexpr float kFarScale = 1.0f + 2.0f * float_gamma(3);
+  __m128 acc = _mm_setr_ps(tmin, tmin, -tmax, -tmax);
+  const __m128 scale = _mm_setr_ps(1.0f, 1.0f, -kFarScale, -kFarScale);
+  for (int a = 0; a < 3; ++a) {
+    __m128 planes = _mm_loadu_ps(pair.axis[a]);
+    // A ray entering by the hi plane takes {hi, lo}: swap the halves.
+    const __m128 swapped = _mm_shuffle_ps(planes, planes, _MM_SHUFFLE(1, 0, 3, 2));
+    const __m128 pick = r.near_is_hi[a];
+    planes = _mm_or_ps(_mm_and_ps(pick, swapped), _mm_andnot_ps(pick, planes));
+    const __m128 t =
+        _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(planes, r.origin[a]), r.inv_direction[a]), scale);
+    acc = _mm_max_ps(t, acc);  // t > acc ? t : acc, as the scalar test
+  }
+  const __m128 far = _mm_xor_ps(_mm_shuffle_ps(acc, acc, _MM_SHUFFLE(1, 0, 3, 2)),
+                                _mm_set1_ps(-0.0f));
+  alignas(16) float near[4];
+  _mm_store_ps(near, acc);
+  t_entry[0] = near[0], t_entry[1] = near[1];
+  return uint32_t(_mm_movemask_ps(_mm_cmple_ps(acc, far))) & 3u;
+#else
+  uint32_t mask = 0;
+  for (int slot = 0; slot < 2; ++slot) {
+    Aabb box;
+    for (int a = 0; a < 3; ++a) box.lo[a] = pair.axis[a][slot], box.hi[a] = pair.axis[a][2 + slot];
+    if (intersect_box(r.scalar, box, tmin, tmax, &t_entry[slot])) mask |= 1u << slot;
+  }
+  return mask;
+#endif
 }
 
 // Per-ray data for the watertight test (Woop, Benthin, Wald 2013): the ray is

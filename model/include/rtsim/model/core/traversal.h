@@ -49,6 +49,7 @@
 #include <rtsim/model/core/ray.h>
 #include <rtsim/workloads/scene.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -97,21 +98,21 @@ struct PackedTriangle {
 class TraversalContext {
  public:
   // The host's copy of a record that holds its children's boxes, laid out for the
-  // hot loop: each child's decoded box beside where it leads (its own record, or
-  // its leaf's triangle slots), records in address order. A node step then reads
-  // two contiguous blocks instead of the tree, the image and its box table, and
-  // the ray can prefetch them as soon as it knows its next node: the engines
+  // hot loop in one block per record, in address order: its head, its children's
+  // decoded boxes two to a BoxPairLanes (one 4-lane slab test per pair), then
+  // where each child leads (its own record, or its leaf's triangle slots). A node
+  // step reads one block instead of the tree, the image and its box table, and
+  // the ray can prefetch it as soon as it knows its next node: the engines
   // interleave many rays, so the prefetch has a whole round to land.
-  struct ChildLink {
-    Aabb box;                  // as the record decodes it
-    uint32_t node;             // the child's node index
-    uint32_t target;           // inner child: its record; leaf: its first triangle slot
-    uint32_t leaf_count;       // 0: inner child
-  };
   struct RecordHead {
     uint64_t address;          // of the record in the memory image
     uint32_t node;             // the node it belongs to
     uint32_t children;         // boxes it holds (0: a root that is a leaf)
+  };
+  struct ChildTarget {
+    uint32_t node;             // the child's node index
+    uint32_t target;           // inner child: its record; leaf: its first triangle slot
+    uint32_t leaf_count;       // 0: inner child
   };
 
   TraversalContext(const Scene& scene, const Bvh& bvh, const MemoryImage& image,
@@ -123,11 +124,22 @@ class TraversalContext {
   // Triangle data by memory slot (see MemoryImage): the leaf's triangles in order.
   const PackedTriangle& slot_data(uint32_t slot) const { return triangles_[slot]; }
   bool own_box_records() const { return own_box_records_; }  // bvh2-32
-  // Child-box formats only: record r's head and its children's links.
-  const RecordHead& record_head(uint32_t r) const { return heads_[r]; }
-  const ChildLink* record_links(uint32_t r) const { return &links_[size_t(r) * links_per_record_]; }
+  // Child-box formats only: record r's head, its box pairs (the boxes as the
+  // record decodes them) and its children's targets.
+  const RecordHead& record_head(uint32_t r) const {
+    return *reinterpret_cast<const RecordHead*>(record_block(r));
+  }
+  const BoxPairLanes* record_box_pairs(uint32_t r) const {
+    return reinterpret_cast<const BoxPairLanes*>(record_block(r) + sizeof(RecordHead));
+  }
+  const ChildTarget* record_targets(uint32_t r) const {
+    return reinterpret_cast<const ChildTarget*>(record_block(r) + targets_offset_);
+  }
+  const unsigned char* record_block(uint32_t r) const {
+    return reinterpret_cast<const unsigned char*>(blocks_.data()) + size_t(r) * block_bytes_;
+  }
+  size_t record_block_bytes() const { return block_bytes_; }
   uint32_t root_record() const { return root_record_; }
-  size_t record_link_bytes() const { return links_per_record_ * sizeof(ChildLink); }
   // Spill area of ray slot `slot`: past the memory image, kStackAreaEntries entries each.
   static constexpr uint32_t kStackAreaEntries = 256;
   uint64_t stack_area(uint32_t slot) const {
@@ -142,9 +154,13 @@ class TraversalContext {
   bool own_box_records_;
   uint64_t stack_base_;
   std::vector<PackedTriangle> triangles_;  // by slot
-  std::vector<RecordHead> heads_;          // by record (child-box formats)
-  std::vector<ChildLink> links_;           // links_per_record_ per record
-  uint32_t links_per_record_ = 0, root_record_ = 0;
+  // Record blocks (child-box formats), block_bytes_ each, 16-byte aligned.
+  struct alignas(16) Chunk {
+    unsigned char bytes[16];
+  };
+  std::vector<Chunk> blocks_;
+  size_t block_bytes_ = 0, targets_offset_ = 0;
+  uint32_t root_record_ = 0;
 };
 
 enum class TraversalAction : uint8_t { FetchNode, TestTriangles, Done };
@@ -189,13 +205,13 @@ class RayTraversal {
   uint32_t stack_size() const { return uint32_t(stack_.size()); }
 
  private:
-  // A node to visit later, with where it leads (ChildLink; bvh2-32 uses the node only).
+  // A node to visit later, with where it leads (ChildTarget; bvh2-32 uses the node only).
   struct StackEntry {
     uint32_t node, target, leaf_count;
     float tnear;
   };
-  void push(const StackEntry& entry);
-  void enter(const StackEntry& entry);  // sets action for the node to visit next
+  void push(uint32_t node, uint32_t target, uint32_t leaf_count, float tnear);
+  void enter(uint32_t node, uint32_t target, uint32_t leaf_count);  // sets the next action
   void enter_leaf(uint32_t node);
   void pop_next();            // next non-culled stack entry, or Done
   void process_node();
@@ -208,7 +224,7 @@ class RayTraversal {
   const BvhNode* nodes_;
   uint64_t stack_area_;
   Ray ray_;
-  RayBoxPrecompute box_ray_;
+  RayBoxLanes box_ray_;
   RayTrianglePrecompute tri_ray_;
   TraversalMode mode_ = TraversalMode::ClosestHit;
   TraversalAction action_ = TraversalAction::Done;
@@ -223,6 +239,48 @@ class RayTraversal {
   std::vector<MemoryAccess> stack_accesses_;
   mutable std::vector<MemoryAccess> reads_;  // built on demand by step_reads()
 };
+
+// The step queries are inline: every engine asks them once or twice per step.
+inline const std::vector<MemoryAccess>& RayTraversal::step_reads() const {
+  // Fields are stored in place: a whole access built on the stack and copied
+  // in would be read back wider than it was written (a stalled store forward).
+  const auto add = [this](uint64_t address, uint32_t bytes, AccessKind kind) {
+    MemoryAccess& a = reads_.emplace_back();
+    a.address = address, a.bytes = bytes, a.kind = kind;
+  };
+  reads_.clear();
+  const MemoryImage& image = context_->image();
+  if (action_ == TraversalAction::FetchNode) {
+    add(context_->own_box_records() ? image.node_address(current_node_)
+                                    : context_->record_head(current_record_).address,
+        image.node_bytes(), AccessKind::Node);
+  } else if (action_ == TraversalAction::TestTriangles) {
+    if (leaf_cursor_ == 0 && image.indexed())
+      add(image.prim_refs_address(current_node_), leaf_count_ * 4u, AccessKind::PrimRef);
+    const uint32_t end = std::min(leaf_count_, leaf_cursor_ + context_->config().triangles_per_step);
+    for (uint32_t k = leaf_cursor_; k < end; ++k)
+      add(image.slot_address(leaf_slot_ + k), image.triangle_bytes(), AccessKind::Triangle);
+  }
+  return reads_;
+}
+
+inline uint32_t RayTraversal::step_independent_reads() const {
+  // Only the triangles behind a prim-ref list wait: they need the addresses it holds.
+  switch (action_) {
+    case TraversalAction::FetchNode: return 1;
+    case TraversalAction::TestTriangles:
+      if (leaf_cursor_ == 0 && context_->image().indexed()) return 1;
+      return std::min(leaf_count_ - leaf_cursor_, context_->config().triangles_per_step);
+    case TraversalAction::Done: break;
+  }
+  return 0;
+}
+
+inline uint32_t RayTraversal::step_box_tests() const {
+  if (action_ != TraversalAction::FetchNode) return 0;
+  if (context_->own_box_records()) return 1;
+  return context_->record_head(current_record_).children;
+}
 
 // The functional driver: runs the ray to completion, sending every access (step
 // reads, then the stack traffic of the step) to `sink` when given. Returns the hit.

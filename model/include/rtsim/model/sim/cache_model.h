@@ -110,6 +110,37 @@ class CacheModel {
 };
 
 // Sums several same-role caches (e.g. every TRV unit's L1) for the summary stats.
+// Inline: every line access of the functional and lt levels passes here.
+inline void CacheModel::count(const LineAccess& a, Outcome outcome) {
+  ++counters_.accesses;
+  if (a.write) ++counters_.writes;
+  requested_.add(a.ray_type, a.kind, a.bytes);
+  switch (outcome) {
+    case Outcome::Hit: ++counters_.hits; break;
+    case Outcome::Miss: ++counters_.misses; break;
+    case Outcome::Merged: ++counters_.mshr_merges; break;
+    case Outcome::Blocked: break;
+  }
+}
+
+inline CacheModel::Result CacheModel::access(const LineAccess& a, uint64_t now_ps) {
+  Result r;
+  uint64_t ready = 0;
+  if (tags_.lookup(a.line, a.write, &ready)) {
+    // lt: a read of a line whose fill has not landed yet merges and waits for it.
+    r.outcome = ready > now_ps && !a.write ? Outcome::Merged : Outcome::Hit;
+    r.ready_ps = ready;
+    count(a, r.outcome);
+    return r;
+  }
+  r.outcome = Outcome::Miss;
+  r.fetch = !a.write;
+  if (r.fetch) filled_.add(a.ray_type, a.kind, config_.line_bytes);
+  r.writeback = install(a.line, a.write);
+  count(a, r.outcome);
+  return r;
+}
+
 void report_cache_group(StatsRegistry& stats, const std::string& prefix,
                         const std::vector<const CacheModel*>& caches);
 

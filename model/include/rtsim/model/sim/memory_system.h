@@ -60,9 +60,10 @@ class PayloadPool {
   std::vector<tlm::tlm_generic_payload*> free_, all_;
 };
 
-class FunctionalMemory : public MemoryPort {
+class FunctionalMemory final : public MemoryPort {
  public:
   explicit FunctionalMemory(const HardwareConfig& config);
+  // Inline (below): the functional level's engine calls it for every line.
   uint64_t access(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps) override;
   uint32_t line_bytes(Requester who) const override;
   void reset_counters();
@@ -75,6 +76,21 @@ class FunctionalMemory : public MemoryPort {
  private:
   void to_l2(uint32_t core, const LineAccess& access);
 };
+
+inline uint64_t FunctionalMemory::access(Requester who, uint32_t unit, const LineAccess& a,
+                                         uint64_t issue_ps) {
+  const bool trv = who == Requester::Trv;
+  CacheModel& l1 = *(trv ? l1_node : l1_triangle)[unit];
+  const CacheModel::Result r = l1.access(a);
+  if (!r.writeback.dirty && !r.fetch) return issue_ps;  // a hit: nothing goes to the L2
+  const uint32_t core = trv ? shape.core_of_trv(unit) : shape.core_of_ist(unit);
+  const uint32_t l1_line = l1.config().line_bytes;
+  const CacheModel& slices = *l2.front();
+  if (r.writeback.dirty)
+    to_l2(core, {slices.line_of(r.writeback.line), l1_line, AccessKind::Stack, a.ray_type, true});
+  if (r.fetch) to_l2(core, {slices.line_of(a.line), l1_line, a.kind, a.ray_type, false});
+  return issue_ps;
+}
 
 // The functional hierarchy fed by the core's accesses as one TRV and one IST
 // unit would send them (one request per line and step): what `rtsim trace`

@@ -152,14 +152,18 @@ class RayEngine {
     }
   };
 
-  void run_rounds(MemoryPort& port, const std::function<void(uint64_t)>& progress);
+  // Untimed rounds; Port is the concrete FunctionalMemory when it is one, so
+  // that its accesses inline (the functional level's hot path).
+  template <class Port>
+  void run_rounds(Port& port, const std::function<void(uint64_t)>& progress);
   void run_timed(MemoryPort& port, const std::function<void(uint64_t)>& sync,
                  const std::function<void(uint64_t)>& progress);
   void reset_counters();
   // Sends accesses [begin, end) of the list through the port at t; returns when
   // the reads are back.
-  uint64_t issue(MemoryPort& port, Slot& slot, const std::vector<MemoryAccess>& list,
-                 size_t begin, size_t end, uint64_t t);
+  template <class Port>
+  uint64_t issue(Port& port, Slot& slot, const std::vector<MemoryAccess>& list, size_t begin,
+                 size_t end, uint64_t t);
   bool start_next_ray(Slot& slot, uint64_t now_ps, uint64_t* start_ps);
   void issue_step(MemoryPort& port, uint32_t slot, uint64_t t);  // lt: the step's first reads
   void finish(Slot& slot, uint64_t t);
