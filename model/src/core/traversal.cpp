@@ -4,11 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <new>
+#include <string>
 
 #if defined(__linux__)
 #include <sys/mman.h>
 #endif
-#include <string>
 
 namespace rtsim {
 
@@ -20,7 +20,8 @@ inline void prefetch(const void* p, size_t bytes) {
   __builtin_prefetch(c + bytes - 1);
 }
 
-// Asks Linux to back [p, p + bytes) with huge pages (a hint). The node blocks
+// Reserves room for `count` elements and asks Linux to back it with huge pages
+// (a hint, before the first touch). The node blocks
 // and triangles of a million-triangle scene span ~100 MB that rays visit at
 // random: with 4 KiB pages nearly every step's prefetch also misses the TLB.
 template <typename T>
@@ -83,8 +84,9 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
   const uint32_t pairs = (width + 1) / 2;
   targets_offset_ = sizeof(RecordHead) + pairs * sizeof(BoxPairLanes);
   block_bytes_ = (targets_offset_ + width * sizeof(ChildTarget) + 15) & ~size_t(15);
-  reserve_on_huge_pages(blocks_, image.record_count() * block_bytes_ / sizeof(Chunk));
-  blocks_.assign(image.record_count() * block_bytes_ / sizeof(Chunk), Chunk{});
+  const size_t chunks = image.record_count() * block_bytes_ / sizeof(Chunk);
+  reserve_on_huge_pages(blocks_, chunks);
+  blocks_.assign(chunks, Chunk{});
   for (uint32_t n = 0; n < bvh.nodes.size(); ++n) {
     if (!image.has_record(n)) continue;
     const uint32_t r = image.record_ordinal(n);
