@@ -109,7 +109,6 @@ class CacheModel {
   std::unordered_map<uint64_t, Mshr> mshr_;  // cycle: missing lines
 };
 
-// Sums several same-role caches (e.g. every TRV unit's L1) for the summary stats.
 // Inline: every line access of the functional and lt levels passes here.
 inline void CacheModel::count(const LineAccess& a, Outcome outcome) {
   ++counters_.accesses;
@@ -141,6 +140,7 @@ inline CacheModel::Result CacheModel::access(const LineAccess& a, uint64_t now_p
   return r;
 }
 
+// Sums several same-role caches (e.g. every TRV unit's L1) for the summary stats.
 void report_cache_group(StatsRegistry& stats, const std::string& prefix,
                         const std::vector<const CacheModel*>& caches);
 
