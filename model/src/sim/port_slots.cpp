@@ -7,6 +7,7 @@ namespace rtsim::sim {
 PortSlots::PortSlots(uint64_t interval_ps, uint64_t horizon_ps)
     : interval_ps_(std::max<uint64_t>(1, interval_ps)) {
   while (ring_slots_ < 2 * (horizon_ps / interval_ps_ + 1)) ring_slots_ *= 2;
+  ring_mask_ = ring_slots_ - 1;
   bits_.assign(ring_slots_ / 64, 0);
 }
 

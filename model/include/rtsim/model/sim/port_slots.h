@@ -23,10 +23,11 @@ class PortSlots {
   void take(uint64_t slot);
 
  private:
-  uint64_t& word(uint64_t slot) { return bits_[(slot % ring_slots_) / 64]; }
-  uint64_t word(uint64_t slot) const { return bits_[(slot % ring_slots_) / 64]; }
+  // ring_slots_ is a power of two: the mask, not a division, finds a slot's word.
+  uint64_t& word(uint64_t slot) { return bits_[(slot & ring_mask_) / 64]; }
+  uint64_t word(uint64_t slot) const { return bits_[(slot & ring_mask_) / 64]; }
   uint64_t interval_ps_;
-  uint64_t ring_slots_ = 64, newest_slot_ = 0;
+  uint64_t ring_slots_ = 64, ring_mask_ = 63, newest_slot_ = 0;
   bool any_taken_ = false;
   std::vector<uint64_t> bits_;
 };

@@ -4,12 +4,13 @@
 
 #include <cstdint>
 #include <functional>
-#include <queue>
 #include <vector>
 
 namespace rtsim::sim {
 
-inline uint64_t now_ps() { return sc_core::sc_time_stamp().value(); }
+// The kernel's inline accessor: sc_time_stamp() is an out-of-line library call,
+// and the cycle-level units ask for the time on every item they handle.
+inline uint64_t now_ps() { return sc_core::sc_get_curr_simcontext()->time_stamp().value(); }
 inline uint64_t to_ps(const sc_core::sc_time& t) { return t.value(); }
 inline sc_core::sc_time from_ps(uint64_t ps) { return sc_core::sc_time::from_value(ps); }
 
@@ -21,7 +22,12 @@ template <typename Item>
 class TimedQueue {
  public:
   void push(uint64_t time_ps, const Item& item) {
-    heap_.push(Entry{time_ps, sequence_++, item});
+    // Kept sorted by time, equal times in insertion order. A unit holds a few
+    // dozen items, nearly all due after the ones it holds, so the place is found
+    // from the back in a step or two: cheaper than a heap, whose sifts mispredict.
+    size_t at = entries_.size();
+    while (at > head_ && entries_[at - 1].time_ps > time_ps) --at;
+    entries_.insert(entries_.begin() + ptrdiff_t(at), Entry{time_ps, item});
     // While draining, items due now are picked up by the running loop and the
     // event is re-armed at its end: no kernel notification needed.
     if (!draining_ && time_ps < notified_ps_) {
@@ -36,30 +42,33 @@ class TimedQueue {
     const uint64_t now = now_ps();
     notified_ps_ = UINT64_MAX;
     draining_ = true;
-    while (!heap_.empty() && heap_.top().time_ps <= now) {
-      Item item = heap_.top().item;
-      heap_.pop();
+    while (head_ < entries_.size() && entries_[head_].time_ps <= now) {
+      Item item = entries_[head_++].item;
       handle(item);
     }
     draining_ = false;
-    if (!heap_.empty() && heap_.top().time_ps < notified_ps_) {
-      notified_ps_ = heap_.top().time_ps;
+    // The handled entries go: all at once when none is left, else when they are
+    // the larger part (amortised, so a queue that never empties stays small).
+    if (head_ == entries_.size()) {
+      entries_.clear(), head_ = 0;
+    } else if (head_ > 32 && head_ * 2 > entries_.size()) {
+      entries_.erase(entries_.begin(), entries_.begin() + ptrdiff_t(head_)), head_ = 0;
+    }
+    if (head_ < entries_.size() && entries_[head_].time_ps < notified_ps_) {
+      notified_ps_ = entries_[head_].time_ps;
       event_.notify(from_ps(notified_ps_ - now));
     }
   }
   sc_core::sc_event& event() { return event_; }
-  bool empty() const { return heap_.empty(); }
+  bool empty() const { return head_ == entries_.size(); }
 
  private:
   struct Entry {
-    uint64_t time_ps, sequence;
+    uint64_t time_ps;
     Item item;
-    bool operator<(const Entry& o) const {  // priority_queue is a max-heap
-      return time_ps != o.time_ps ? time_ps > o.time_ps : sequence > o.sequence;
-    }
   };
-  std::priority_queue<Entry> heap_;
-  uint64_t sequence_ = 0;
+  std::vector<Entry> entries_;  // [head_, end): pending, in (time, insertion) order
+  size_t head_ = 0;
   uint64_t notified_ps_ = UINT64_MAX;
   bool draining_ = false;
   sc_core::sc_event event_;
