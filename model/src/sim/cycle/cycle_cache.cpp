@@ -4,13 +4,12 @@ namespace rtsim::sim {
 
 using tlm::tlm_generic_payload;
 
-CycleCache::CycleCache(sc_core::sc_module_name name, const CacheConfig& config, uint64_t cycle_ps)
-    : sc_module(name), target("target"), next("next"), model(config, std::string(name), cycle_ps) {
+CycleCache::CycleCache(sc_core::sc_module_name name, const CacheConfig& config, uint64_t cycle_ps,
+                       UnitScheduler& scheduler)
+    : sc_module(name), target("target"), next("next"), model(config, std::string(name), cycle_ps),
+      queue_(scheduler, [this] { on_event(); }) {
   target.register_nb_transport_fw(this, &CycleCache::nb_transport_fw);
   next.register_nb_transport_bw(this, &CycleCache::nb_transport_bw);
-  SC_METHOD(on_event);
-  sensitive << queue_.event();
-  dont_initialize();
 }
 
 void CycleCache::reset_counters() {
@@ -149,12 +148,11 @@ void CycleCache::on_event() {
 
 // ---------------------------------------------------------------- DRAM
 
-CycleDram::CycleDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes)
-    : sc_module(name), target("target"), model(config, access_bytes) {
+CycleDram::CycleDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes,
+                     UnitScheduler& scheduler)
+    : sc_module(name), target("target"), model(config, access_bytes),
+      queue_(scheduler, [this] { on_event(); }) {
   target.register_nb_transport_fw(this, &CycleDram::nb_transport_fw);
-  SC_METHOD(on_event);
-  sensitive << queue_.event();
-  dont_initialize();
 }
 
 uint32_t CycleDram::slot_for(int id, tlm_generic_payload* p) {

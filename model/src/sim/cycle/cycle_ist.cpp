@@ -8,15 +8,12 @@ namespace rtsim::sim {
 
 CycleIst::CycleIst(sc_core::sc_module_name name, const HardwareConfig& config, CycleSystem& system)
     : sc_module(name), memory("memory"), config_(config), system_(system),
-      jobs_(config.ist_queue_entries) {
+      jobs_(config.ist_queue_entries), queue_(system.scheduler, [this] { on_event(); }) {
   const uint64_t cycle_ps = uint64_t(std::llround(config.clock_period_ps()));
   interval_ps_ = uint64_t(std::llround(double(cycle_ps) / config.ist_tests_per_cycle));
   latency_ps_ = uint64_t(config.ist_test_latency) * cycle_ps;
   for (uint32_t j = config.ist_queue_entries; j-- > 0;) free_jobs_.push_back(j);
   memory.register_nb_transport_bw(this, &CycleIst::nb_transport_bw);
-  SC_METHOD(on_event);
-  sensitive << queue_.event();
-  dont_initialize();
 }
 
 void CycleIst::reset_counters() {

@@ -7,13 +7,10 @@
 namespace rtsim::sim {
 
 CycleRayGen::CycleRayGen(sc_core::sc_module_name name, const HardwareConfig& config,
-                         RayDispatcher& dispatcher, uint32_t core)
-    : sc_module(name), dispatcher_(dispatcher), core_(core) {
+                         RayDispatcher& dispatcher, uint32_t core, UnitScheduler& scheduler)
+    : sc_module(name), dispatcher_(dispatcher), core_(core), wake_(scheduler, [this] { on_event(); }) {
   const double cycle_ps = config.clock_period_ps();
   interval_ps_ = uint64_t(std::llround(cycle_ps / config.raygen_rays_per_cycle));
-  SC_METHOD(on_event);
-  sensitive << wake_.event();
-  dont_initialize();
 }
 
 void CycleRayGen::slot_free(CycleTrv* trv, uint32_t slot, uint64_t t) {

@@ -7,13 +7,11 @@ namespace rtsim::sim {
 
 CycleShading::CycleShading(sc_core::sc_module_name name, const HardwareConfig& config,
                            const Workload& workload, CycleSystem& system, uint32_t core)
-    : sc_module(name), workload_(workload), system_(system), core_(core) {
+    : sc_module(name), workload_(workload), system_(system), core_(core),
+      queue_(system.scheduler, [this] { on_event(); }) {
   const double cycle_ps = config.clock_period_ps();
   interval_ps_ = uint64_t(std::llround(cycle_ps / config.shading_rays_per_cycle));
   latency_ps_ = uint64_t(config.shading_latency) * uint64_t(std::llround(cycle_ps));
-  SC_METHOD(on_event);
-  sensitive << queue_.event();
-  dont_initialize();
 }
 
 void CycleShading::reset_counters() {

@@ -6,7 +6,7 @@ namespace rtsim::sim {
 
 CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg,
                          const Workload& work, std::function<void(uint64_t)> progress)
-    : sc_module(name), config(cfg), workload(work), shape(MachineShape::of(cfg)),
+    : sc_module(name), config(cfg), workload(work), shape(MachineShape::of(cfg)), scheduler("scheduler"),
       dispatcher(IssuePolicy::from(cfg), work.initial_rays, work.width, work.height,
                  work.spawn_secondary),
       noc_model(cfg, shape, true), progress_(std::move(progress)) {
@@ -16,11 +16,11 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
   // DRAM, IST, TRV, shading), which a one-core run's results follow exactly.
   for (uint32_t c = 0; c < shape.cores; ++c)
     raygen.push_back(std::make_unique<CycleRayGen>(
-        module(MachineShape::core_name(c) + ".raygen").c_str(), cfg, dispatcher, c));
+        module(MachineShape::core_name(c) + ".raygen").c_str(), cfg, dispatcher, c, scheduler));
   for (uint32_t s = 0; s < shape.l2_slices; ++s)
     l2.push_back(std::make_unique<CycleCache>(module(MachineShape::slice_name(s)).c_str(),
-                                              cfg.l2_slice(), cycle_ps));
-  dram = std::make_unique<CycleDram>("dram", cfg.dram, cfg.l2.line_bytes);
+                                              cfg.l2_slice(), cycle_ps, scheduler));
+  dram = std::make_unique<CycleDram>("dram", cfg.dram, cfg.l2.line_bytes, scheduler);
   noc = std::make_unique<CycleCrossbar>("noc", noc_model, shape);
   for (auto& slice : l2) {
     noc->to_slice.bind(slice->target);
@@ -29,7 +29,7 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
   for (uint32_t i = 0; i < shape.ist_units(); ++i) {
     ist.push_back(std::make_unique<CycleIst>(module(shape.ist_name(i)).c_str(), cfg, *this));
     l1_triangle.push_back(std::make_unique<CycleCache>(module(shape.l1_triangle_name(i)).c_str(),
-                                                       cfg.l1_triangle_of(shape.core_of_ist(i)), cycle_ps));
+                                                       cfg.l1_triangle_of(shape.core_of_ist(i)), cycle_ps, scheduler));
     ist.back()->memory.bind(l1_triangle.back()->target);
     noc->bind_l1(l1_triangle.back()->next, shape.core_of_ist(i));
   }
@@ -37,7 +37,7 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
     trv.push_back(
         std::make_unique<CycleTrv>(module(shape.trv_name(u)).c_str(), cfg, *work.context, u, *this));
     l1_node.push_back(std::make_unique<CycleCache>(module(shape.l1_node_name(u)).c_str(),
-                                                   cfg.l1_node_of(shape.core_of_trv(u)), cycle_ps));
+                                                   cfg.l1_node_of(shape.core_of_trv(u)), cycle_ps, scheduler));
     trv.back()->memory.bind(l1_node.back()->target);
     noc->bind_l1(l1_node.back()->next, shape.core_of_trv(u));
     ist_for(u).serve(trv.back().get());

@@ -13,16 +13,14 @@ CycleTrv::CycleTrv(sc_core::sc_module_name name, const HardwareConfig& config,
                    const TraversalContext& context, uint32_t unit, CycleSystem& system)
     : sc_module(name), memory("memory"), config_(config), system_(system), unit_(unit),
       ist_(system.ist_for(unit)),  // the IST units are built first
-      cycle_ps_(uint64_t(std::llround(config.clock_period_ps()))) {
+      cycle_ps_(uint64_t(std::llround(config.clock_period_ps()))),
+      queue_(system.scheduler, [this] { on_event(); }) {
   interval_ps_ = uint64_t(std::llround(double(cycle_ps_) / config.trv_nodes_per_cycle));
   latency_ps_ = uint64_t(config.trv_box_test_latency) * cycle_ps_;
   slots_.reserve(config.trv_ray_slots);
   for (uint32_t s = 0; s < config.trv_ray_slots; ++s)
     slots_.emplace_back(context, unit * config.trv_ray_slots + s);
   memory.register_nb_transport_bw(this, &CycleTrv::nb_transport_bw);
-  SC_METHOD(on_event);
-  sensitive << queue_.event();
-  dont_initialize();
 }
 
 void CycleTrv::reset_counters() {

@@ -12,7 +12,7 @@
 // its END_REQ, and that waiting is counted (downstream_stall).
 #include <rtsim/model/sim/cache_model.h>
 #include <rtsim/model/sim/memory_system.h>
-#include <rtsim/model/sim/sc_time_util.h>
+#include <rtsim/model/sim/cycle/unit_scheduler.h>
 
 #include <tlm_utils/multi_passthrough_target_socket.h>
 #include <tlm_utils/simple_initiator_socket.h>
@@ -26,14 +26,14 @@ class CycleCache : public sc_core::sc_module {
  public:
   tlm_utils::multi_passthrough_target_socket<CycleCache> target;
   tlm_utils::simple_initiator_socket<CycleCache> next;
-  CycleCache(sc_core::sc_module_name name, const CacheConfig& config, uint64_t cycle_ps);
+  CycleCache(sc_core::sc_module_name name, const CacheConfig& config, uint64_t cycle_ps,
+             UnitScheduler& scheduler);
   CacheModel model;
   uint64_t downstream_stall_ps = 0;  // the outbound queue's head waited for the next level
   uint64_t downstream_refusals = 0;  // requests the next level did not take at once
   void reset_counters();
 
  private:
-  SC_HAS_PROCESS(CycleCache);
   tlm::tlm_sync_enum nb_transport_fw(int id, tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                      sc_core::sc_time& delay);
   tlm::tlm_sync_enum nb_transport_bw(tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
@@ -72,11 +72,11 @@ class CycleCache : public sc_core::sc_module {
 class CycleDram : public sc_core::sc_module {
  public:
   tlm_utils::multi_passthrough_target_socket<CycleDram> target;
-  CycleDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes);
+  CycleDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes,
+            UnitScheduler& scheduler);
   DramModel model;
 
  private:
-  SC_HAS_PROCESS(CycleDram);
   tlm::tlm_sync_enum nb_transport_fw(int id, tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                      sc_core::sc_time& delay);
   void on_event();

@@ -9,7 +9,7 @@
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/memory_system.h>
-#include <rtsim/model/sim/sc_time_util.h>
+#include <rtsim/model/sim/cycle/unit_scheduler.h>
 
 #include <tlm_utils/simple_initiator_socket.h>
 
@@ -32,7 +32,6 @@ class CycleIst : public sc_core::sc_module {
   uint64_t tests = 0;
 
  private:
-  SC_HAS_PROCESS(CycleIst);
   struct Job {
     CycleTrv* trv = nullptr;
     uint32_t slot = 0, ray = 0;

@@ -5,7 +5,7 @@
 #include <rtsim/model/core/ray.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/ray_dispatch.h>
-#include <rtsim/model/sim/sc_time_util.h>
+#include <rtsim/model/sim/cycle/unit_scheduler.h>
 
 #include <deque>
 
@@ -16,7 +16,7 @@ class CycleTrv;
 class CycleRayGen : public sc_core::sc_module {
  public:
   CycleRayGen(sc_core::sc_module_name name, const HardwareConfig& config,
-              RayDispatcher& dispatcher, uint32_t core);
+              RayDispatcher& dispatcher, uint32_t core, UnitScheduler& scheduler);
   void slot_free(CycleTrv* trv, uint32_t slot, uint64_t t);
   void add_rays(const std::vector<Ray>& rays, uint64_t ready_ps);  // from the core's shading
   uint64_t issued() const { return issued_; }
@@ -25,7 +25,6 @@ class CycleRayGen : public sc_core::sc_module {
   uint64_t stalled_ps = 0;  // rays ready but no free TRV slot
 
  private:
-  SC_HAS_PROCESS(CycleRayGen);
   void on_event();
   RayDispatcher& dispatcher_;
   uint32_t core_;

@@ -5,7 +5,7 @@
 // needs secondary rays.
 #include <rtsim/model/core/ray_generation.h>
 #include <rtsim/model/sim/config.h>
-#include <rtsim/model/sim/sc_time_util.h>
+#include <rtsim/model/sim/cycle/unit_scheduler.h>
 
 namespace rtsim::sim {
 
@@ -23,7 +23,6 @@ class CycleShading : public sc_core::sc_module {
   Occupancy occupancy;
 
  private:
-  SC_HAS_PROCESS(CycleShading);
   struct Item {
     uint32_t ray_index;
     Ray ray;

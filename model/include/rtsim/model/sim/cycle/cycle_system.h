@@ -5,6 +5,7 @@
 // crossbar to the L2 slices; DRAM; all joined by TLM-2.0 sockets.
 // Frames run back to back: when every ray of a frame (and every ray it spawned)
 // is done, the counters start again and the same rays are issued once more.
+// One process, the UnitScheduler, wakes the units (unit_scheduler.h).
 #include <rtsim/model/sim/cycle/cycle_cache.h>
 #include <rtsim/model/sim/cycle/cycle_ist.h>
 #include <rtsim/model/sim/cycle/cycle_noc.h>
@@ -36,6 +37,7 @@ class CycleSystem : public sc_core::sc_module {
   const HardwareConfig& config;
   const Workload& workload;
   MachineShape shape;
+  UnitScheduler scheduler;  // wakes every unit below
   RayDispatcher dispatcher;
   std::vector<std::unique_ptr<CycleRayGen>> raygen;    // per core
   std::vector<std::unique_ptr<CycleTrv>> trv;           // global TRV unit numbers

@@ -9,7 +9,7 @@
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/memory_system.h>
-#include <rtsim/model/sim/sc_time_util.h>
+#include <rtsim/model/sim/cycle/unit_scheduler.h>
 
 #include <tlm_utils/simple_initiator_socket.h>
 
@@ -37,7 +37,6 @@ class CycleTrv : public sc_core::sc_module {
   uint64_t passes = 0;  // box-test pipeline passes (trv.boxes_per_pass)
 
  private:
-  SC_HAS_PROCESS(CycleTrv);
   enum class Phase : uint8_t { Idle, WaitNode, WaitStack, InIst, WaitIst };
   struct Slot {
     RayTraversal traversal;

@@ -1,0 +1,45 @@
+#include <rtsim/model/sim/cycle/unit_scheduler.h>
+
+#include <algorithm>
+
+namespace rtsim::sim {
+
+UnitScheduler::UnitScheduler(sc_core::sc_module_name name) : sc_module(name) {
+  SC_METHOD(run);
+  sensitive << next_;
+  dont_initialize();
+}
+
+uint32_t UnitScheduler::add(std::function<void()> due) {
+  due_.push_back(std::move(due));
+  wake_ps_.push_back(UINT64_MAX);
+  return uint32_t(due_.size() - 1);
+}
+
+void UnitScheduler::arm(uint64_t time_ps, uint64_t now) {
+  armed_ps_ = time_ps;
+  next_.notify(from_ps(time_ps - now));
+}
+
+void UnitScheduler::run() {
+  // The first round and the next time come from a scan of every unit (they are
+  // tens); the rounds between, from the wakes asked for now.
+  const uint64_t now = now_ps();
+  running_ = true;
+  round_.clear();
+  for (uint32_t u = 0; u < wake_ps_.size(); ++u)
+    if (wake_ps_[u] <= now) round_.push_back(u);
+  while (!round_.empty()) {
+    next_round_.clear();
+    for (uint32_t u : round_) wake_ps_[u] = UINT64_MAX;
+    for (uint32_t u : round_) due_[u]();
+    std::sort(next_round_.begin(), next_round_.end());  // build order
+    round_.swap(next_round_);
+  }
+  running_ = false;
+  const uint64_t next = *std::min_element(wake_ps_.begin(), wake_ps_.end());
+  armed_ps_ = UINT64_MAX;
+  if (next != UINT64_MAX) arm(next, now);
+}
+
+}  // namespace rtsim::sim
