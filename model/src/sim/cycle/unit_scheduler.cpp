@@ -26,9 +26,14 @@ void UnitScheduler::run() {
   // tens); the rounds between, from the wakes asked for now.
   const uint64_t now = now_ps();
   running_ = true;
-  round_.clear();
-  for (uint32_t u = 0; u < wake_ps_.size(); ++u)
-    if (wake_ps_[u] <= now) round_.push_back(u);
+  // Branch-free: which units are due is close to random from step to step.
+  round_.resize(wake_ps_.size());
+  size_t due = 0;
+  for (uint32_t u = 0; u < wake_ps_.size(); ++u) {
+    round_[due] = u;
+    due += wake_ps_[u] <= now;
+  }
+  round_.resize(due);
   while (!round_.empty()) {
     next_round_.clear();
     for (uint32_t u : round_) wake_ps_[u] = UINT64_MAX;
