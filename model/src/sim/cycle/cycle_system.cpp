@@ -12,8 +12,9 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
       noc_model(cfg, shape, true), progress_(std::move(progress)) {
   const uint64_t cycle_ps = uint64_t(std::llround(cfg.clock_period_ps()));
   const auto module = [](const std::string& instance) { return MachineShape::module_name(instance); };
-  // Constructed in the order of the one-core model before it (ray generation, L2,
-  // DRAM, IST, TRV, shading), which a one-core run's results follow exactly.
+  // Built in the order of the one-core model before it (ray generation, L2, DRAM,
+  // IST, TRV, shading). It is also the order in which the scheduler runs units
+  // due at the same time, so it is part of the results.
   for (uint32_t c = 0; c < shape.cores; ++c)
     raygen.push_back(std::make_unique<CycleRayGen>(
         module(MachineShape::core_name(c) + ".raygen").c_str(), cfg, dispatcher, c, scheduler));
