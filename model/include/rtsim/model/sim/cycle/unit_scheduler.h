@@ -86,7 +86,6 @@ class TimedQueue {
       scheduler_.wake(unit_, entries_[head_].time_ps);
     }
   }
-  bool empty() const { return head_ == entries_.size(); }
 
  private:
   struct Entry {
