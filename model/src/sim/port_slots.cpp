@@ -6,9 +6,10 @@ namespace rtsim::sim {
 
 PortSlots::PortSlots(uint64_t interval_ps, uint64_t horizon_ps)
     : interval_ps_(std::max<uint64_t>(1, interval_ps)) {
-  while (ring_slots_ < 2 * (horizon_ps / interval_ps_ + 1)) ring_slots_ *= 2;
-  ring_mask_ = ring_slots_ - 1;
-  bits_.assign(ring_slots_ / 64, 0);
+  uint64_t slots = 64;
+  while (slots < 2 * (horizon_ps / interval_ps_ + 1)) slots *= 2;
+  ring_mask_ = slots - 1;
+  bits_.assign(slots / 64, 0);
 }
 
 uint64_t PortSlots::first_free(uint64_t slot) const {
@@ -31,7 +32,7 @@ void PortSlots::take(uint64_t slot) {
   if (!any_taken_ || slot > newest_slot_) {
     // Slots past the newest come into the ring: clear what they overwrite.
     const uint64_t from = any_taken_ ? newest_slot_ + 1 : slot;
-    if (slot - from >= ring_slots_) {
+    if (slot - from >= ring_slots()) {
       std::fill(bits_.begin(), bits_.end(), 0);
     } else {
       for (uint64_t s = from; s <= slot;) {

@@ -19,15 +19,16 @@ class PortSlots {
   // The first slot from `slot` on that is free.
   uint64_t first_free(uint64_t slot) const;
   // Older than the ring remembers: free, and not to be taken (its bit is a newer slot's).
-  bool forgotten(uint64_t slot) const { return any_taken_ && slot + ring_slots_ <= newest_slot_; }
+  bool forgotten(uint64_t slot) const { return any_taken_ && slot + ring_slots() <= newest_slot_; }
   void take(uint64_t slot);
 
  private:
-  // ring_slots_ is a power of two: the mask, not a division, finds a slot's word.
+  // The ring holds a power of two of slots: a mask, not a division, finds a slot's word.
+  uint64_t ring_slots() const { return ring_mask_ + 1; }
   uint64_t& word(uint64_t slot) { return bits_[(slot & ring_mask_) / 64]; }
   uint64_t word(uint64_t slot) const { return bits_[(slot & ring_mask_) / 64]; }
   uint64_t interval_ps_;
-  uint64_t ring_slots_ = 64, ring_mask_ = 63, newest_slot_ = 0;
+  uint64_t ring_mask_ = 63, newest_slot_ = 0;
   bool any_taken_ = false;
   std::vector<uint64_t> bits_;
 };

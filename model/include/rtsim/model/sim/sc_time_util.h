@@ -3,8 +3,6 @@
 #include <systemc>
 
 #include <cstdint>
-#include <functional>
-#include <vector>
 
 namespace rtsim::sim {
 
