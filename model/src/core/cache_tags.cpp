@@ -30,6 +30,7 @@ CacheTags::CacheTags(const CacheGeometry& geometry, const std::string& name) : g
   validate_cache_geometry(geometry, name);
   sets_ = uint32_t(geometry.size_bytes / (uint64_t(geometry.line_bytes) * geometry.ways));
   line_shift_ = log2_exact(geometry.line_bytes);
+  interleave_shift_ = is_power_of_two(geometry.interleave) ? int(log2_exact(geometry.interleave)) : -1;
   const size_t ways = size_t(sets_) * geometry.ways;
   tags_.assign(ways, kInvalid);
   last_use_.assign(ways, 0);

@@ -57,13 +57,16 @@ class CacheTags {
   static constexpr uint64_t kInvalid = ~uint64_t(0);  // no line number is all ones
   size_t find(uint64_t line) const;  // way index, or npos
   size_t set_start(uint64_t line) const {
-    return size_t((geometry_.interleave == 1 ? line : line / geometry_.interleave) & (sets_ - 1)) *
-           geometry_.ways;
+    // A shift when the interleave is a power of two (always for an L1): a division
+    // on every lookup was the functional level's costliest instruction.
+    const uint64_t index = interleave_shift_ >= 0 ? line >> interleave_shift_ : line / geometry_.interleave;
+    return size_t(index & (sets_ - 1)) * geometry_.ways;
   }
   static constexpr size_t npos = ~size_t(0);
   CacheGeometry geometry_;
   uint32_t sets_;
   uint32_t line_shift_;
+  int interleave_shift_;  // log2(interleave), or -1 when it is not a power of two
   uint64_t clock_ = 0;
   std::vector<uint64_t> tags_;      // sets_ x ways; kInvalid = empty way
   std::vector<uint64_t> last_use_;  // LRU clock; 0 = empty way
