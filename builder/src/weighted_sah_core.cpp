@@ -11,6 +11,10 @@
 #include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -162,6 +166,86 @@ struct CentroidBinning {
     if (f >= float(bins - 1)) return bins - 1;
     return uint32_t(f);
   }
+};
+
+// Object binning's accumulator, the builder's hottest loop: a reference's box and
+// bin indices on all three axes in one go (SSE lanes; a Ref's two halves are its
+// lo and hi with the tag and weight in the fourth lane, which is never read).
+// Results are bit-identical to Bin and CentroidBinning::index: min(p, lo) and
+// max(p, hi) are glm::min(lo, p) and glm::max(hi, p) lane by lane, NaN and signed
+// zeros alike, and the index takes the same float operations.
+struct alignas(16) BinLanes {
+#if defined(__SSE2__)
+  __m128 lo = _mm_set1_ps(kInf), hi = _mm_set1_ps(-kInf);
+#else
+  Aabb box;
+#endif
+  float weight = 0;
+  uint32_t count = 0;
+  uint32_t visible = 0;
+  void add(const Ref& r) {
+#if defined(__SSE2__)
+    lo = _mm_min_ps(_mm_loadu_ps(&r.lo.x), lo);
+    hi = _mm_max_ps(_mm_loadu_ps(&r.hi.x), hi);
+#else
+    box.extend(r.box());
+#endif
+    weight += r.weight;
+    count += 1;
+    visible += r.visible();
+  }
+  void add(const BinLanes& b) {
+#if defined(__SSE2__)
+    lo = _mm_min_ps(b.lo, lo);
+    hi = _mm_max_ps(b.hi, hi);
+#else
+    box.extend(b.box);
+#endif
+    weight += b.weight;
+    count += b.count;
+    visible += b.visible;
+  }
+  Bin bin() const {
+    Bin out;
+#if defined(__SSE2__)
+    alignas(16) float l[4], h[4];
+    _mm_store_ps(l, lo);
+    _mm_store_ps(h, hi);
+    out.box.lo = vec3(l[0], l[1], l[2]);
+    out.box.hi = vec3(h[0], h[1], h[2]);
+#else
+    out.box = box;
+#endif
+    out.weight = weight, out.count = count, out.visible = visible;
+    return out;
+  }
+};
+
+// CentroidBinning::index on the three axes at once.
+struct CentroidBinningLanes {
+  explicit CentroidBinningLanes(const CentroidBinning& b) : binning(b) {
+#if defined(__SSE2__)
+    origin = _mm_setr_ps(b.origin.x, b.origin.y, b.origin.z, 0.0f);
+    scale = _mm_setr_ps(b.scale.x, b.scale.y, b.scale.z, 0.0f);
+    last = _mm_set1_ps(float(b.bins - 1));
+#endif
+  }
+  void index(const Ref& r, uint32_t out[4]) const {
+#if defined(__SSE2__)
+    const __m128 f = _mm_mul_ps(
+        _mm_sub_ps(_mm_add_ps(_mm_loadu_ps(&r.lo.x), _mm_loadu_ps(&r.hi.x)), origin), scale);
+    // 0 unless f > 0 (NaN too), bins - 1 from there on, else f truncated.
+    const __m128i i = _mm_and_si128(_mm_cvttps_epi32(_mm_min_ps(f, last)),
+                                    _mm_castps_si128(_mm_cmpgt_ps(f, _mm_setzero_ps())));
+    _mm_store_si128(reinterpret_cast<__m128i*>(out), i);
+#else
+    for (int a = 0; a < 3; ++a) out[a] = binning.index(r, a);
+#endif
+  }
+  const CentroidBinning& binning;
+#if defined(__SSE2__)
+  __m128 origin, scale, last;
+#endif
 };
 
 // Maps a coordinate to a spatial bin of the node box along an axis.
@@ -353,28 +437,35 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
 
   // Only the 3 x bins entries in use are initialised (the store is sized for the
   // maximum bin count; initialising all of it per node dominated the build time).
-  alignas(64) unsigned char bin_bytes[3 * kMaxBins * sizeof(Bin)];
-  Bin* b = reinterpret_cast<Bin*>(bin_bytes);
-  for (uint32_t k = 0; k < 3 * bins; ++k) new (b + k) Bin();
-  auto bin_range = [&](Bin* out, uint32_t lo, uint32_t hi) {
+  alignas(64) unsigned char lane_bytes[3 * kMaxBins * sizeof(BinLanes)];
+  BinLanes* lanes = reinterpret_cast<BinLanes*>(lane_bytes);
+  for (uint32_t k = 0; k < 3 * bins; ++k) new (lanes + k) BinLanes();
+  const CentroidBinningLanes indexer(binning);
+  const bool usable[3] = {binning.usable(0), binning.usable(1), binning.usable(2)};
+  auto bin_range = [&](BinLanes* out, uint32_t lo, uint32_t hi) {
+    alignas(16) uint32_t index[4];
     for (uint32_t i = lo; i < hi; ++i) {
       const Ref& r = refs_[i];
+      indexer.index(r, index);
       for (int a = 0; a < 3; ++a)
-        if (binning.usable(a)) out[a * bins + binning.index(r, a)].add(r);
+        if (usable[a]) out[a * bins + index[a]].add(r);
     }
   };
   if (count < 2 * kChunk) {
-    bin_range(b, begin, begin + count);
+    bin_range(lanes, begin, begin + count);
   } else {
     const uint32_t chunks = (count + kChunk - 1) / kChunk;
-    std::vector<Bin> partial(size_t(chunks) * 3 * bins);
+    std::vector<BinLanes> partial(size_t(chunks) * 3 * bins);
     tbb::parallel_for(uint32_t(0), chunks, [&](uint32_t c) {
       const uint32_t lo = begin + c * kChunk, hi = std::min(begin + count, lo + kChunk);
       bin_range(&partial[size_t(c) * 3 * bins], lo, hi);
     });
     for (uint32_t c = 0; c < chunks; ++c)
-      for (uint32_t k = 0; k < 3 * bins; ++k) b[k].add(partial[size_t(c) * 3 * bins + k]);
+      for (uint32_t k = 0; k < 3 * bins; ++k) lanes[k].add(partial[size_t(c) * 3 * bins + k]);
   }
+  alignas(64) unsigned char bin_bytes[3 * kMaxBins * sizeof(Bin)];
+  Bin* b = reinterpret_cast<Bin*>(bin_bytes);
+  for (uint32_t k = 0; k < 3 * bins; ++k) new (b + k) Bin(lanes[k].bin());
 
   const float node_area = info.box.area();
   std::array<float, kMaxBins> right_area, right_weight;
