@@ -112,26 +112,12 @@ struct Bin {
   }
 };
 
-struct NodeInfo {
+struct NodeInfo {  // summed by NodeInfoLanes
   Aabb box;
   Aabb centroids;  // of centroid2 (twice the centre)
   float weight = 0;
   uint32_t visible = 0;
   uint32_t count = 0;
-  void add(const Ref& r) {
-    box.extend(r.box());
-    centroids.extend(r.lo + r.hi);
-    weight += r.weight;
-    visible += r.visible();
-    count += 1;
-  }
-  void add(const NodeInfo& o) {
-    box.extend(o.box);
-    centroids.extend(o.centroids);
-    weight += o.weight;
-    visible += o.visible;
-    count += o.count;
-  }
 };
 
 struct Split {
@@ -217,6 +203,52 @@ struct alignas(16) BinLanes {
     out.box = box;
 #endif
     out.weight = weight, out.count = count, out.visible = visible;
+    return out;
+  }
+};
+
+// NodeInfo's accumulator in the same lanes: BinLanes plus the centroid bounds
+// (lo + hi, twice the centre, as Ref::centroid2).
+struct NodeInfoLanes {
+  BinLanes refs;
+#if defined(__SSE2__)
+  __m128 centroid_lo = _mm_set1_ps(kInf), centroid_hi = _mm_set1_ps(-kInf);
+#else
+  Aabb centroids;
+#endif
+  void add(const Ref& r) {
+    refs.add(r);
+#if defined(__SSE2__)
+    const __m128 c = _mm_add_ps(_mm_loadu_ps(&r.lo.x), _mm_loadu_ps(&r.hi.x));
+    centroid_lo = _mm_min_ps(c, centroid_lo);
+    centroid_hi = _mm_max_ps(c, centroid_hi);
+#else
+    centroids.extend(r.lo + r.hi);
+#endif
+  }
+  void add(const NodeInfoLanes& o) {
+    refs.add(o.refs);
+#if defined(__SSE2__)
+    centroid_lo = _mm_min_ps(o.centroid_lo, centroid_lo);
+    centroid_hi = _mm_max_ps(o.centroid_hi, centroid_hi);
+#else
+    centroids.extend(o.centroids);
+#endif
+  }
+  NodeInfo info() const {
+    const Bin b = refs.bin();
+    NodeInfo out;
+    out.box = b.box;
+    out.weight = b.weight, out.visible = b.visible, out.count = b.count;
+#if defined(__SSE2__)
+    alignas(16) float l[4], h[4];
+    _mm_store_ps(l, centroid_lo);
+    _mm_store_ps(h, centroid_hi);
+    out.centroids.lo = vec3(l[0], l[1], l[2]);
+    out.centroids.hi = vec3(h[0], h[1], h[2]);
+#else
+    out.centroids = centroids;
+#endif
     return out;
   }
 };
@@ -382,21 +414,21 @@ class Builder {
 
 NodeInfo Builder::node_info(uint32_t begin, uint32_t count) const {
   if (count < 2 * kChunk) {
-    NodeInfo info;
+    NodeInfoLanes info;
     for (uint32_t i = begin; i < begin + count; ++i) info.add(refs_[i]);
-    return info;
+    return info.info();
   }
   // Fixed chunks reduced in chunk order: the float weight sum does not depend on
   // the thread count.
   const uint32_t chunks = (count + kChunk - 1) / kChunk;
-  std::vector<NodeInfo> partial(chunks);
+  std::vector<NodeInfoLanes> partial(chunks);
   tbb::parallel_for(uint32_t(0), chunks, [&](uint32_t c) {
     const uint32_t lo = begin + c * kChunk, hi = std::min(begin + count, lo + kChunk);
     for (uint32_t i = lo; i < hi; ++i) partial[c].add(refs_[i]);
   });
-  NodeInfo info;
-  for (const NodeInfo& p : partial) info.add(p);
-  return info;
+  NodeInfoLanes info;
+  for (const NodeInfoLanes& p : partial) info.add(p);
+  return info.info();
 }
 
 float Builder::split_cost(float area_left, float weight_left, uint32_t visible_left,
