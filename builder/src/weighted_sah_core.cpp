@@ -191,6 +191,20 @@ struct alignas(16) BinLanes {
     count += b.count;
     visible += b.visible;
   }
+  // Aabb::area() of the box, with the same float operations.
+  float area() const {
+#if defined(__SSE2__)
+    if (_mm_movemask_ps(_mm_cmpgt_ps(lo, hi)) & 7) return 0.0f;  // empty
+    const __m128 d = _mm_sub_ps(hi, lo);
+    const __m128 p = _mm_mul_ps(d, _mm_shuffle_ps(d, d, _MM_SHUFFLE(3, 0, 2, 1)));  // xy, yz, zx
+    const float xy = _mm_cvtss_f32(p);
+    const float yz = _mm_cvtss_f32(_mm_shuffle_ps(p, p, _MM_SHUFFLE(1, 1, 1, 1)));
+    const float zx = _mm_cvtss_f32(_mm_shuffle_ps(p, p, _MM_SHUFFLE(2, 2, 2, 2)));
+    return 2.0f * (xy + yz + zx);
+#else
+    return box.area();
+#endif
+  }
   Bin bin() const {
     Bin out;
 #if defined(__SSE2__)
@@ -608,13 +622,13 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
     SweepKey* keys = orders.keys[a];
     if (!orders.sorted[a]) sweep_order(scene_, refs, count, a, keys);
     orders.sorted[a] = true;
-    Bin acc;
+    BinLanes acc;
     for (uint32_t i = count - 1; i > 0; --i) {
       acc.add(refs[keys[i].slot]);
-      right_area[i] = acc.box.area();
+      right_area[i] = acc.area();
       right_weight[i] = acc.weight;
       right_visible[i] = acc.visible;
-      if (with_rays) right_boxes[i - 1] = acc.box;
+      if (with_rays) right_boxes[i - 1] = acc.bin().box;
     }
     if (with_rays) {
       Aabb grow;
@@ -625,12 +639,12 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
       count_candidate_rays(*config_.rays, rays, left_boxes.data(), right_boxes.data(), count - 1,
                            rays_left.data(), rays_right.data());
     }
-    Bin left;
+    BinLanes left;
     for (uint32_t i = 0; i + 1 < count; ++i) {
       left.add(refs[keys[i].slot]);
       const RayCounts counts =
           with_rays ? RayCounts{rays_left[i], rays_right[i], uint32_t(rays.size())} : RayCounts{};
-      const float cost = split_cost(left.box.area(), left.weight, left.visible, right_area[i + 1],
+      const float cost = split_cost(left.area(), left.weight, left.visible, right_area[i + 1],
                                     right_weight[i + 1], right_visible[i + 1], node_area, info,
                                     counts);
       if (cost < best.cost) {
@@ -640,7 +654,7 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
         best.cost = cost;
         best.left_count = i + 1;
         best.right_count = count - i - 1;
-        best.left_box = left.box;
+        best.left_box = left.bin().box;
       }
     }
   }
