@@ -93,25 +93,6 @@ struct RefLess {
   }
 };
 
-struct Bin {
-  Aabb box;
-  float weight = 0;
-  uint32_t count = 0;
-  uint32_t visible = 0;
-  void add(const Ref& r) {
-    box.extend(r.box());
-    weight += r.weight;
-    count += 1;
-    visible += r.visible();
-  }
-  void add(const Bin& b) {
-    box.extend(b.box);
-    weight += b.weight;
-    count += b.count;
-    visible += b.visible;
-  }
-};
-
 struct NodeInfo {  // summed by NodeInfoLanes
   Aabb box;
   Aabb centroids;  // of centroid2 (twice the centre)
@@ -157,14 +138,14 @@ struct CentroidBinning {
 // Object binning's accumulator, the builder's hottest loop: a reference's box and
 // bin indices on all three axes in one go (SSE lanes; a Ref's two halves are its
 // lo and hi with the tag and weight in the fourth lane, which is never read).
-// Results are bit-identical to Bin and CentroidBinning::index: min(p, lo) and
+// Results are bit-identical to Aabb::extend and CentroidBinning::index: min(p, lo) and
 // max(p, hi) are glm::min(lo, p) and glm::max(hi, p) lane by lane, NaN and signed
 // zeros alike, and the index takes the same float operations.
-struct alignas(16) BinLanes {
+struct alignas(16) Bin {
 #if defined(__SSE2__)
   __m128 lo = _mm_set1_ps(kInf), hi = _mm_set1_ps(-kInf);
 #else
-  Aabb box;
+  Aabb bounds;
 #endif
   float weight = 0;
   uint32_t count = 0;
@@ -174,18 +155,18 @@ struct alignas(16) BinLanes {
     lo = _mm_min_ps(_mm_loadu_ps(&r.lo.x), lo);
     hi = _mm_max_ps(_mm_loadu_ps(&r.hi.x), hi);
 #else
-    box.extend(r.box());
+    bounds.extend(r.box());
 #endif
     weight += r.weight;
     count += 1;
     visible += r.visible();
   }
-  void add(const BinLanes& b) {
+  void add(const Bin& b) {
 #if defined(__SSE2__)
     lo = _mm_min_ps(b.lo, lo);
     hi = _mm_max_ps(b.hi, hi);
 #else
-    box.extend(b.box);
+    bounds.extend(b.bounds);
 #endif
     weight += b.weight;
     count += b.count;
@@ -202,29 +183,25 @@ struct alignas(16) BinLanes {
     const float zx = _mm_cvtss_f32(_mm_shuffle_ps(p, p, _MM_SHUFFLE(2, 2, 2, 2)));
     return 2.0f * (xy + yz + zx);
 #else
-    return box.area();
+    return bounds.area();
 #endif
   }
-  Bin bin() const {
-    Bin out;
+  Aabb box() const {
 #if defined(__SSE2__)
     alignas(16) float l[4], h[4];
     _mm_store_ps(l, lo);
     _mm_store_ps(h, hi);
-    out.box.lo = vec3(l[0], l[1], l[2]);
-    out.box.hi = vec3(h[0], h[1], h[2]);
+    return Aabb{vec3(l[0], l[1], l[2]), vec3(h[0], h[1], h[2])};
 #else
-    out.box = box;
+    return bounds;
 #endif
-    out.weight = weight, out.count = count, out.visible = visible;
-    return out;
   }
 };
 
-// NodeInfo's accumulator in the same lanes: BinLanes plus the centroid bounds
+// NodeInfo's accumulator in the same lanes: Bin plus the centroid bounds
 // (lo + hi, twice the centre, as Ref::centroid2).
 struct NodeInfoLanes {
-  BinLanes refs;
+  Bin refs;
 #if defined(__SSE2__)
   __m128 centroid_lo = _mm_set1_ps(kInf), centroid_hi = _mm_set1_ps(-kInf);
 #else
@@ -250,10 +227,9 @@ struct NodeInfoLanes {
 #endif
   }
   NodeInfo info() const {
-    const Bin b = refs.bin();
     NodeInfo out;
-    out.box = b.box;
-    out.weight = b.weight, out.visible = b.visible, out.count = b.count;
+    out.box = refs.box();
+    out.weight = refs.weight, out.visible = refs.visible, out.count = refs.count;
 #if defined(__SSE2__)
     alignas(16) float l[4], h[4];
     _mm_store_ps(l, centroid_lo);
@@ -483,12 +459,12 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
 
   // Only the 3 x bins entries in use are initialised (the store is sized for the
   // maximum bin count; initialising all of it per node dominated the build time).
-  alignas(64) unsigned char lane_bytes[3 * kMaxBins * sizeof(BinLanes)];
-  BinLanes* lanes = reinterpret_cast<BinLanes*>(lane_bytes);
-  for (uint32_t k = 0; k < 3 * bins; ++k) new (lanes + k) BinLanes();
+  alignas(64) unsigned char lane_bytes[3 * kMaxBins * sizeof(Bin)];
+  Bin* lanes = reinterpret_cast<Bin*>(lane_bytes);
+  for (uint32_t k = 0; k < 3 * bins; ++k) new (lanes + k) Bin();
   const CentroidBinningLanes indexer(binning);
   const bool usable[3] = {binning.usable(0), binning.usable(1), binning.usable(2)};
-  auto bin_range = [&](BinLanes* out, uint32_t lo, uint32_t hi) {
+  auto bin_range = [&](Bin* out, uint32_t lo, uint32_t hi) {
     alignas(16) uint32_t index[4];
     for (uint32_t i = lo; i < hi; ++i) {
       const Ref& r = refs_[i];
@@ -501,7 +477,7 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
     bin_range(lanes, begin, begin + count);
   } else {
     const uint32_t chunks = (count + kChunk - 1) / kChunk;
-    std::vector<BinLanes> partial(size_t(chunks) * 3 * bins);
+    std::vector<Bin> partial(size_t(chunks) * 3 * bins);
     tbb::parallel_for(uint32_t(0), chunks, [&](uint32_t c) {
       const uint32_t lo = begin + c * kChunk, hi = std::min(begin + count, lo + kChunk);
       bin_range(&partial[size_t(c) * 3 * bins], lo, hi);
@@ -509,9 +485,6 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
     for (uint32_t c = 0; c < chunks; ++c)
       for (uint32_t k = 0; k < 3 * bins; ++k) lanes[k].add(partial[size_t(c) * 3 * bins + k]);
   }
-  alignas(64) unsigned char bin_bytes[3 * kMaxBins * sizeof(Bin)];
-  Bin* b = reinterpret_cast<Bin*>(bin_bytes);
-  for (uint32_t k = 0; k < 3 * bins; ++k) new (b + k) Bin(lanes[k].bin());
 
   const float node_area = info.box.area();
   std::array<float, kMaxBins> right_area, right_weight;
@@ -522,21 +495,21 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
   const bool with_rays = !rays.empty();
   for (int a = 0; a < 3; ++a) {
     if (!binning.usable(a)) continue;
-    const Bin* axis_bins = b + a * bins;
+    const Bin* axis_bins = lanes + a * bins;
     Bin acc;
     for (uint32_t i = bins - 1; i > 0; --i) {
       acc.add(axis_bins[i]);
-      right_area[i] = acc.box.area();
+      right_area[i] = acc.area();
       right_weight[i] = acc.weight;
       right_count[i] = acc.count;
       right_visible[i] = acc.visible;
-      if (with_rays) right_boxes[i - 1] = acc.box;
+      if (with_rays) right_boxes[i - 1] = acc.box();
     }
     if (with_rays) {
-      Aabb grow;
+      Bin grow;
       for (uint32_t i = 0; i + 1 < bins; ++i) {
-        grow.extend(axis_bins[i].box);
-        left_boxes[i] = grow;
+        grow.add(axis_bins[i]);
+        left_boxes[i] = grow.box();
       }
       count_candidate_rays(*config_.rays, rays, left_boxes.data(), right_boxes.data(), bins - 1,
                            rays_left.data(), rays_right.data());
@@ -547,7 +520,7 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
       if (left.count == 0 || right_count[i + 1] == 0) continue;
       const RayCounts counts =
           with_rays ? RayCounts{rays_left[i], rays_right[i], uint32_t(rays.size())} : RayCounts{};
-      const float cost = split_cost(left.box.area(), left.weight, left.visible, right_area[i + 1],
+      const float cost = split_cost(left.area(), left.weight, left.visible, right_area[i + 1],
                                     right_weight[i + 1], right_visible[i + 1], node_area, info,
                                     counts);
       if (cost < best.cost) {
@@ -557,15 +530,15 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
         best.cost = cost;
         best.left_count = left.count;
         best.right_count = right_count[i + 1];
-        best.left_box = left.box;
+        best.left_box = left.box();
       }
     }
   }
   if (best.valid()) {
     // The right box is needed by the SBVH overlap test only; recompute it here.
-    Aabb right;
-    for (uint32_t i = best.bin + 1; i < bins; ++i) right.extend(b[best.axis * bins + i].box);
-    best.right_box = right;
+    Bin right;
+    for (uint32_t i = best.bin + 1; i < bins; ++i) right.add(lanes[best.axis * bins + i]);
+    best.right_box = right.box();
   }
   return best;
 }
@@ -622,13 +595,13 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
     SweepKey* keys = orders.keys[a];
     if (!orders.sorted[a]) sweep_order(scene_, refs, count, a, keys);
     orders.sorted[a] = true;
-    BinLanes acc;
+    Bin acc;
     for (uint32_t i = count - 1; i > 0; --i) {
       acc.add(refs[keys[i].slot]);
       right_area[i] = acc.area();
       right_weight[i] = acc.weight;
       right_visible[i] = acc.visible;
-      if (with_rays) right_boxes[i - 1] = acc.bin().box;
+      if (with_rays) right_boxes[i - 1] = acc.box();
     }
     if (with_rays) {
       Aabb grow;
@@ -639,7 +612,7 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
       count_candidate_rays(*config_.rays, rays, left_boxes.data(), right_boxes.data(), count - 1,
                            rays_left.data(), rays_right.data());
     }
-    BinLanes left;
+    Bin left;
     for (uint32_t i = 0; i + 1 < count; ++i) {
       left.add(refs[keys[i].slot]);
       const RayCounts counts =
@@ -654,7 +627,7 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
         best.cost = cost;
         best.left_count = i + 1;
         best.right_count = count - i - 1;
-        best.left_box = left.bin().box;
+        best.left_box = left.box();
       }
     }
   }
