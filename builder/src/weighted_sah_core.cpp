@@ -421,9 +421,9 @@ NodeInfo Builder::node_info(uint32_t begin, uint32_t count) const {
   return info.info();
 }
 
-float Builder::split_cost(float area_left, float weight_left, uint32_t visible_left,
-                          float area_right, float weight_right, uint32_t visible_right,
-                          float node_area, const NodeInfo& info, RayCounts rays) const {
+inline float Builder::split_cost(float area_left, float weight_left, uint32_t visible_left,
+                                 float area_right, float weight_right, uint32_t visible_right,
+                                 float node_area, const NodeInfo& info, RayCounts rays) const {
   float p_left = 1.0f, p_right = 1.0f;
   // A node box without area (all vertices on a line or a point) gives no
   // probability information: both children count as certainly visited.
