@@ -135,46 +135,26 @@ struct CentroidBinning {
   }
 };
 
-// Object binning's accumulator, the builder's hottest loop: a reference's box and
-// bin indices on all three axes in one go (SSE lanes; a Ref's two halves are its
-// lo and hi with the tag and weight in the fourth lane, which is never read).
-// Results are bit-identical to Aabb::extend and CentroidBinning::index: min(p, lo) and
+// Boxes summed in SSE lanes, for the builder's hottest loops (binning, node info,
+// the sweeps): a Ref's two halves are its lo and hi, with the tag and the weight
+// in the fourth lane, which is never read. Bit-identical to Aabb: min(p, lo) and
 // max(p, hi) are glm::min(lo, p) and glm::max(hi, p) lane by lane, NaN and signed
-// zeros alike, and the index takes the same float operations.
-struct alignas(16) Bin {
+// zeros alike.
+struct BoxLanes {
 #if defined(__SSE2__)
   __m128 lo = _mm_set1_ps(kInf), hi = _mm_set1_ps(-kInf);
-#else
-  Aabb bounds;
-#endif
-  float weight = 0;
-  uint32_t count = 0;
-  uint32_t visible = 0;
-  void add(const Ref& r) {
-#if defined(__SSE2__)
-    lo = _mm_min_ps(_mm_loadu_ps(&r.lo.x), lo);
-    hi = _mm_max_ps(_mm_loadu_ps(&r.hi.x), hi);
-#else
-    bounds.extend(r.box());
-#endif
-    weight += r.weight;
-    count += 1;
-    visible += r.visible();
+  void extend(__m128 l, __m128 h) {
+    lo = _mm_min_ps(l, lo);
+    hi = _mm_max_ps(h, hi);
   }
-  void add(const Bin& b) {
-#if defined(__SSE2__)
-    lo = _mm_min_ps(b.lo, lo);
-    hi = _mm_max_ps(b.hi, hi);
-#else
-    bounds.extend(b.bounds);
-#endif
-    weight += b.weight;
-    count += b.count;
-    visible += b.visible;
+  void extend(const BoxLanes& b) { extend(b.lo, b.hi); }
+  void extend_box(const Ref& r) { extend(_mm_loadu_ps(&r.lo.x), _mm_loadu_ps(&r.hi.x)); }
+  void extend_centroid(const Ref& r) {
+    const __m128 c = _mm_add_ps(_mm_loadu_ps(&r.lo.x), _mm_loadu_ps(&r.hi.x));
+    extend(c, c);
   }
-  // Aabb::area() of the box, with the same float operations.
+  // Aabb::area() with the same float operations.
   float area() const {
-#if defined(__SSE2__)
     if (_mm_movemask_ps(_mm_cmpgt_ps(lo, hi)) & 7) return 0.0f;  // empty
     const __m128 d = _mm_sub_ps(hi, lo);
     const __m128 p = _mm_mul_ps(d, _mm_shuffle_ps(d, d, _MM_SHUFFLE(3, 0, 2, 1)));  // xy, yz, zx
@@ -182,68 +162,68 @@ struct alignas(16) Bin {
     const float yz = _mm_cvtss_f32(_mm_shuffle_ps(p, p, _MM_SHUFFLE(1, 1, 1, 1)));
     const float zx = _mm_cvtss_f32(_mm_shuffle_ps(p, p, _MM_SHUFFLE(2, 2, 2, 2)));
     return 2.0f * (xy + yz + zx);
-#else
-    return bounds.area();
-#endif
   }
   Aabb box() const {
-#if defined(__SSE2__)
     alignas(16) float l[4], h[4];
     _mm_store_ps(l, lo);
     _mm_store_ps(h, hi);
     return Aabb{vec3(l[0], l[1], l[2]), vec3(h[0], h[1], h[2])};
-#else
-    return bounds;
-#endif
   }
+#else
+  Aabb bounds;
+  void extend(const BoxLanes& b) { bounds.extend(b.bounds); }
+  void extend_box(const Ref& r) { bounds.extend(r.box()); }
+  void extend_centroid(const Ref& r) { bounds.extend(r.lo + r.hi); }
+  float area() const { return bounds.area(); }
+  Aabb box() const { return bounds; }
+#endif
 };
 
-// NodeInfo's accumulator in the same lanes: Bin plus the centroid bounds
-// (lo + hi, twice the centre, as Ref::centroid2).
+// A bin (and a running sum of bins or references): box, weight, counts.
+struct Bin {
+  BoxLanes bounds;
+  float weight = 0;
+  uint32_t count = 0;
+  uint32_t visible = 0;
+  void add(const Ref& r) {
+    bounds.extend_box(r);
+    weight += r.weight;
+    count += 1;
+    visible += r.visible();
+  }
+  void add(const Bin& b) {
+    bounds.extend(b.bounds);
+    weight += b.weight;
+    count += b.count;
+    visible += b.visible;
+  }
+  float area() const { return bounds.area(); }
+  Aabb box() const { return bounds.box(); }
+};
+
+// NodeInfo's accumulator: a Bin plus the centroid bounds (lo + hi, twice the
+// centre, as Ref::centroid2).
 struct NodeInfoLanes {
   Bin refs;
-#if defined(__SSE2__)
-  __m128 centroid_lo = _mm_set1_ps(kInf), centroid_hi = _mm_set1_ps(-kInf);
-#else
-  Aabb centroids;
-#endif
+  BoxLanes centroids;
   void add(const Ref& r) {
     refs.add(r);
-#if defined(__SSE2__)
-    const __m128 c = _mm_add_ps(_mm_loadu_ps(&r.lo.x), _mm_loadu_ps(&r.hi.x));
-    centroid_lo = _mm_min_ps(c, centroid_lo);
-    centroid_hi = _mm_max_ps(c, centroid_hi);
-#else
-    centroids.extend(r.lo + r.hi);
-#endif
+    centroids.extend_centroid(r);
   }
   void add(const NodeInfoLanes& o) {
     refs.add(o.refs);
-#if defined(__SSE2__)
-    centroid_lo = _mm_min_ps(o.centroid_lo, centroid_lo);
-    centroid_hi = _mm_max_ps(o.centroid_hi, centroid_hi);
-#else
     centroids.extend(o.centroids);
-#endif
   }
   NodeInfo info() const {
     NodeInfo out;
     out.box = refs.box();
+    out.centroids = centroids.box();
     out.weight = refs.weight, out.visible = refs.visible, out.count = refs.count;
-#if defined(__SSE2__)
-    alignas(16) float l[4], h[4];
-    _mm_store_ps(l, centroid_lo);
-    _mm_store_ps(h, centroid_hi);
-    out.centroids.lo = vec3(l[0], l[1], l[2]);
-    out.centroids.hi = vec3(h[0], h[1], h[2]);
-#else
-    out.centroids = centroids;
-#endif
     return out;
   }
 };
 
-// CentroidBinning::index on the three axes at once.
+// CentroidBinning::index on the three axes at once, with the same float operations.
 struct CentroidBinningLanes {
   explicit CentroidBinningLanes(const CentroidBinning& b) : binning(b) {
 #if defined(__SSE2__)
