@@ -439,9 +439,9 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
 
   // Only the 3 x bins entries in use are initialised (the store is sized for the
   // maximum bin count; initialising all of it per node dominated the build time).
-  alignas(64) unsigned char lane_bytes[3 * kMaxBins * sizeof(Bin)];
-  Bin* lanes = reinterpret_cast<Bin*>(lane_bytes);
-  for (uint32_t k = 0; k < 3 * bins; ++k) new (lanes + k) Bin();
+  alignas(64) unsigned char bin_bytes[3 * kMaxBins * sizeof(Bin)];
+  Bin* binned = reinterpret_cast<Bin*>(bin_bytes);
+  for (uint32_t k = 0; k < 3 * bins; ++k) new (binned + k) Bin();
   const CentroidBinningLanes indexer(binning);
   const bool usable[3] = {binning.usable(0), binning.usable(1), binning.usable(2)};
   auto bin_range = [&](Bin* out, uint32_t lo, uint32_t hi) {
@@ -454,7 +454,7 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
     }
   };
   if (count < 2 * kChunk) {
-    bin_range(lanes, begin, begin + count);
+    bin_range(binned, begin, begin + count);
   } else {
     const uint32_t chunks = (count + kChunk - 1) / kChunk;
     std::vector<Bin> partial(size_t(chunks) * 3 * bins);
@@ -463,7 +463,7 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
       bin_range(&partial[size_t(c) * 3 * bins], lo, hi);
     });
     for (uint32_t c = 0; c < chunks; ++c)
-      for (uint32_t k = 0; k < 3 * bins; ++k) lanes[k].add(partial[size_t(c) * 3 * bins + k]);
+      for (uint32_t k = 0; k < 3 * bins; ++k) binned[k].add(partial[size_t(c) * 3 * bins + k]);
   }
 
   const float node_area = info.box.area();
@@ -475,7 +475,7 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
   const bool with_rays = !rays.empty();
   for (int a = 0; a < 3; ++a) {
     if (!binning.usable(a)) continue;
-    const Bin* axis_bins = lanes + a * bins;
+    const Bin* axis_bins = binned + a * bins;
     Bin acc;
     for (uint32_t i = bins - 1; i > 0; --i) {
       acc.add(axis_bins[i]);
@@ -517,7 +517,7 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
   if (best.valid()) {
     // The right box is needed by the SBVH overlap test only; recompute it here.
     Bin right;
-    for (uint32_t i = best.bin + 1; i < bins; ++i) right.add(lanes[best.axis * bins + i]);
+    for (uint32_t i = best.bin + 1; i < bins; ++i) right.add(binned[best.axis * bins + i]);
     best.right_box = right.box();
   }
   return best;
