@@ -125,6 +125,11 @@ struct CentroidBinning {
       const float s = extent > 0 ? float(bins) * (1.0f - 1e-6f) / extent : 0.0f;
       scale[a] = std::isfinite(s) ? s : 0.0f;
     }
+#if defined(__SSE2__)
+    origin_lanes = _mm_setr_ps(origin.x, origin.y, origin.z, 0.0f);
+    scale_lanes = _mm_setr_ps(scale.x, scale.y, scale.z, 0.0f);
+    last_lanes = _mm_set1_ps(float(bins - 1));
+#endif
   }
   bool usable(int axis) const { return scale[axis] > 0; }
   uint32_t index(const Ref& r, int axis) const {
@@ -133,6 +138,24 @@ struct CentroidBinning {
     if (f >= float(bins - 1)) return bins - 1;
     return uint32_t(f);
   }
+  // index() on the three axes at once (out[3] is not a bin), with the same float
+  // operations: binning's hot loop.
+  void indices(const Ref& r, uint32_t out[4]) const {
+#if defined(__SSE2__)
+    const __m128 f = _mm_mul_ps(
+        _mm_sub_ps(_mm_add_ps(_mm_loadu_ps(&r.lo.x), _mm_loadu_ps(&r.hi.x)), origin_lanes),
+        scale_lanes);
+    // 0 unless f > 0 (NaN too), bins - 1 from there on, else f truncated.
+    const __m128i i = _mm_and_si128(_mm_cvttps_epi32(_mm_min_ps(f, last_lanes)),
+                                    _mm_castps_si128(_mm_cmpgt_ps(f, _mm_setzero_ps())));
+    _mm_store_si128(reinterpret_cast<__m128i*>(out), i);
+#else
+    for (int a = 0; a < 3; ++a) out[a] = index(r, a);
+#endif
+  }
+#if defined(__SSE2__)
+  __m128 origin_lanes, scale_lanes, last_lanes;
+#endif
 };
 
 // Boxes summed in SSE lanes, for the builder's hottest loops (binning, node info,
@@ -221,33 +244,6 @@ struct NodeInfoLanes {
     out.weight = refs.weight, out.visible = refs.visible, out.count = refs.count;
     return out;
   }
-};
-
-// CentroidBinning::index on the three axes at once, with the same float operations.
-struct CentroidBinningLanes {
-  explicit CentroidBinningLanes(const CentroidBinning& b) : binning(b) {
-#if defined(__SSE2__)
-    origin = _mm_setr_ps(b.origin.x, b.origin.y, b.origin.z, 0.0f);
-    scale = _mm_setr_ps(b.scale.x, b.scale.y, b.scale.z, 0.0f);
-    last = _mm_set1_ps(float(b.bins - 1));
-#endif
-  }
-  void index(const Ref& r, uint32_t out[4]) const {
-#if defined(__SSE2__)
-    const __m128 f = _mm_mul_ps(
-        _mm_sub_ps(_mm_add_ps(_mm_loadu_ps(&r.lo.x), _mm_loadu_ps(&r.hi.x)), origin), scale);
-    // 0 unless f > 0 (NaN too), bins - 1 from there on, else f truncated.
-    const __m128i i = _mm_and_si128(_mm_cvttps_epi32(_mm_min_ps(f, last)),
-                                    _mm_castps_si128(_mm_cmpgt_ps(f, _mm_setzero_ps())));
-    _mm_store_si128(reinterpret_cast<__m128i*>(out), i);
-#else
-    for (int a = 0; a < 3; ++a) out[a] = binning.index(r, a);
-#endif
-  }
-  const CentroidBinning& binning;
-#if defined(__SSE2__)
-  __m128 origin, scale, last;
-#endif
 };
 
 // Maps a coordinate to a spatial bin of the node box along an axis.
@@ -442,13 +438,12 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
   alignas(64) unsigned char bin_bytes[3 * kMaxBins * sizeof(Bin)];
   Bin* binned = reinterpret_cast<Bin*>(bin_bytes);
   for (uint32_t k = 0; k < 3 * bins; ++k) new (binned + k) Bin();
-  const CentroidBinningLanes indexer(binning);
   const bool usable[3] = {binning.usable(0), binning.usable(1), binning.usable(2)};
   auto bin_range = [&](Bin* out, uint32_t lo, uint32_t hi) {
     alignas(16) uint32_t index[4];
     for (uint32_t i = lo; i < hi; ++i) {
       const Ref& r = refs_[i];
-      indexer.index(r, index);
+      binning.indices(r, index);
       for (int a = 0; a < 3; ++a)
         if (usable[a]) out[a * bins + index[a]].add(r);
     }
