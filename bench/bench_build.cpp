@@ -3,9 +3,11 @@
 // black_forest; and the AO-BVH total (AO pass + build) vs sah, for K = 4 and 16 rays
 // per estimate and G = 1, 16, 64 triangles sharing one. Run with
 //   bench_build --benchmark_counters_tabular=true
+// Also the EPO metric of each scene's sah tree (metrics/<scene>/epo).
 // Threads: RTSIM_BENCH_THREADS (default 2, this machine's cores).
 // Scenes: RTSIM_BENCH_SCENES, a comma-separated list (default: the above).
 #include <rtsim/builder/build.h>
+#include <rtsim/builder/metrics.h>
 #include <rtsim/workloads/scene_registry.h>
 
 #include <benchmark/benchmark.h>
@@ -54,7 +56,28 @@ void run_build(benchmark::State& state, const std::string& scene_name, const std
                                                 benchmark::Counter::kIsIterationInvariantRate);
 }
 
+// The end-point overlap of the scene's sah tree (the tree is built once, outside the
+// timing): the costliest of the quality metrics every build reports.
+void run_epo(benchmark::State& state, const std::string& scene_name) {
+  const rtsim::Scene& scene = scene_named(scene_name);
+  rtsim::BuildParams params;
+  params.threads = bench_threads();
+  const rtsim::Bvh bvh = rtsim::build_bvh(scene, params);
+  double epo = 0;
+  for (auto _ : state) {
+    epo = rtsim::end_point_overlap(bvh, scene, params.t1, params.t2);
+    benchmark::DoNotOptimize(epo);
+  }
+  state.counters["nodes"] = double(bvh.nodes.size());
+  state.counters["epo"] = epo;
+}
+
 void register_scene(const std::string& scene) {
+  benchmark::RegisterBenchmark(("metrics/" + scene + "/epo").c_str(),
+                               [scene](benchmark::State& s) { run_epo(s, scene); })
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime()
+      ->MinTime(2.0);
   for (const char* builder : {"sah", "embree"})
     benchmark::RegisterBenchmark(("build/" + scene + "/" + builder).c_str(),
                                  [scene, builder](benchmark::State& s) { run_build(s, scene, builder, 16); })

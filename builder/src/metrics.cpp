@@ -13,54 +13,51 @@ namespace rtsim {
 namespace {
 
 // One Sutherland-Hodgman pass: keeps the part of the polygon with p[Axis] >= bound
-// (Above) or <= bound. Returns the new vertex count; a plane every vertex is
-// inside of leaves the polygon as it is (count unchanged, no copy).
+// (Above) or <= bound and returns its vertex count. Written without branches on
+// which side a vertex lies (the sides are data, not predictable): every edge
+// computes its crossing and stores it, and only the index decides what is kept.
 template <int Axis, bool Above>
-int clip_pass(const dvec3* poly, int count, double bound, dvec3* next, bool* unchanged) {
+int clip_pass(const dvec3* poly, int count, double bound, dvec3* next) {
   auto inside = [bound](const dvec3& p) { return Above ? p[Axis] >= bound : p[Axis] <= bound; };
-  bool all_inside = true;
-  for (int i = 0; i < count; ++i) all_inside = all_inside && inside(poly[i]);
-  *unchanged = all_inside;
-  if (all_inside) return count;
   int out = 0;
   bool pin = inside(poly[0]);
   for (int i = 0; i < count; ++i) {
     const dvec3& p = poly[i];
     const dvec3& q = poly[i + 1 == count ? 0 : i + 1];
     const bool qin = inside(q);
-    if (pin) next[out++] = p;
-    if (pin != qin) {
-      const double t = (bound - p[Axis]) / (q[Axis] - p[Axis]);
-      dvec3 x = p + t * (q - p);
-      x[Axis] = bound;
-      next[out++] = x;
-    }
+    next[out] = p;
+    out += pin;
+    const double t = (bound - p[Axis]) / (q[Axis] - p[Axis]);  // unused when no crossing
+    dvec3 x = p + t * (q - p);
+    x[Axis] = bound;
+    next[out] = x;
+    out += pin != qin;
     pin = qin;
   }
   return out;
 }
 
-// Area of the part of triangle (a, b, c) inside the box (Sutherland-Hodgman, the
-// lo planes x, y, z, then the hi planes).
-double clipped_area(const vec3& a, const vec3& b, const vec3& c, const Aabb& box) {
-  // A triangle clipped by 6 planes has at most 9 vertices.
+// Area of the part of triangle (a, b, c), whose box is `own`, inside `box`
+// (Sutherland-Hodgman, the lo planes x, y, z, then the hi planes). Only the planes
+// that cut the triangle's box clip: the others hold every vertex.
+double clipped_area(const vec3& a, const vec3& b, const vec3& c, const Aabb& own, const Aabb& box) {
+  // A triangle clipped by 6 planes has at most 9 vertices; a pass writes one past.
   dvec3 buffer_a[16], buffer_b[16];
   dvec3* poly = buffer_a;
   dvec3* next = buffer_b;
   int count = 3;
   poly[0] = dvec3(a), poly[1] = dvec3(b), poly[2] = dvec3(c);
-  bool unchanged = false;
-  auto pass = [&](auto clip, double bound) {
-    if (count == 0) return;
-    count = clip(poly, count, bound, next, &unchanged);
-    if (!unchanged) std::swap(poly, next);
+  auto pass = [&](bool cuts, auto clip, double bound) {
+    if (!cuts || count == 0) return;
+    count = clip(poly, count, bound, next);
+    std::swap(poly, next);
   };
-  pass(clip_pass<0, true>, double(box.lo.x));
-  pass(clip_pass<1, true>, double(box.lo.y));
-  pass(clip_pass<2, true>, double(box.lo.z));
-  pass(clip_pass<0, false>, double(box.hi.x));
-  pass(clip_pass<1, false>, double(box.hi.y));
-  pass(clip_pass<2, false>, double(box.hi.z));
+  pass(own.lo.x < box.lo.x, clip_pass<0, true>, double(box.lo.x));
+  pass(own.lo.y < box.lo.y, clip_pass<1, true>, double(box.lo.y));
+  pass(own.lo.z < box.lo.z, clip_pass<2, true>, double(box.lo.z));
+  pass(own.hi.x > box.hi.x, clip_pass<0, false>, double(box.hi.x));
+  pass(own.hi.y > box.hi.y, clip_pass<1, false>, double(box.hi.y));
+  pass(own.hi.z > box.hi.z, clip_pass<2, false>, double(box.hi.z));
   if (count < 3) return 0.0;
   dvec3 sum(0.0);
   for (int i = 1; i + 1 < count; ++i) sum += glm::cross(poly[i] - poly[0], poly[i + 1] - poly[0]);
@@ -250,7 +247,7 @@ double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2)
           if (contains(box, rt.box))
             area += rt.area;
           else
-            area += clipped_area(rt.v[0], rt.v[1], rt.v[2], box);
+            area += clipped_area(rt.v[0], rt.v[1], rt.v[2], rt.box, box);
         }
         continue;
       }
@@ -268,7 +265,7 @@ double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2)
             tb.hi.x <= box.hi.x && tb.hi.y <= box.hi.y && tb.hi.z <= box.hi.z)
           area += tri_area[t];  // wholly inside: no plane clips it
         else
-          area += clipped_area(scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2), box);
+          area += clipped_area(scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2), tb, box);
       }
     }
     const BvhNode& self = bvh.nodes[node];
