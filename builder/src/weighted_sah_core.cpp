@@ -186,6 +186,7 @@ struct BoxLanes {
     const float zx = _mm_cvtss_f32(_mm_shuffle_ps(p, p, _MM_SHUFFLE(2, 2, 2, 2)));
     return 2.0f * (xy + yz + zx);
   }
+  bool empty() const { return (_mm_movemask_ps(_mm_cmpgt_ps(lo, hi)) & 7) != 0; }  // Aabb::empty
   Aabb box() const {
     alignas(16) float l[4], h[4];
     _mm_store_ps(l, lo);
@@ -198,9 +199,103 @@ struct BoxLanes {
   void extend_box(const Ref& r) { bounds.extend(r.box()); }
   void extend_centroid(const Ref& r) { bounds.extend(r.lo + r.hi); }
   float area() const { return bounds.area(); }
+  bool empty() const { return bounds.empty(); }
   Aabb box() const { return bounds; }
 #endif
+  static BoxLanes of(const Ref& r) {
+    BoxLanes b;
+    b.extend_box(r);
+    return b;
+  }
 };
+
+// A reference's triangle cut at axis-aligned planes (SBVH reference splitting, Stich
+// et al. 2009: the real triangle is clipped, not its box). The vertices are loaded
+// once for all the planes one reference is cut at: spatial binning cuts each
+// reference at every bin plane it spans, and that was half of an sbvh build.
+class TriangleCut {
+ public:
+  TriangleCut(const Scene& scene, uint32_t tri) {
+    for (int i = 0; i < 3; ++i) {
+      v_[i] = scene.vertex(tri, i);
+#if defined(__SSE2__)
+      lanes_[i] = _mm_setr_ps(v_[i].x, v_[i].y, v_[i].z, 0.0f);
+#endif
+    }
+  }
+  // The boxes of the parts on each side of the plane, each within `within` and on
+  // its own side. In lanes, each operation is the scalar code's glm/std min, max and
+  // clamp, lane for lane (see BoxLanes), so the boxes are bit for bit the same.
+  void split(const BoxLanes& within, int axis, float position, BoxLanes* left, BoxLanes* right) const;
+
+ private:
+  vec3 v_[3];
+#if defined(__SSE2__)
+  __m128 lanes_[3];
+#endif
+};
+
+#if defined(__SSE2__)
+inline void TriangleCut::split(const BoxLanes& within, int axis, float position, BoxLanes* left,
+                        BoxLanes* right) const {
+  alignas(16) static const uint32_t kAxisLane[3][4] = {{~0u, 0, 0, 0}, {0, ~0u, 0, 0}, {0, 0, ~0u, 0}};
+  const __m128 on_axis = _mm_load_ps(reinterpret_cast<const float*>(kAxisLane[axis]));
+  const __m128 pos = _mm_set1_ps(position);
+  // `position` in the axis lane, `other` in the rest.
+  auto at_axis = [&](__m128 other) { return _mm_or_ps(_mm_and_ps(on_axis, pos), _mm_andnot_ps(on_axis, other)); };
+  BoxLanes l, r;
+  for (int e = 0; e < 3; ++e) {
+    const int f = e == 2 ? 0 : e + 1;
+    const float a = v_[e][axis], b = v_[f][axis];
+    const __m128 va = lanes_[e], vb = lanes_[f];
+    if (a <= position) l.extend(va, va);
+    if (a >= position) r.extend(va, va);
+    if ((a < position && position < b) || (b < position && position < a)) {
+      const float t = (position - a) / (b - a);
+      __m128 p = _mm_add_ps(va, _mm_mul_ps(_mm_set1_ps(t), _mm_sub_ps(vb, va)));  // a + t * (b - a)
+      // glm::clamp(p, glm::min(a, b), glm::max(a, b))
+      p = _mm_min_ps(_mm_max_ps(vb, va), _mm_max_ps(_mm_min_ps(vb, va), p));
+      p = at_axis(p);
+      l.extend(p, p);
+      r.extend(p, p);
+    }
+  }
+  // Aabb::intersection with `within`, then each side stops at the plane.
+  l.lo = _mm_max_ps(within.lo, l.lo);
+  l.hi = _mm_min_ps(within.hi, l.hi);
+  r.lo = _mm_max_ps(within.lo, r.lo);
+  r.hi = _mm_min_ps(within.hi, r.hi);
+  l.hi = _mm_min_ps(at_axis(_mm_set1_ps(kInf)), l.hi);  // std::min(hi, position) on the axis
+  r.lo = _mm_max_ps(at_axis(_mm_set1_ps(-kInf)), r.lo);  // std::max(lo, position)
+  *left = l;
+  *right = r;
+}
+#else
+inline void TriangleCut::split(const BoxLanes& within, int axis, float position, BoxLanes* left,
+                        BoxLanes* right) const {
+  Aabb l, r;
+  for (int e = 0; e < 3; ++e) {
+    const vec3& a = v_[e];
+    const vec3& b = v_[(e + 1) % 3];
+    if (a[axis] <= position) l.extend(a);
+    if (a[axis] >= position) r.extend(a);
+    if ((a[axis] < position && position < b[axis]) || (b[axis] < position && position < a[axis])) {
+      const float t = (position - a[axis]) / (b[axis] - a[axis]);
+      vec3 p = a + t * (b - a);
+      p = glm::clamp(p, glm::min(a, b), glm::max(a, b));
+      p[axis] = position;
+      l.extend(p);
+      r.extend(p);
+    }
+  }
+  l = Aabb::intersection(l, within.bounds);
+  r = Aabb::intersection(r, within.bounds);
+  l.hi[axis] = std::min(l.hi[axis], position);
+  r.lo[axis] = std::max(r.lo[axis], position);
+  left->bounds = l;
+  right->bounds = r;
+}
+#endif
 
 // A bin (and a running sum of bins or references): box, weight, counts.
 struct Bin {
@@ -361,7 +456,6 @@ class Builder {
   uint32_t spatial_bins() const {
     return std::min<uint32_t>(config_.bins == 0 ? 32 : config_.bins, kMaxBins);
   }
-  std::pair<Aabb, Aabb> split_reference(const Ref& ref, int axis, float position) const;
   bool depth_allows(uint32_t depth, uint64_t left, uint64_t right) const {
     return depth + 1 + levels_needed(left, config_.max_leaf_size) <= config_.max_depth &&
            depth + 1 + levels_needed(right, config_.max_leaf_size) <= config_.max_depth;
@@ -615,41 +709,13 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
   return best;
 }
 
-// Clips the real triangle (not its box) at a plane and bounds each side within the
-// reference's current box.
-std::pair<Aabb, Aabb> Builder::split_reference(const Ref& ref, int axis, float position) const {
-  const uint32_t tri = ref.prim();
-  const vec3 v[3] = {scene_.vertex(tri, 0), scene_.vertex(tri, 1), scene_.vertex(tri, 2)};
-  Aabb left, right;
-  for (int e = 0; e < 3; ++e) {
-    const vec3& a = v[e];
-    const vec3& b = v[(e + 1) % 3];
-    if (a[axis] <= position) left.extend(a);
-    if (a[axis] >= position) right.extend(a);
-    if ((a[axis] < position && position < b[axis]) || (b[axis] < position && position < a[axis])) {
-      const float t = (position - a[axis]) / (b[axis] - a[axis]);
-      vec3 p = a + t * (b - a);
-      p = glm::clamp(p, glm::min(a, b), glm::max(a, b));
-      p[axis] = position;
-      left.extend(p);
-      right.extend(p);
-    }
-  }
-  const Aabb box = ref.box();
-  left = Aabb::intersection(left, box);
-  right = Aabb::intersection(right, box);
-  left.hi[axis] = std::min(left.hi[axis], position);
-  right.lo[axis] = std::max(right.lo[axis], position);
-  return {left, right};
-}
-
 Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info,
                                   const std::vector<uint32_t>& rays) const {
   const uint32_t bins = spatial_bins();
   const float node_area = info.box.area();
   Split best;
   struct SpatialBin {
-    Aabb box;
+    BoxLanes box;
     float enter_weight = 0, exit_weight = 0;
     uint32_t enter = 0, exit = 0, enter_visible = 0, exit_visible = 0;
   };
@@ -676,16 +742,16 @@ Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo
       b[b1].exit_visible += r.visible();
       if (b0 == b1 || r.splits() >= config_.split_limit) {
         // Not split: the whole box counts in every bin it spans (conservative).
-        for (uint32_t k = b0; k <= b1; ++k) b[k].box.extend(r.box());
+        for (uint32_t k = b0; k <= b1; ++k) b[k].box.extend_box(r);
         continue;
       }
-      Ref rest = r;
+      const TriangleCut cut(scene_, r.prim());
+      BoxLanes rest = BoxLanes::of(r), left, right;
       for (uint32_t k = b0; k < b1; ++k) {
-        const auto [left, right] = split_reference(rest, a, binning.plane(k));
+        cut.split(rest, a, binning.plane(k), &left, &right);
         if (!left.empty()) b[k].box.extend(left);
         if (right.empty()) break;
-        rest.lo = right.lo;
-        rest.hi = right.hi;
+        rest = right;
         if (k + 1 == b1) b[b1].box.extend(right);
       }
     }
@@ -699,13 +765,13 @@ Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo
       right_weight[i] = acc.exit_weight;
       right_count[i] = acc.exit;
       right_visible[i] = acc.exit_visible;
-      if (with_rays) right_boxes[i - 1] = acc.box;
+      if (with_rays) right_boxes[i - 1] = acc.box.box();
     }
     if (with_rays) {
-      Aabb grow;
+      BoxLanes grow;
       for (uint32_t i = 0; i + 1 < bins; ++i) {
         grow.extend(b[i].box);
-        left_boxes[i] = grow;
+        left_boxes[i] = grow.box();
       }
       count_candidate_rays(*config_.rays, rays, left_boxes.data(), right_boxes.data(), bins - 1,
                            rays_left.data(), rays_right.data());
@@ -730,15 +796,15 @@ Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo
         best.cost = cost;
         best.left_count = left.enter;
         best.right_count = right_count[i + 1];
-        best.left_box = left.box;
+        best.left_box = left.box.box();
         best.left_weight = left.enter_weight;
         best.right_weight = right_weight[i + 1];
       }
     }
     if (best.kind == Split::Kind::Spatial && best.axis == a) {
-      Aabb right;
+      BoxLanes right;
       for (uint32_t i = best.bin + 1; i < bins; ++i) right.extend(b[i].box);
-      best.right_box = right;
+      best.right_box = right.box();
     }
   }
   return best;
@@ -834,7 +900,9 @@ bool Builder::partition_spatial(const Split& split, uint32_t begin, uint32_t cou
     const float cost_split = left_box.area() * left_weight + right_box.area() * right_weight;
     const bool may_split = r.splits() < config_.split_limit;
     if (may_split && cost_split <= cost_whole_left && cost_split <= cost_whole_right) {
-      const auto [lb, rb] = split_reference(r, a, split.position);
+      BoxLanes left_part, right_part;
+      TriangleCut(scene_, r.prim()).split(BoxLanes::of(r), a, split.position, &left_part, &right_part);
+      const Aabb lb = left_part.box(), rb = right_part.box();
       if (lb.empty()) {
         right.push_back(r);
       } else if (rb.empty()) {
