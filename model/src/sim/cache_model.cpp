@@ -101,19 +101,6 @@ Eviction CacheModel::fill(uint64_t line) {
   return install(line, dirty);
 }
 
-uint64_t CacheModel::reserve_port(uint64_t t_ps) {
-  // Port slots of one interval each. Requests come nearly in time order, but one
-  // that waited upstream (an MSHR, say) may come after later ones: it takes the
-  // first free slot from its own time on, not the slot after the latest taken.
-  const uint64_t slot = t_ps / ports_.interval_ps();
-  if (ports_.forgotten(slot)) return t_ps;  // the ring is far longer than any request waits
-  const uint64_t free = ports_.first_free(slot);
-  ports_.take(free);
-  const uint64_t start = std::max(t_ps, free * ports_.interval_ps());
-  counters_.port_wait_ps += start - t_ps;
-  return start;
-}
-
 void CacheModel::reset_counters() {
   counters_ = Counters{};
   requested_ = filled_ = TrafficMatrix{};

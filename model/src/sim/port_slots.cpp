@@ -12,8 +12,7 @@ PortSlots::PortSlots(uint64_t interval_ps, uint64_t horizon_ps)
   bits_.assign(slots / 64, 0);
 }
 
-uint64_t PortSlots::first_free(uint64_t slot) const {
-  if (!any_taken_ || slot > newest_slot_ || forgotten(slot)) return slot;
+uint64_t PortSlots::first_free_among_taken(uint64_t slot) const {
   // A 64-slot word at a time: a busy port has long runs of taken slots. Every slot
   // past the newest is free.
   while (slot <= newest_slot_) {
@@ -27,28 +26,25 @@ uint64_t PortSlots::first_free(uint64_t slot) const {
   return newest_slot_ + 1;
 }
 
-void PortSlots::take(uint64_t slot) {
-  const auto mask = [](uint64_t s) { return uint64_t(1) << (s % 64); };
-  if (!any_taken_ || slot > newest_slot_) {
-    // Slots past the newest come into the ring: clear what they overwrite.
-    const uint64_t from = any_taken_ ? newest_slot_ + 1 : slot;
-    if (slot - from >= ring_slots()) {
-      std::fill(bits_.begin(), bits_.end(), 0);
-    } else {
-      for (uint64_t s = from; s <= slot;) {
-        if (s % 64 == 0 && s + 63 <= slot) {
-          word(s) = 0;  // a whole word at once
-          s += 64;
-        } else {
-          word(s) &= ~mask(s);
-          ++s;
-        }
-      }
-    }
-    newest_slot_ = slot;
-    any_taken_ = true;
+void PortSlots::clear(uint64_t from, uint64_t to) {
+  // The part of each 64-slot word within [from, to] at once.
+  while (from <= to) {
+    const uint32_t offset = uint32_t(from % 64);
+    const uint64_t count = std::min<uint64_t>(64 - offset, to - from + 1);
+    const uint64_t bits = count == 64 ? ~uint64_t(0) : ((uint64_t(1) << count) - 1) << offset;
+    word(from) &= ~bits;
+    from += count;
   }
-  word(slot) |= mask(slot);
+}
+
+void PortSlots::take_ahead(uint64_t slot) {
+  // Slots past the newest come into the ring: clear what they overwrite.
+  const uint64_t from = any_taken_ ? newest_slot_ + 1 : slot;
+  if (slot - from >= ring_slots()) std::fill(bits_.begin(), bits_.end(), 0);
+  else clear(from, slot);
+  newest_slot_ = slot;
+  any_taken_ = true;
+  word(slot) |= uint64_t(1) << (slot % 64);
 }
 
 }  // namespace rtsim::sim

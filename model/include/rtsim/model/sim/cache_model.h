@@ -16,6 +16,7 @@
 #include <rtsim/model/sim/port_slots.h>
 #include <rtsim/model/sim/stats.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
@@ -138,6 +139,19 @@ inline CacheModel::Result CacheModel::access(const LineAccess& a, uint64_t now_p
   r.writeback = install(a.line, a.write);
   count(a, r.outcome);
   return r;
+}
+
+inline uint64_t CacheModel::reserve_port(uint64_t t_ps) {
+  // Port slots of one interval each. Requests come nearly in time order, but one
+  // that waited upstream (an MSHR, say) may come after later ones: it takes the
+  // first free slot from its own time on, not the slot after the latest taken.
+  const uint64_t slot = t_ps / ports_.interval_ps();
+  if (ports_.forgotten(slot)) return t_ps;  // the ring is far longer than any request waits
+  const uint64_t free = ports_.first_free(slot);
+  ports_.take(free);
+  const uint64_t start = std::max(t_ps, free * ports_.interval_ps());
+  counters_.port_wait_ps += start - t_ps;
+  return start;
 }
 
 // Sums several same-role caches (e.g. every TRV unit's L1) for the summary stats.
