@@ -24,8 +24,8 @@ uint64_t UnitTime::occupied_ps() const {
   return total;
 }
 
-void append_line_accesses(const MemoryAccess& a, RayType type, uint32_t line_bytes,
-                          std::vector<LineAccess>& out) {
+void append_line_accesses_merging(const MemoryAccess& a, RayType type, uint32_t line_bytes,
+                                  std::vector<LineAccess>& out) {
   const uint64_t end = a.address + a.bytes;
   for (uint64_t line = a.address & ~uint64_t(line_bytes - 1); line < end; line += line_bytes) {
     const uint32_t bytes = uint32_t(std::min(line + line_bytes, end) - std::max(line, a.address));

@@ -61,8 +61,19 @@ class MemoryPort {
 
 // Appends the L1 line accesses of `access` to `out`, merging it into a line the
 // list already holds (one request per line and step, as a unit coalesces them).
-void append_line_accesses(const MemoryAccess& access, RayType type, uint32_t line_bytes,
-                          std::vector<LineAccess>& out);
+// Inline for a step's usual first access, one line: every level asks it per step.
+void append_line_accesses_merging(const MemoryAccess& access, RayType type, uint32_t line_bytes,
+                                  std::vector<LineAccess>& out);
+inline void append_line_accesses(const MemoryAccess& access, RayType type, uint32_t line_bytes,
+                                 std::vector<LineAccess>& out) {
+  const uint64_t line = access.address & ~uint64_t(line_bytes - 1);
+  if (out.empty() && access.bytes > 0 && access.address + access.bytes <= line + line_bytes) {
+    LineAccess& l = out.emplace_back();  // fields in place (no stalled store forward)
+    l.line = line, l.bytes = access.bytes, l.kind = access.kind, l.ray_type = type, l.write = access.write;
+    return;
+  }
+  append_line_accesses_merging(access, type, line_bytes, out);
+}
 
 // Sees every access the core names, with the ray that issues it, in the order
 // the ray issues them (tests compare the address streams of the levels).
