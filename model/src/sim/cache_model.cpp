@@ -60,12 +60,8 @@ Eviction CacheModel::install(uint64_t line, bool dirty) {
 
 void CacheModel::set_arrival(uint64_t line, uint64_t ready_ps) { tags_.set_ready(line, ready_ps); }
 
-CacheModel::Result CacheModel::request(const LineAccess& a) {
+CacheModel::Result CacheModel::request_missing(const LineAccess& a) {
   Result r;
-  if (tags_.lookup(a.line, a.write)) {
-    count(a, Outcome::Hit);
-    return r;
-  }
   auto it = mshr_.find(a.line);
   if (it != mshr_.end()) {
     ++it->second.waiting;

@@ -12,17 +12,13 @@ PayloadPool::~PayloadPool() {
   for (auto* p : all_) delete p;  // the payload frees its extension
 }
 
-tlm::tlm_generic_payload* PayloadPool::get() {
-  if (free_.empty()) {
-    auto* p = new tlm::tlm_generic_payload;
-    p->set_command(tlm::TLM_READ_COMMAND);
-    p->set_extension(new AccessExtension);
-    all_.push_back(p);
-    free_.push_back(p);
-  }
-  auto* p = free_.back();
-  free_.pop_back();
-  return p;
+void PayloadPool::grow() {
+  auto* p = new Pooled;
+  p->set_command(tlm::TLM_READ_COMMAND);
+  p->access = new AccessExtension;
+  p->set_extension(p->access);
+  all_.push_back(p);
+  free_.push_back(p);
 }
 
 FunctionalMemory::FunctionalMemory(const HardwareConfig& c)

@@ -7,7 +7,7 @@ using tlm::tlm_generic_payload;
 CycleCache::CycleCache(sc_core::sc_module_name name, const CacheConfig& config, uint64_t cycle_ps,
                        UnitScheduler& scheduler)
     : sc_module(name), target("target"), next("next"), model(config, std::string(name), cycle_ps),
-      queue_(scheduler, [this] { on_event(); }) {
+      queue_(scheduler, [this] { on_event(); }), hit_delay_(from_ps(model.hit_latency_ps())) {
   target.register_nb_transport_fw(this, &CycleCache::nb_transport_fw);
   next.register_nb_transport_bw(this, &CycleCache::nb_transport_bw);
 }
@@ -47,7 +47,9 @@ tlm::tlm_sync_enum CycleCache::nb_transport_fw(int id, tlm_generic_payload& p,
   if (!serve(id, &p, t, &completed, &done)) {
     blocked_.push_back({id, &p});  // taken, answered once an MSHR frees
   } else if (completed) {
-    delay = from_ps(done - now);
+    // A hit without a port wait (most requests) takes the hit latency: a time
+    // made once, not converted on every access.
+    delay = done - now == model.hit_latency_ps() ? hit_delay_ : from_ps(done - now);
     phase = tlm::BEGIN_RESP;
     p.set_response_status(tlm::TLM_OK_RESPONSE);
     return tlm::TLM_COMPLETED;

@@ -129,7 +129,8 @@ void CycleTrv::after_step(uint32_t s) {
   // The stack traffic the last step caused: spills are posted, refills waited for.
   Slot& slot = slots_[s];
   slot.phase = Phase::WaitStack;
-  if (send(s, slot.traversal.stack_accesses()) == 0) next_action(s);
+  const std::vector<MemoryAccess>& stack = slot.traversal.stack_accesses();
+  if (stack.empty() || send(s, stack) == 0) next_action(s);  // most steps move no stack entry
 }
 
 void CycleTrv::next_action(uint32_t s) {

@@ -13,6 +13,7 @@ UnitScheduler::UnitScheduler(sc_core::sc_module_name name) : sc_module(name) {
 uint32_t UnitScheduler::add(std::function<void()> due) {
   due_.push_back(std::move(due));
   wake_ps_.push_back(UINT64_MAX);
+  round_.push_back(0);
   return uint32_t(due_.size() - 1);
 }
 
@@ -27,19 +28,23 @@ void UnitScheduler::run() {
   const uint64_t now = now_ps();
   running_ = true;
   // Branch-free: which units are due is close to random from step to step.
-  round_.resize(wake_ps_.size());
+  // round_ holds a place for every unit (add()); the round is its first `due`.
+  const uint32_t units = uint32_t(wake_ps_.size());
+  const uint64_t* wake = wake_ps_.data();
+  uint32_t* round = round_.data();
   size_t due = 0;
-  for (uint32_t u = 0; u < wake_ps_.size(); ++u) {
-    round_[due] = u;
-    due += wake_ps_[u] <= now;
+  for (uint32_t u = 0; u < units; ++u) {
+    round[due] = u;
+    due += wake[u] <= now;
   }
-  round_.resize(due);
-  while (!round_.empty()) {
+  while (due > 0) {
     next_round_.clear();
-    for (uint32_t u : round_) wake_ps_[u] = UINT64_MAX;
-    for (uint32_t u : round_) due_[u]();
+    for (size_t i = 0; i < due; ++i) wake_ps_[round[i]] = UINT64_MAX;
+    for (size_t i = 0; i < due; ++i) due_[round[i]]();
+    // A unit is woken for now at most once a round (wake() keeps the earliest).
     std::sort(next_round_.begin(), next_round_.end());  // build order
-    round_.swap(next_round_);
+    due = next_round_.size();
+    std::copy(next_round_.begin(), next_round_.end(), round);
   }
   running_ = false;
   const uint64_t next = *std::min_element(wake_ps_.begin(), wake_ps_.end());

@@ -66,7 +66,7 @@ class CacheModel {
 
   // Cycle: a read miss merges into the line's MSHR, allocates one (Miss), or
   // finds them all busy (Blocked: retry later, not counted yet).
-  Result request(const LineAccess& a);
+  Result request(const LineAccess& a);  // inline: a hit calls nothing
   // The missing line arrived: installs it and frees its MSHR.
   Eviction fill(uint64_t line);
   uint32_t mshrs_in_use() const { return uint32_t(mshr_.size()); }
@@ -94,6 +94,7 @@ class CacheModel {
 
  private:
   void count(const LineAccess& a, Outcome outcome);
+  Result request_missing(const LineAccess& a);  // request() of a line not present
   Eviction install(uint64_t line, bool dirty);
 
   CacheConfig config_;
@@ -139,6 +140,12 @@ inline CacheModel::Result CacheModel::access(const LineAccess& a, uint64_t now_p
   r.writeback = install(a.line, a.write);
   count(a, r.outcome);
   return r;
+}
+
+inline CacheModel::Result CacheModel::request(const LineAccess& a) {
+  if (!tags_.lookup(a.line, a.write)) return request_missing(a);
+  count(a, Outcome::Hit);
+  return Result{};
 }
 
 inline uint64_t CacheModel::reserve_port(uint64_t t_ps) {

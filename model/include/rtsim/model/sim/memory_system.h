@@ -43,20 +43,34 @@ struct AccessExtension : tlm::tlm_extension<AccessExtension> {
   }
 };
 
-// Reusable read payloads, each owning one AccessExtension.
+// Reusable read payloads, each owning one AccessExtension. Every payload the
+// cycle-level units exchange comes from a pool, so they reach its extension
+// through the pool's own record of it (inline) rather than the library's lookup by
+// extension id (a call per access); the extension is attached all the same, for
+// any other TLM-2.0 module that reads it.
 class PayloadPool {
  public:
   PayloadPool() = default;
   PayloadPool(const PayloadPool&) = delete;
   PayloadPool& operator=(const PayloadPool&) = delete;
   ~PayloadPool();
-  tlm::tlm_generic_payload* get();
+  tlm::tlm_generic_payload* get() {
+    if (free_.empty()) grow();
+    tlm::tlm_generic_payload* p = free_.back();
+    free_.pop_back();
+    return p;
+  }
   void put(tlm::tlm_generic_payload* p) { free_.push_back(p); }
+  // p must come from a PayloadPool.
   static AccessExtension& extension(tlm::tlm_generic_payload& p) {
-    return *p.get_extension<AccessExtension>();
+    return *static_cast<Pooled&>(p).access;
   }
 
  private:
+  void grow();  // one more payload in the pool
+  struct Pooled : tlm::tlm_generic_payload {
+    AccessExtension* access = nullptr;  // owned by the payload, which frees it
+  };
   std::vector<tlm::tlm_generic_payload*> free_, all_;
 };
 

@@ -61,6 +61,7 @@ class CycleCache : public sc_core::sc_module {
   uint64_t refused_since_ps_ = 0;
   TimedQueue<Item> queue_;
   PayloadPool payloads_;
+  sc_core::sc_time hit_delay_;  // the hit latency
 };
 
 // Cycle level DRAM: the DramModel (FR-FCFS, refresh, writes) behind a TLM-2.0

@@ -42,7 +42,8 @@ class UnitScheduler : public sc_core::sc_module {
   void arm(uint64_t time_ps, uint64_t now_ps);
   std::vector<std::function<void()>> due_;
   std::vector<uint64_t> wake_ps_;   // per unit: when it wants to run (UINT64_MAX: never)
-  std::vector<uint32_t> round_, next_round_;  // units due in the round being run, the next
+  std::vector<uint32_t> round_;       // a place per unit: the units due in the round being run
+  std::vector<uint32_t> next_round_;  // the units woken for now during it
   uint64_t armed_ps_ = UINT64_MAX;  // when the kernel event runs us next
   bool running_ = false;
   sc_core::sc_event next_;
