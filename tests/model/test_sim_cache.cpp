@@ -4,8 +4,11 @@
 // by (ray type, access kind), and the functional hierarchy behind them.
 #include <rtsim/model/sim/cache_model.h>
 #include <rtsim/model/sim/memory_system.h>
+#include <rtsim/model/sim/port_slots.h>
 
 #include <gtest/gtest.h>
+
+#include <set>
 
 using namespace rtsim;
 using namespace rtsim::sim;
@@ -134,6 +137,34 @@ TEST(SimCache, PortsServeSoManyAccessesPerCycle) {
     EXPECT_EQ(cache.reserve_port(t), t + 500);
     EXPECT_EQ(cache.reserve_port(t + 500), t + 1000);
     EXPECT_EQ(cache.reserve_port(t - 500), t - 500) << "a late request still finds its free slot";
+  }
+}
+
+TEST(SimCache, PortSlotsAgreeWithASetOfTakenSlots) {
+  // A port's slot record against the plainest model of it, a set of taken slots:
+  // a walk of reservations, mostly forward in time by 0 to 3 slots, sometimes
+  // jumping ahead by up to two record words or further than the record holds,
+  // sometimes coming late (within the horizon, where every slot is remembered).
+  constexpr uint64_t kInterval = 500, kHorizonSlots = 400;
+  PortSlots port(kInterval, kHorizonSlots * kInterval);
+  std::set<uint64_t> taken;
+  uint64_t newest = 0, state = 12345;
+  const auto next = [&state](uint64_t n) {  // a small LCG: the same walk on every machine
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return (state >> 33) % n;
+  };
+  for (int i = 0; i < 200000; ++i) {
+    const uint64_t kind = next(100);
+    uint64_t slot = newest + next(4);
+    if (kind < 10) slot = newest + next(130);
+    else if (kind < 11) slot = newest + 100000 + next(1000);
+    else if (kind < 30 && newest >= kHorizonSlots) slot = newest - next(kHorizonSlots);
+    uint64_t expected = slot;
+    while (taken.count(expected)) ++expected;
+    ASSERT_EQ(port.first_free(slot), expected) << "step " << i << ", slot " << slot;
+    port.take(expected);
+    taken.insert(expected);
+    newest = std::max(newest, expected);
   }
 }
 
