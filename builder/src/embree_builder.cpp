@@ -14,6 +14,7 @@
 #include <atomic>
 #include <map>
 #include <mutex>
+#include <new>
 #include <stdexcept>
 #include <string>
 
@@ -21,16 +22,22 @@ namespace rtsim::detail {
 
 namespace {
 
-struct EmbreeNode {
-  Aabb child_box[kMaxBvhWidth];
-  const EmbreeNode* child[kMaxBvhWidth] = {};
-  uint32_t children = 0;
-  // Leaves: a pointer to this node's own primitive list.
+// Embree's builder calls these back for every node it makes, so their cost is part
+// of the yardstick: a node is as small as its kind and width allow. An inner node's
+// child pointers and boxes follow it in the same allocation, a leaf's primitive list
+// likewise.
+struct alignas(alignof(void*)) EmbreeNode {
+  uint32_t children = 0;  // inner nodes
   bool leaf = false;
-  uint32_t count = 0;
-  const uint32_t* prims = nullptr;
+  uint32_t count = 0;  // leaves: primitives, the list after the node
   Aabb leaf_box;
+  const EmbreeNode** child() { return reinterpret_cast<const EmbreeNode**>(this + 1); }
+  const EmbreeNode* const* child() const { return reinterpret_cast<const EmbreeNode* const*>(this + 1); }
+  Aabb* child_box() { return reinterpret_cast<Aabb*>(child() + children); }
+  const Aabb* child_box() const { return reinterpret_cast<const Aabb*>(child() + children); }
+  const uint32_t* prims() const { return reinterpret_cast<const uint32_t*>(this + 1); }
 };
+static_assert(sizeof(EmbreeNode) % alignof(const EmbreeNode*) == 0, "child pointers follow the node");
 
 struct Context {
   const Scene* scene;
@@ -39,24 +46,29 @@ struct Context {
 
 void* create_node(RTCThreadLocalAllocator alloc, unsigned int child_count, void* user) {
   auto* ctx = static_cast<Context*>(user);
-  ctx->bytes.fetch_add(sizeof(EmbreeNode), std::memory_order_relaxed);
-  void* mem = rtcThreadLocalAlloc(alloc, sizeof(EmbreeNode), 16);
-  auto* node = new (mem) EmbreeNode();
-  node->children = std::min<unsigned>(child_count, kMaxBvhWidth);  // <= maxBranchingFactor
+  const uint32_t children = std::min<unsigned>(child_count, kMaxBvhWidth);  // <= maxBranchingFactor
+  const size_t bytes = sizeof(EmbreeNode) + children * (sizeof(EmbreeNode*) + sizeof(Aabb));
+  ctx->bytes.fetch_add(bytes, std::memory_order_relaxed);
+  auto* node = new (rtcThreadLocalAlloc(alloc, bytes, 16)) EmbreeNode();
+  node->children = children;
+  for (uint32_t c = 0; c < children; ++c) {
+    new (node->child() + c) const EmbreeNode*(nullptr);
+    new (node->child_box() + c) Aabb();
+  }
   return node;
 }
 
 void set_children(void* node_ptr, void** children, unsigned int child_count, void*) {
   auto* node = static_cast<EmbreeNode*>(node_ptr);
-  for (unsigned i = 0; i < child_count && i < kMaxBvhWidth; ++i)
-    node->child[i] = static_cast<const EmbreeNode*>(children[i]);
+  for (unsigned i = 0; i < child_count && i < node->children; ++i)
+    node->child()[i] = static_cast<const EmbreeNode*>(children[i]);
 }
 
 void set_bounds(void* node_ptr, const RTCBounds** bounds, unsigned int child_count, void*) {
   auto* node = static_cast<EmbreeNode*>(node_ptr);
-  for (unsigned i = 0; i < child_count && i < kMaxBvhWidth; ++i)
-    node->child_box[i] = Aabb{vec3(bounds[i]->lower_x, bounds[i]->lower_y, bounds[i]->lower_z),
-                              vec3(bounds[i]->upper_x, bounds[i]->upper_y, bounds[i]->upper_z)};
+  for (unsigned i = 0; i < child_count && i < node->children; ++i)
+    node->child_box()[i] = Aabb{vec3(bounds[i]->lower_x, bounds[i]->lower_y, bounds[i]->lower_z),
+                                vec3(bounds[i]->upper_x, bounds[i]->upper_y, bounds[i]->upper_z)};
 }
 
 void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims, size_t count,
@@ -64,12 +76,10 @@ void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims,
   auto* ctx = static_cast<Context*>(user);
   const size_t bytes = sizeof(EmbreeNode) + count * sizeof(uint32_t);
   ctx->bytes.fetch_add(bytes, std::memory_order_relaxed);
-  void* mem = rtcThreadLocalAlloc(alloc, bytes, 16);
-  auto* node = new (mem) EmbreeNode();
-  auto* list = reinterpret_cast<uint32_t*>(static_cast<char*>(mem) + sizeof(EmbreeNode));
+  auto* node = new (rtcThreadLocalAlloc(alloc, bytes, 16)) EmbreeNode();
+  auto* list = reinterpret_cast<uint32_t*>(node + 1);
   node->leaf = true;
   node->count = uint32_t(count);
-  node->prims = list;
   for (size_t i = 0; i < count; ++i) {
     list[i] = prims[i].primID;
     node->leaf_box.extend(Aabb{vec3(prims[i].lower_x, prims[i].lower_y, prims[i].lower_z),
@@ -185,7 +195,7 @@ Bvh build_with_embree(const Scene& scene, const EmbreeBuildConfig& config,
   bvh.prim_refs.reserve(n);
   Aabb root_box = root->leaf_box;
   if (!root->leaf)
-    for (uint32_t c = 0; c < root->children; ++c) root_box.extend(root->child_box[c]);
+    for (uint32_t c = 0; c < root->children; ++c) root_box.extend(root->child_box()[c]);
   bvh.nodes.push_back(BvhNode{root_box, 0, 0});
   std::vector<std::pair<const EmbreeNode*, uint32_t>> stack{{root, 0u}};
   std::vector<uint32_t> list;
@@ -193,7 +203,7 @@ Bvh build_with_embree(const Scene& scene, const EmbreeBuildConfig& config,
     const auto [node, index] = stack.back();
     stack.pop_back();
     if (node->leaf) {
-      list.assign(node->prims, node->prims + node->count);
+      list.assign(node->prims(), node->prims() + node->count);
       std::sort(list.begin(), list.end());
       list.erase(std::unique(list.begin(), list.end()), list.end());
       bvh.nodes[index].index = uint32_t(bvh.prim_refs.size());
@@ -206,8 +216,8 @@ Bvh build_with_embree(const Scene& scene, const EmbreeBuildConfig& config,
     bvh.nodes[index].count = 0;
     bvh.nodes[index].children = node->children;
     for (uint32_t c = 0; c < node->children; ++c)
-      bvh.nodes.push_back(BvhNode{node->child_box[c], 0, 0, 0});
-    for (uint32_t c = node->children; c-- > 0;) stack.push_back({node->child[c], first + c});
+      bvh.nodes.push_back(BvhNode{node->child_box()[c], 0, 0, 0});
+    for (uint32_t c = node->children; c-- > 0;) stack.push_back({node->child()[c], first + c});
   }
   if (stats)
     stats->working_bytes = capacity * sizeof(RTCBuildPrimitive) + ctx.bytes.load() +
