@@ -4,6 +4,7 @@
 // With maxBranchingFactor 4 or 8 it is Embree's own wide builder: the reference
 // for the collapse pass.
 #include "embree_builder.h"
+#include "triangle_clip.h"
 
 #include <rtsim/workloads/error.h>
 
@@ -95,26 +96,10 @@ void split_primitive(const RTCBuildPrimitive* prim, unsigned int dim, float pos,
   const int axis = int(dim);
   const vec3 v[3] = {scene.vertex(prim->primID, 0), scene.vertex(prim->primID, 1),
                      scene.vertex(prim->primID, 2)};
-  Aabb left, right;
-  for (int e = 0; e < 3; ++e) {
-    const vec3& a = v[e];
-    const vec3& b = v[(e + 1) % 3];
-    if (a[axis] <= pos) left.extend(a);
-    if (a[axis] >= pos) right.extend(a);
-    if ((a[axis] < pos && pos < b[axis]) || (b[axis] < pos && pos < a[axis])) {
-      const float t = (pos - a[axis]) / (b[axis] - a[axis]);
-      vec3 p = glm::clamp(a + t * (b - a), glm::min(a, b), glm::max(a, b));
-      p[axis] = pos;
-      left.extend(p);
-      right.extend(p);
-    }
-  }
   const Aabb box{vec3(prim->lower_x, prim->lower_y, prim->lower_z),
                  vec3(prim->upper_x, prim->upper_y, prim->upper_z)};
-  left = Aabb::intersection(left, box);
-  right = Aabb::intersection(right, box);
-  left.hi[axis] = std::min(left.hi[axis], pos);
-  right.lo[axis] = std::max(right.lo[axis], pos);
+  Aabb left, right;
+  clip_triangle(v, axis, pos, box, &left, &right);
   // Embree expects valid boxes on both sides: an empty side becomes the flat slice
   // of the primitive's box at the plane.
   auto flat_slice = [&] {

@@ -1,6 +1,7 @@
 #include "weighted_sah_core.h"
 
 #include "treelet.h"
+#include "triangle_clip.h"
 
 #include <rtsim/builder/metrics.h>
 
@@ -224,8 +225,9 @@ class TriangleCut {
     }
   }
   // The boxes of the parts on each side of the plane, each within `within` and on
-  // its own side. In lanes, each operation is the scalar code's glm/std min, max and
-  // clamp, lane for lane (see BoxLanes), so the boxes are bit for bit the same.
+  // its own side: clip_triangle's boxes. In lanes, each operation is its glm/std
+  // min, max and clamp, lane for lane (see BoxLanes), so the boxes are bit for bit
+  // the same.
   void split(const BoxLanes& within, int axis, float position, BoxLanes* left, BoxLanes* right) const;
 
  private:
@@ -272,28 +274,8 @@ inline void TriangleCut::split(const BoxLanes& within, int axis, float position,
 }
 #else
 inline void TriangleCut::split(const BoxLanes& within, int axis, float position, BoxLanes* left,
-                        BoxLanes* right) const {
-  Aabb l, r;
-  for (int e = 0; e < 3; ++e) {
-    const vec3& a = v_[e];
-    const vec3& b = v_[(e + 1) % 3];
-    if (a[axis] <= position) l.extend(a);
-    if (a[axis] >= position) r.extend(a);
-    if ((a[axis] < position && position < b[axis]) || (b[axis] < position && position < a[axis])) {
-      const float t = (position - a[axis]) / (b[axis] - a[axis]);
-      vec3 p = a + t * (b - a);
-      p = glm::clamp(p, glm::min(a, b), glm::max(a, b));
-      p[axis] = position;
-      l.extend(p);
-      r.extend(p);
-    }
-  }
-  l = Aabb::intersection(l, within.bounds);
-  r = Aabb::intersection(r, within.bounds);
-  l.hi[axis] = std::min(l.hi[axis], position);
-  r.lo[axis] = std::max(r.lo[axis], position);
-  left->bounds = l;
-  right->bounds = r;
+                               BoxLanes* right) const {
+  clip_triangle(v_, axis, position, within.bounds, &left->bounds, &right->bounds);
 }
 #endif
 
