@@ -25,9 +25,11 @@ namespace rtsim::sim::test {
 struct SmallWorkload {
   Scene scene = make_procedural_scene("cornell");
   Bvh bvh;
-  SmallWorkload() {
+  std::string format;  // node record format; empty: the preset's
+  explicit SmallWorkload(std::string node_format_name = "") : format(std::move(node_format_name)) {
     BuildParams params;
     params.builder = "sah";
+    if (!format.empty()) apply_node_format(params, node_format(format));
     bvh = build_bvh(scene, params);
   }
   SimulationRequest request(Fidelity level, uint32_t size = 24, int ao = 4) const {
@@ -38,6 +40,7 @@ struct SmallWorkload {
     r.settings.width = r.settings.height = size;
     r.settings.ao_samples = ao;
     r.config = preset("mobile");
+    if (!format.empty()) r.config.node_format = format;
     r.fidelity = level;
     return r;
   }

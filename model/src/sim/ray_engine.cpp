@@ -26,18 +26,14 @@ uint64_t UnitTime::occupied_ps() const {
 
 void append_line_accesses_merging(const MemoryAccess& a, RayType type, uint32_t line_bytes,
                                   std::vector<LineAccess>& out) {
-  const uint64_t end = a.address + a.bytes;
-  for (uint64_t line = a.address & ~uint64_t(line_bytes - 1); line < end; line += line_bytes) {
-    const uint32_t bytes = uint32_t(std::min(line + line_bytes, end) - std::max(line, a.address));
-    bool merged = false;
+  for_each_line(a, line_bytes, [&](uint64_t line, uint32_t bytes) {
     for (LineAccess& l : out)
       if (l.line == line && l.write == a.write && requester_of(l.kind) == requester_of(a.kind)) {
         l.bytes = std::min(line_bytes, l.bytes + bytes);
-        merged = true;
-        break;
+        return;
       }
-    if (!merged) out.push_back(LineAccess{line, bytes, a.kind, type, a.write});
-  }
+    out.push_back(LineAccess{line, bytes, a.kind, type, a.write});
+  });
 }
 
 namespace {
@@ -149,16 +145,23 @@ uint64_t RayEngine::issue(Port& port, Slot& slot, const std::vector<MemoryAccess
   if (begin == end) return t;
   const RayType type = slot.traversal.ray().type;
   if (end - begin == 1 && !workload_->observer) {
-    // The common step: one access within one line (a node record).
+    // The common step: one access (a node record). Its lines are distinct, so
+    // nothing merges: they go straight to the port.
     const MemoryAccess& a = list[begin];
     const Requester who = requester_of(a.kind);
+    const uint32_t unit = who == Requester::Trv ? slot.unit : slot.ist;
     const uint64_t line_bytes = line_bytes_[size_t(who)];
     const uint64_t line = a.address & ~(line_bytes - 1);
-    if (a.address + a.bytes <= line + line_bytes) {
-      const uint32_t unit = who == Requester::Trv ? slot.unit : slot.ist;
+    if (a.address + a.bytes <= line + line_bytes) {  // within one line: most records
       const uint64_t done = port.access(who, unit, LineAccess{line, a.bytes, a.kind, type, a.write}, t);
       return a.write ? t : std::max(t, done);
     }
+    uint64_t ready = t;  // a record wider than a line, or one that straddles two
+    for_each_line(a, line_bytes, [&](uint64_t l, uint32_t bytes) {
+      const uint64_t done = port.access(who, unit, LineAccess{l, bytes, a.kind, type, a.write}, t);
+      if (!a.write) ready = std::max(ready, done);
+    });
+    return ready;
   }
   lines_.clear();
   for (size_t i = begin; i < end; ++i)

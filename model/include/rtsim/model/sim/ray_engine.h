@@ -59,6 +59,15 @@ class MemoryPort {
   virtual uint32_t line_bytes(Requester who) const = 0;
 };
 
+// Calls f(line, bytes) for each L1 line `access` touches, in address order: the
+// line's address and how many of the access's bytes fall in it.
+template <typename F>
+inline void for_each_line(const MemoryAccess& access, uint64_t line_bytes, F&& f) {
+  const uint64_t end = access.address + access.bytes;
+  for (uint64_t line = access.address & ~(line_bytes - 1); line < end; line += line_bytes)
+    f(line, uint32_t(std::min(line + line_bytes, end) - std::max(line, access.address)));
+}
+
 // Appends the L1 line accesses of `access` to `out`, merging it into a line the
 // list already holds (one request per line and step, as a unit coalesces them).
 // Inline for a step's usual first access, one line: every level asks it per step.
