@@ -484,7 +484,7 @@ std::string host_json(const SimulationResult& r) {
   j["rays_per_cpu_second"] = {
       {"value", r.cpu_seconds > 0 ? double(r.rays) / r.cpu_seconds : 0.0},
       {"unit", "rays/s"},
-      {"description", "simulated rays per CPU second (unaffected by other load)"}};
+      {"description", "simulated rays per CPU second (time other processes run is not counted, but their share of the host's caches and memory still slows it: on a busy host it varies by 10% or more; compare runs taken in turn)"}};
   j["peak_memory"] = {{"value", r.peak_memory_bytes}, {"unit", "bytes"},
                       {"description", "peak resident set size of the process"}};
   return j.dump(2) + "\n";
