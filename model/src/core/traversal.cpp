@@ -253,9 +253,10 @@ void RayTraversal::process_child_boxes_node() {
   uint32_t hit_count = 0;
   for (; hit_mask; hit_mask &= hit_mask - 1) {
     const uint32_t k = uint32_t(__builtin_ctz(hit_mask));
-    uint32_t at = hit_count++;
-    for (; at > 0 && t_entry[order[at - 1]] > t_entry[k]; --at) order[at] = order[at - 1];
-    order[at] = k;
+    const float t = t_entry[k];
+    uint32_t* at = order + hit_count++;
+    for (; at != order && t_entry[at[-1]] > t; --at) at[0] = at[-1];
+    *at = k;
   }
   if (hit_count == 0) {
     pop_next();
