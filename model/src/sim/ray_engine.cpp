@@ -152,7 +152,9 @@ uint64_t RayEngine::issue(Port& port, Slot& slot, const std::vector<MemoryAccess
     const uint32_t unit = who == Requester::Trv ? slot.unit : slot.ist;
     const uint64_t line_bytes = line_bytes_[size_t(who)];
     const uint64_t line = a.address & ~(line_bytes - 1);
-    if (a.address + a.bytes <= line + line_bytes) {  // within one line: most records
+    // Within one line (most records): a path of its own, as for_each_line's loop
+    // cost 5% of the functional level's instructions on binary nodes (callgrind).
+    if (a.address + a.bytes <= line + line_bytes) {
       const uint64_t done = port.access(who, unit, LineAccess{line, a.bytes, a.kind, type, a.write}, t);
       return a.write ? t : std::max(t, done);
     }
