@@ -170,10 +170,12 @@ std::vector<float> estimate_occlusion(const Scene& scene, const EmbreeScene& emb
 
   // The mean over one ray's clamp(t, 0, cutoff) / cutoff. Ray `local` of `count` from
   // triangle f: a stratified point on it, a cosine-weighted direction on the given side.
-  auto cast = [&](uint32_t tri, const TriangleFrame& f, uint32_t local, uint32_t count, float side) {
+  // Keyed by the triangle's vertices, not its index: the same geometry draws the
+  // same rays in any face order.
+  auto cast = [&](uint64_t tri_key, const TriangleFrame& f, uint32_t local, uint32_t count, float side) {
     const uint32_t grid_x = std::max<uint32_t>(1, uint32_t(std::ceil(std::sqrt(double(count)))));
     const uint32_t grid_y = (count + grid_x - 1) / grid_x;
-    KeyedRng rng(params.seed, {0xA0A0ull, tri, local});
+    KeyedRng rng(params.seed, {0xA0A0ull, tri_key, local});
     const float u1 = (float(local % grid_x) + rng.next_float()) / float(grid_x);
     const float u2 = (float((local / grid_x) % grid_y) + rng.next_float()) / float(grid_y);
     const float su = std::sqrt(u1);
@@ -206,11 +208,12 @@ std::vector<float> estimate_occlusion(const Scene& scene, const EmbreeScene& emb
         const uint32_t member = m <= k ? j : uint32_t(uint64_t(j) * m / k);
         const uint32_t tri = order[first + member];
         triangle_frame(scene, tri, &f);
+        const uint64_t tri_key = triangle_geometry_key(scene, tri);
         const uint32_t count = m <= k ? (k - j + m - 1) / m : 1;
         for (uint32_t local = 0; local < count; ++local) {
           const uint32_t ray = m <= k ? j + local * m : j;
           const float side = (params.both_sides && (ray & 1u)) ? -1.0f : 1.0f;
-          sum += cast(tri, f, local, count, side);
+          sum += cast(tri_key, f, local, count, side);
         }
       }
       group_values[g] = float(sum / k);

@@ -234,7 +234,14 @@ TEST_P(FaceOrder, ShufflingTheFacesChangesNoAddressAndNoRecord) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Builders, FaceOrder, ::testing::Values("sah", "sbvh", "median"));
+// Every builder: the sampled ones (AO, visibility, ray samples) key their rays by
+// geometry or pixel and see the triangles in geometric order (build_bvh).
+INSTANTIATE_TEST_SUITE_P(Builders, FaceOrder, ::testing::ValuesIn(builder_names()),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                           std::string name = info.param;
+                           std::replace(name.begin(), name.end(), '-', '_');
+                           return name;
+                         });
 
 }  // namespace
 }  // namespace rtsim

@@ -2,6 +2,10 @@
 #include <rtsim/workloads/random.h>
 #include <rtsim/workloads/scene.h>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -79,7 +83,70 @@ bool triangle_geometric_less(const Scene& scene, uint32_t a, uint32_t b) {
     for (int axis = 0; axis < 3; ++axis)
       if (va[axis] != vb[axis]) return va[axis] < vb[axis];
   }
+  // Exact duplicates: the material (which one a ray hits decides the shading), then
+  // the index, where nothing tells them apart.
+  if (scene.material_ids.size() == scene.triangles.size() && scene.material_ids[a] != scene.material_ids[b])
+    return scene.material_ids[a] < scene.material_ids[b];
   return a < b;
+}
+
+namespace {
+// Spreads the low 21 bits of v so that two zero bits follow each (3-D Morton).
+uint64_t spread_bits_21(uint64_t v) {
+  v &= 0x1FFFFFull;
+  v = (v | (v << 32)) & 0x1F00000000FFFFull;
+  v = (v | (v << 16)) & 0x1F0000FF0000FFull;
+  v = (v | (v << 8)) & 0x100F00F00F00F00Full;
+  v = (v | (v << 4)) & 0x10C30C30C30C30C3ull;
+  v = (v | (v << 2)) & 0x1249249249249249ull;
+  return v;
+}
+}  // namespace
+
+std::vector<uint32_t> geometric_order(const Scene& scene) {
+  // The Morton code of the bounds' centre on a 2^21 grid over the scene's box nearly
+  // always decides, so the sort compares integers held beside the index; only
+  // triangles in one cell look at their geometry. Any order fixed by the geometry
+  // would do; this one also keeps neighbours near each other for the builder.
+  struct Key {
+    uint64_t code;
+    uint32_t tri;
+  };
+  const size_t n = scene.triangle_count();
+  const Aabb box = scene.bounds();
+  const vec3 extent = box.hi - box.lo;
+  vec3 scale(0.0f);
+  for (int a = 0; a < 3; ++a)
+    if (extent[a] > 0 && std::isfinite(extent[a])) scale[a] = float((1u << 21) - 1) / extent[a];
+  std::vector<Key> keys(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t != r.end(); ++t) {
+      const vec3 c = scene.triangle_bounds(uint32_t(t)).centre();
+      uint64_t code = 0;
+      for (int a = 0; a < 3; ++a) {
+        const float cell = std::min(std::max((c[a] - box.lo[a]) * scale[a], 0.0f), float((1u << 21) - 1));
+        code |= spread_bits_21(uint64_t(cell)) << a;
+      }
+      keys[t] = Key{code, uint32_t(t)};
+    }
+  });
+  tbb::parallel_sort(keys.begin(), keys.end(), [&](const Key& a, const Key& b) {
+    if (a.code != b.code) return a.code < b.code;
+    return triangle_geometric_less(scene, a.tri, b.tri);
+  });
+  std::vector<uint32_t> order(n);
+  for (size_t i = 0; i < n; ++i) order[i] = keys[i].tri;
+  return order;
+}
+
+uint64_t triangle_geometry_key(const Scene& scene, uint32_t tri) {
+  float v[9];
+  for (int k = 0; k < 3; ++k) {
+    const vec3 p = scene.vertex(tri, k);
+    // +0.0f turns -0 into 0: the two compare equal, so they must key alike.
+    v[3 * k] = p.x + 0.0f, v[3 * k + 1] = p.y + 0.0f, v[3 * k + 2] = p.z + 0.0f;
+  }
+  return hash_bytes(0x5452'4947'454Full, v, sizeof v);
 }
 
 void shuffle_triangles(Scene& scene, uint64_t seed) {

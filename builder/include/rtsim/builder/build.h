@@ -76,6 +76,7 @@ struct BuildParams {
 // Everything the quality report shows, filled by the builder that ran.
 struct BuildReport {
   std::string builder;
+  double order_seconds = 0;     // sorting the triangles into geometric order (build_bvh)
   double estimate_seconds = 0;  // visibility / AO estimation
   double build_seconds = 0;     // tree construction
   uint64_t peak_memory_bytes = 0;

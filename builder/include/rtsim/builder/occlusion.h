@@ -38,8 +38,10 @@ struct OcclusionParams {
   uint64_t seed = 1;
 };
 
-// Deterministic: values depend on the scene, the parameters and the triangle ids
-// only, not on the thread count. *rays_cast: the AO rays cast.
+// Deterministic: a triangle's rays are keyed by its vertices (triangle_geometry_key)
+// and the seed, never by its index or the thread count; within a shared group,
+// triangles of one orientation class and grid cell are taken in index order, which
+// build_bvh makes the geometric order. *rays_cast: the AO rays cast.
 std::vector<float> estimate_occlusion(const Scene& scene, const EmbreeScene& embree,
                                       const OcclusionParams& params, uint64_t* rays_cast = nullptr);
 

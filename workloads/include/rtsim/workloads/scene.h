@@ -106,10 +106,21 @@ struct Scene {
 };
 
 // A strict order of a scene's triangles by their geometry alone: the centroid of
-// the bounds, then the bounds, then the vertices as stored, and only for exact
-// duplicates the index. Builders break ties with it and the memory layout orders
+// the bounds, then the bounds, then the vertices as stored; exact duplicates by
+// material, then by index. Builders break ties with it and the memory layout orders
 // a leaf's triangles by it, so that no result depends on the file's face order.
 bool triangle_geometric_less(const Scene& scene, uint32_t a, uint32_t b);
+
+// The scene's triangle indices in an order fixed by the geometry alone: by the Morton
+// code of each triangle's bounds centre (2^21 cells per axis of the scene's box),
+// ties by triangle_geometric_less. The builders see the triangles in this order
+// (build_bvh), so that the same geometry in another face order gives the same tree,
+// float sums included.
+std::vector<uint32_t> geometric_order(const Scene& scene);
+
+// A 64-bit key of a triangle's vertices (in their stored order): keys the random
+// rays a builder casts from a triangle, so they follow its geometry, not its index.
+uint64_t triangle_geometry_key(const Scene& scene, uint32_t tri);
 
 // Permutes the triangles (with their material ids) by a seeded shuffle: the same
 // geometry in another face order, to check that results do not depend on it.
