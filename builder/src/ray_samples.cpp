@@ -19,26 +19,22 @@ float safe_inverse(float d) {
   return 1.0f / d;
 }
 
-struct Slot {
-  vec3 origin{0.0f}, direction{0.0f};
-  float t_end = 0;
-  bool used = false;
-};
 
 // `count` AO rays from `position` over the hemisphere of `normal` (unit), into slots.
 void cast_ao(const EmbreeScene& embree, const vec3& position, const vec3& normal, float offset,
-             const RaySampleParams& params, uint64_t key0, uint64_t key1, uint64_t key2, Slot* slots,
+             float cutoff, uint64_t seed, uint64_t key0, uint64_t key1, uint64_t key2, CastRay* slots,
              uint32_t count) {
   const vec3 origin = position + offset * normal;
   for (uint32_t s = 0; s < count; ++s) {
-    KeyedRng rng(params.seed, {key0, key1, key2, s});
+    KeyedRng rng(seed, {key0, key1, key2, s});
     const float r1 = rng.next_float(), r2 = rng.next_float();
     const vec3 dir = cosine_hemisphere_direction(normal, r1, r2);
-    const EmbreeHit h = embree.intersect(origin, dir, 0.0f, params.ao_cutoff);
-    Slot& a = slots[s];
+    const EmbreeHit h = embree.intersect(origin, dir, 0.0f, cutoff);
+    CastRay& a = slots[s];
     a.origin = origin;
     a.direction = dir;
-    a.t_end = h.hit ? std::min(h.t, params.ao_cutoff) : params.ao_cutoff;
+    a.t_end = h.hit ? std::min(h.t, cutoff) : cutoff;
+    a.hit = h.hit ? h.prim : ~0u;
     a.used = true;
   }
 }
@@ -58,7 +54,7 @@ RaySamples surface_rays(const Scene& scene, const EmbreeScene& embree, const Ray
     cumulative[t] = total;
   }
   if (!(total > 0) || k == 0) return out;
-  std::vector<Slot> ao(points * k);
+  std::vector<CastRay> ao(points * k);
   tbb::parallel_for(size_t(0), points, [&](size_t point) {
     KeyedRng rng(params.seed, {0x53555246ull, point});
     const double pick = double(rng.next_float()) * total;
@@ -70,10 +66,10 @@ RaySamples surface_rays(const Scene& scene, const EmbreeScene& embree, const Ray
     vec3 normal = glm::normalize(glm::cross(v1 - v0, v2 - v0));
     if (rng.next_float() < 0.5f) normal = -normal;
     if (!std::isfinite(normal.x + normal.y + normal.z)) return;  // a sliver: no AO rays
-    cast_ao(embree, (1.0f - u - v) * v0 + u * v1 + v * v2, normal, offset, params, 0x53555246ull, point, 1,
-            &ao[point * k], k);
+    cast_ao(embree, (1.0f - u - v) * v0 + u * v1 + v * v2, normal, offset, params.ao_cutoff, params.seed,
+            0x53555246ull, point, 1, &ao[point * k], k);
   });
-  for (const Slot& s : ao)
+  for (const CastRay& s : ao)
     if (s.used) out.push(s.origin, s.direction, s.t_end);
   return out;
 }
@@ -89,30 +85,30 @@ void RaySamples::push(const vec3& origin, const vec3& direction, float t_end) {
   tmax.push_back(t_end);
 }
 
-RaySamples sample_rays(const Scene& scene, const EmbreeScene& embree,
-                       const std::vector<const Camera*>& cameras, const RaySampleParams& params) {
-  RaySamples out;
-  const uint32_t res = params.resolution;
-  const size_t pixels = size_t(res) * res;
-  const size_t per_camera = pixels;
-  const uint32_t k = (params.ao_cutoff > 0 && std::isfinite(params.ao_cutoff)) ? params.ao_rays : 0;
+CameraRays cast_camera_rays(const Scene& scene, const EmbreeScene& embree,
+                            const std::vector<const Camera*>& cameras, uint32_t width, uint32_t height,
+                            uint32_t ao_rays, float ao_cutoff, uint64_t seed) {
+  CameraRays out;
+  const size_t per_camera = size_t(width) * height;
+  const uint32_t k = (ao_cutoff > 0 && std::isfinite(ao_cutoff)) ? ao_rays : 0;
+  out.ao_per_pixel = k;
   const float offset = 1e-5f * std::max(scene.diagonal(), 1e-30f);
-  if (cameras.empty()) return surface_rays(scene, embree, params, k, offset);
-  std::vector<Slot> primary(cameras.size() * per_camera);
-  std::vector<Slot> ao(cameras.size() * per_camera * k);
-  tbb::parallel_for(size_t(0), cameras.size() * size_t(res), [&](size_t row) {
-    const size_t c = row / res;
-    const uint32_t y = uint32_t(row % res);
+  out.primary.resize(cameras.size() * per_camera);
+  out.ao.resize(cameras.size() * per_camera * k);
+  tbb::parallel_for(size_t(0), cameras.size() * size_t(height), [&](size_t row) {
+    const size_t c = row / height;
+    const uint32_t y = uint32_t(row % height);
     const Camera& camera = *cameras[c];
-    for (uint32_t x = 0; x < res; ++x) {
-      const size_t pixel = size_t(y) * res + x;
+    for (uint32_t x = 0; x < width; ++x) {
+      const size_t pixel = size_t(y) * width + x;
       const size_t slot = c * per_camera + pixel;
-      const Camera::Ray ray = camera.primary_ray(x, y, res, res);
+      const Camera::Ray ray = camera.primary_ray(x, y, width, height);
       const EmbreeHit hit = embree.intersect(ray.origin, ray.direction, 0.0f, kInf);
-      Slot& p = primary[slot];
+      CastRay& p = out.primary[slot];
       p.origin = ray.origin;
       p.direction = ray.direction;
       p.t_end = hit.hit ? hit.t : kInf;
+      p.hit = hit.hit ? hit.prim : ~0u;
       p.used = true;
       if (!hit.hit || k == 0 || hit.prim >= scene.triangle_count()) continue;
       const uint32_t tri = hit.prim;
@@ -122,13 +118,26 @@ RaySamples sample_rays(const Scene& scene, const EmbreeScene& embree,
       const float len = glm::length(normal);
       normal = len > 0 && std::isfinite(len) ? normal / len : -ray.direction;
       if (glm::dot(normal, ray.direction) > 0.0f) normal = -normal;  // face the viewer
-      cast_ao(embree, position, normal, offset, params, 0x52444841ull, c, pixel, &ao[slot * k], k);
+      cast_ao(embree, position, normal, offset, ao_cutoff, seed, 0x52444841ull, c, pixel, &out.ao[slot * k], k);
     }
   });
-  for (const Slot& s : primary)
+  return out;
+}
+
+RaySamples sample_rays(const Scene& scene, const EmbreeScene& embree,
+                       const std::vector<const Camera*>& cameras, const RaySampleParams& params) {
+  const uint32_t k = (params.ao_cutoff > 0 && std::isfinite(params.ao_cutoff)) ? params.ao_rays : 0;
+  if (cameras.empty()) {
+    const float offset = 1e-5f * std::max(scene.diagonal(), 1e-30f);
+    return surface_rays(scene, embree, params, k, offset);
+  }
+  const CameraRays cast = cast_camera_rays(scene, embree, cameras, params.resolution, params.resolution,
+                                           params.ao_rays, params.ao_cutoff, params.seed);
+  RaySamples out;
+  for (const CastRay& s : cast.primary)
     if (s.used) out.push(s.origin, s.direction, s.t_end);
   out.primary = out.size();
-  for (const Slot& s : ao)
+  for (const CastRay& s : cast.ao)
     if (s.used) out.push(s.origin, s.direction, s.t_end);
   return out;
 }

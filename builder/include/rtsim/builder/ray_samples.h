@@ -56,6 +56,29 @@ struct RaySampleParams {
 RaySamples sample_rays(const Scene& scene, const EmbreeScene& embree,
                        const std::vector<const Camera*>& cameras, const RaySampleParams& params);
 
+// One cast ray of a camera workload, in a fixed slot.
+struct CastRay {
+  vec3 origin{0.0f}, direction{0.0f};
+  float t_end = 0;   // the closest hit; a miss: infinity (primary) or the cutoff (AO)
+  uint32_t hit = ~0u;  // the triangle hit first, ~0u: none
+  bool used = false;   // false: an AO slot of a primary ray that hit nothing
+};
+
+// The rays of the workload on `cameras`, cast with Embree, as rdh samples them and
+// OSAH marks its visible triangles: per camera one primary ray through each pixel
+// centre of a width x height image, and `ao_rays` AO rays from each primary hit
+// (cosine-distributed over the hemisphere facing the viewer, length ao_cutoff,
+// directions from KeyedRng(seed, {camera, pixel, k})). Slots: primary[camera *
+// width * height + pixel], ao[(that slot) * ao_per_pixel + k]. No AO rays when
+// ao_cutoff is not a positive finite length.
+struct CameraRays {
+  std::vector<CastRay> primary, ao;
+  uint32_t ao_per_pixel = 0;
+};
+CameraRays cast_camera_rays(const Scene& scene, const EmbreeScene& embree,
+                            const std::vector<const Camera*>& cameras, uint32_t width, uint32_t height,
+                            uint32_t ao_rays, float ao_cutoff, uint64_t seed);
+
 // The modelled cost of the rays on a tree: per ray, 2 * t1 for every inner node
 // and t2 x triangles for every leaf whose box its segment meets (each node is
 // tested only if its parent's box is met), averaged over the rays. `first`/`count`
