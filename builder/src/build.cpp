@@ -97,8 +97,6 @@ Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report
     cp.t1 = params.t1;
     cp.t2 = params.t2;
     cp.weights = r.weights;
-    cp.visibility = r.visibility;
-    cp.osah_w = params.osah_w;
     const auto start = std::chrono::steady_clock::now();
     r.binary_nodes = bvh.nodes.size();
     bvh = collapse_bvh(bvh, cp);

@@ -14,7 +14,7 @@ namespace rtsim {
 
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
-const std::vector<std::string> kSplitting = {"sbvh", "aosbvh", "rdh-sbvh"};
+const std::vector<std::string> kSplitting = {"sbvh", "osah", "aosbvh", "rdh-sbvh"};
 const std::vector<std::string> kOcclusion = {"aobvh", "aosbvh"};
 const std::vector<std::string> kRayDistribution = {"rdh", "rdh-sbvh"};
 }  // namespace
@@ -37,15 +37,20 @@ const std::vector<BuilderInfo>& builder_registry() {
     add("median", "BVH (median)", "object median on the longest axis", build_median);
     add("sbvh", "SBVH", "SAH with spatial splits and unsplitting", build_sbvh).splits_references = true;
     {
-      BuilderInfo& i = add("osah", "OSAH", "SAH mixing in the camera's visible fraction", build_osah);
+      BuilderInfo& i = add("osah", "OSAH",
+                           "Vinkler et al.'s occlusion SAH: visibility splits in the upper levels of an SBVH",
+                           build_osah);
       i.needs_camera = true;
       i.casts_rays = true;
+      i.splits_references = true;
     }
-    add("aobvh", "AO-BVH", "SAH weighted by each triangle's AO openness (the patent)", build_aobvh)
+    add("aobvh", "AO-BVH (object)",
+        "SAH weighted by each triangle's AO openness (the patent, object-split reading)", build_aobvh)
         .casts_rays = true;
     {
-      BuilderInfo& i = add("aosbvh", "AO-SBVH", "AO-BVH weights with SBVH's spatial splits", build_aosbvh);
-      i.ours = true;
+      BuilderInfo& i = add("aosbvh", "AO-BVH (spatial)",
+                           "AO-BVH weights with SBVH's spatial splits (the patent, sub-space reading)",
+                           build_aosbvh);
       i.casts_rays = true;
       i.splits_references = true;
     }
@@ -117,12 +122,14 @@ const std::vector<BuilderParameter>& builder_parameters() {
     add("width", "", "children", "children per node (set by the node format)", &P::width, 2, kMaxBvhWidth);
     add("bins", "--bins", "bins", "SAH bins (0 = full sweep)", &P::bins, 0, 256);
     add("seed", "--build-seed", "", "seed of the builders' random choices (AO rays; default: --seed)",
-        &P::seed, 0, kInf, {"aobvh", "aosbvh", "rdh", "rdh-sbvh"});
+        &P::seed, 0, kInf, {"osah", "aobvh", "aosbvh", "rdh", "rdh-sbvh"});
     add("threads", "--threads", "threads", "threads (0 = all); never changes the tree", &P::threads, 0,
         kInf)
         .in_tree_identity = false;
     add("sbvh_alpha", "--sbvh-alpha", "x root area", "sbvh: overlap threshold x root area", &P::sbvh_alpha,
         0, kInf, kSplitting);
+    add("sbvh_min_depth", "--sbvh-min-depth", "levels", "sbvh: spatial splits only at depth >= this",
+        &P::sbvh_min_depth, 0, 4096, {"sbvh", "aosbvh", "rdh-sbvh"});
     add("sbvh_reference_budget", "--sbvh-budget", "x triangles", "sbvh: references <= budget x N",
         &P::sbvh_reference_budget, 1, kInf, kSplitting);
     add("sbvh_split_limit", "--sbvh-split-limit", "splits", "sbvh: times one reference may be split",
@@ -134,11 +141,31 @@ const std::vector<BuilderParameter>& builder_parameters() {
         &P::treelet_leaves, 3, 8, {"sbvh", "aosbvh"});
     add("camera", "", "", "the camera the tree is built for (the workload's)", &P::camera, 0, 0,
         {"osah", "rdh", "rdh-sbvh"});
-    add("osah_w", "--osah-w", "", "osah: visibility weight in mixed nodes", &P::osah_w, 0, 1, {"osah"});
+    add("osah_w", "--osah-w", "", "osah: visibility weight w of the mixed probability", &P::osah_w, 0, 1,
+        {"osah"});
     add("osah_width", "--osah-resolution", "pixels",
-        "osah: primary rays per side (width; the command line sets the height too)", &P::osah_width, 1,
-        16384, {"osah"});
-    add("osah_height", "", "pixels", "osah: primary rays, height", &P::osah_height, 1, 16384, {"osah"});
+        "osah: visibility primary rays per side (width; the command line sets the height too)",
+        &P::osah_width, 1, 16384, {"osah"});
+    add("osah_height", "", "pixels", "osah: visibility primary rays, height", &P::osah_height, 1, 16384,
+        {"osah"});
+    add("osah_ao_rays", "--osah-ao-rays", "rays",
+        "osah: AO rays per primary hit that also mark visibility (0: primary rays only)", &P::osah_ao_rays, 0,
+        256, {"osah"});
+    add("osah_depth", "--osah-depth", "x log2 N",
+        "osah: the visibility split is tried at depth < floor(this x log2 triangles)", &P::osah_depth, 0, 64,
+        {"osah"});
+    add("osah_acceptance", "--osah-acceptance", "",
+        "osah: authors = taken when its less-visible child has more references than the larger\n"
+        "child of the best plain split; always = whenever one exists",
+        &P::osah_acceptance, 0, 0, {"osah"})
+        .choices = {"authors", "always"};
+    add("osah_spatial", "--osah-spatial", "",
+        "osah: on = spatial bins for the visibility split and SBVH below it (the authors'); off =\n"
+        "object bins, weight w(1 - V/N), and no spatial splits", &P::osah_spatial, 0, 1, {"osah"});
+    add("osah_child_order", "--osah-child-order", "",
+        "osah: visible-first = the child with more visible references first; split = the split's order",
+        &P::osah_child_order, 0, 0, {"osah"})
+        .choices = {"visible-first", "split"};
     add("ao_rays", "--ao-rays", "rays", "aobvh: AO rays per estimate (K; per triangle with ao_share 1)",
         &P::ao_rays, 1, 65536, kOcclusion);
     add("ao_share", "--ao-share", "triangles",
@@ -146,7 +173,7 @@ const std::vector<BuilderParameter>& builder_parameters() {
         4096, kOcclusion);
     add("ao_cutoff_relative", "--ao-cutoff", "x scene diagonal",
         "aobvh, rdh: AO ray length x scene diagonal (< 0: the scene's setting, default 0.05)",
-        &P::ao_cutoff_relative, -kInf, kInf, {"aobvh", "aosbvh", "rdh", "rdh-sbvh"});
+        &P::ao_cutoff_relative, -kInf, kInf, {"osah", "aobvh", "aosbvh", "rdh", "rdh-sbvh"});
     add("ao_weight_floor", "--ao-floor", "", "aobvh: weight floor, w = floor + (1-floor) x value",
         &P::ao_weight_floor, 0, 1, kOcclusion);
     add("ao_both_sides", "--ao-both-sides", "", "aobvh: cast AO rays from both triangle sides",

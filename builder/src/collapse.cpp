@@ -35,33 +35,14 @@ class Collapser {
 
   // r(n): products of the builder's child probabilities from the root.
   void reach_probabilities() {
-    std::vector<uint64_t> refs(count_, 0), visible(count_, 0);
-    const bool osah = !p_.visibility.empty();
-    if (osah)
-      for (size_t i = count_; i-- > 0;) {
-        const BvhNode& n = node(i);
-        if (n.is_leaf()) {
-          refs[i] = n.count;
-          for (uint32_t k = n.index; k < n.index + n.count; ++k)
-            visible[i] += p_.visibility[in_.prim_refs[k]] ? 1 : 0;
-        } else {
-          refs[i] = refs[n.index] + refs[n.index + 1];
-          visible[i] = visible[n.index] + visible[n.index + 1];
-        }
-      }
     reach_.assign(count_, 0.0);
     reach_[0] = 1.0;
     for (size_t i = 0; i < count_; ++i) {
       const BvhNode& n = node(i);
       if (n.is_leaf()) continue;
       const double area = n.bounds.area();
-      const bool mixed = osah && visible[i] > 0 && visible[i] < refs[i];
-      for (uint32_t c = n.index; c < n.index + 2; ++c) {
-        double prob = area > 0 ? node(c).bounds.area() / area : 1.0;
-        if (mixed)
-          prob = p_.osah_w * double(visible[c]) / double(visible[i]) + (1 - p_.osah_w) * prob;
-        reach_[c] = reach_[i] * prob;
-      }
+      for (uint32_t c = n.index; c < n.index + 2; ++c)
+        reach_[c] = reach_[i] * (area > 0 ? node(c).bounds.area() / area : 1.0);
     }
   }
 
@@ -212,8 +193,6 @@ Bvh collapse_bvh(const Bvh& binary, const CollapseParams& params, CollapseReport
   for (uint32_t t : binary.prim_refs) max_prim = std::max(max_prim, t);
   if (!params.weights.empty() && params.weights.size() <= max_prim)
     throw InputError("weights", "fewer entries than the tree's triangles");
-  if (!params.visibility.empty() && params.visibility.size() <= max_prim)
-    throw InputError("visibility", "fewer entries than the tree's triangles");
   for (const BvhNode& n : binary.nodes)
     if (!n.is_leaf() && n.children != 2)
       throw InputError("bvh", "the tree to collapse must be binary (a node has " +

@@ -71,46 +71,26 @@ bool overlaps(const Aabb& a, const Aabb& b) {
 
 }  // namespace
 
-double sah_cost(const Bvh& bvh, float t1, float t2, const std::vector<float>& weights,
-                const std::vector<uint8_t>& visibility, float osah_w) {
+double sah_cost(const Bvh& bvh, float t1, float t2, const std::vector<float>& weights) {
   if (bvh.nodes.empty()) return 0;
   const size_t count = bvh.nodes.size();
-  std::vector<double> cost(count), weight(count);
-  std::vector<uint64_t> refs(count), visible(count);
+  std::vector<double> cost(count);
   // Children always have larger indices than their parent (validated): one
   // backward pass evaluates the recursion bottom-up.
   for (size_t i = count; i-- > 0;) {
     const BvhNode& n = bvh.nodes[i];
     if (n.is_leaf()) {
       double w = 0;
-      uint64_t v = 0;
-      for (uint32_t k = n.index; k < n.index + n.count; ++k) {
-        const uint32_t tri = bvh.prim_refs[k];
-        w += weights.empty() ? 1.0 : double(weights[tri]);
-        v += visibility.empty() ? 0 : visibility[tri];
-      }
-      weight[i] = w;
-      visible[i] = v;
-      refs[i] = n.count;
+      for (uint32_t k = n.index; k < n.index + n.count; ++k)
+        w += weights.empty() ? 1.0 : double(weights[bvh.prim_refs[k]]);
       cost[i] = double(t2) * w;
       continue;
     }
-    const uint32_t first = n.index, end = n.index + n.children;
-    weight[i] = 0, visible[i] = 0, refs[i] = 0;
-    for (uint32_t c = first; c < end; ++c) {
-      weight[i] += weight[c];
-      visible[i] += visible[c];
-      refs[i] += refs[c];
-    }
     const double area = n.bounds.area();
-    const bool mixed = !visibility.empty() && visible[i] > 0 && visible[i] < refs[i];
     // One node visit (one TRV op) costs 2*T1 whatever the width.
     cost[i] = 2.0 * t1;
-    for (uint32_t c = first; c < end; ++c) {
-      double p = area > 0 ? bvh.nodes[c].bounds.area() / area : 1.0;
-      if (mixed) p = osah_w * double(visible[c]) / double(visible[i]) + (1 - osah_w) * p;
-      cost[i] += p * cost[c];
-    }
+    for (uint32_t c = n.index; c < n.index + n.children; ++c)
+      cost[i] += (area > 0 ? bvh.nodes[c].bounds.area() / area : 1.0) * cost[c];
   }
   return cost[0];
 }
@@ -287,8 +267,7 @@ BvhMetrics compute_metrics(const Bvh& bvh, const Scene& scene, const BuildParams
   m.nodes = bvh.nodes.size();
   m.width = bvh.width();
   m.sah_cost = sah_cost(bvh, params.t1, params.t2);
-  m.weighted_cost = sah_cost(bvh, params.t1, params.t2, report.weights, report.visibility,
-                             params.osah_w);
+  m.weighted_cost = sah_cost(bvh, params.t1, params.t2, report.weights);
   if (with_epo) m.epo = end_point_overlap(bvh, scene, params.t1, params.t2);
   // Depths: a forward pass, parents come before children.
   std::vector<uint32_t> depth(bvh.nodes.size(), 0);

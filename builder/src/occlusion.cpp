@@ -1,4 +1,5 @@
 #include <rtsim/builder/occlusion.h>
+#include <rtsim/builder/ray_samples.h>
 #include <rtsim/workloads/progress.h>
 #include <rtsim/workloads/random.h>
 
@@ -231,20 +232,14 @@ std::vector<float> estimate_occlusion(const Scene& scene, const EmbreeScene& emb
   return values;
 }
 
-std::vector<uint8_t> estimate_visibility(const Scene& scene, const EmbreeScene& embree,
-                                         const Camera& camera, uint32_t width, uint32_t height) {
-  std::vector<std::atomic<uint8_t>> seen(scene.triangle_count());
-  for (auto& s : seen) s.store(0, std::memory_order_relaxed);
-  tbb::parallel_for(uint32_t(0), height, [&](uint32_t y) {
-    for (uint32_t x = 0; x < width; ++x) {
-      const Camera::Ray ray = camera.primary_ray(x, y, width, height);
-      const EmbreeHit hit = embree.intersect(ray.origin, ray.direction, 0.0f,
-                                             std::numeric_limits<float>::infinity());
-      if (hit.hit && hit.prim < seen.size()) seen[hit.prim].store(1, std::memory_order_relaxed);
-    }
-  });
-  std::vector<uint8_t> visible(seen.size());
-  for (size_t i = 0; i < seen.size(); ++i) visible[i] = seen[i].load(std::memory_order_relaxed);
+std::vector<uint8_t> estimate_visibility(const Scene& scene, const EmbreeScene& embree, const Camera& camera,
+                                         const VisibilityParams& params) {
+  const CameraRays rays = cast_camera_rays(scene, embree, {&camera}, params.width, params.height,
+                                           params.ao_rays, params.ao_cutoff, params.seed);
+  std::vector<uint8_t> visible(scene.triangle_count(), 0);
+  for (const std::vector<CastRay>* kind : {&rays.primary, &rays.ao})
+    for (const CastRay& ray : *kind)
+      if (ray.used && ray.hit < visible.size()) visible[ray.hit] = 1;
   return visible;
 }
 

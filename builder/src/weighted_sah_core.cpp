@@ -109,9 +109,19 @@ struct Split {
   float position = 0;  // spatial: the split plane
   float cost = kInf;
   uint32_t left_count = 0, right_count = 0;  // spatial: upper bounds before unsplitting
+  uint32_t left_visible = 0, right_visible = 0;  // visible references (spatial: as the counts)
   Aabb left_box, right_box;
   float left_weight = 0, right_weight = 0;
+  bool visibility = false;  // OSAH's visibility split (authors' rule): no unsplitting into a hidden child
   bool valid() const { return kind != Kind::None; }
+};
+
+// A split search can look for a second best split beside the plain one, under
+// probabilities mixed with the visible fraction by `weight` (OSAH's visibility
+// split, the authors' rule), from the same bins in the same pass.
+struct VisibilitySearch {
+  float weight = 0;
+  Split* best = nullptr;  // nullptr: no second search
 };
 
 // Maps a reference's centroid to one of `bins` bins along an axis.
@@ -404,6 +414,7 @@ struct TempNode {
   Aabb box;
   uint32_t left = ~0u, right = ~0u;  // ~0u: leaf
   uint32_t begin = 0, count = 0;
+  uint32_t visible = 0;  // visible references below (OSAH's child order)
 };
 
 class Builder {
@@ -419,13 +430,23 @@ class Builder {
   NodeInfo node_info(uint32_t begin, uint32_t count) const;
   float split_cost(float area_left, float weight_left, uint32_t visible_left, float area_right,
                    float weight_right, uint32_t visible_right, float node_area,
-                   const NodeInfo& info, RayCounts rays = RayCounts{}) const;
+                   const NodeInfo& info, float mix, RayCounts rays = RayCounts{}) const;
   Split find_object_split(uint32_t begin, uint32_t count, const NodeInfo& info,
-                          const std::vector<uint32_t>& rays) const;
+                          const std::vector<uint32_t>& rays, VisibilitySearch search = {}) const;
   Split find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info, SweepOrders& orders,
-                         const std::vector<uint32_t>& rays) const;
+                         const std::vector<uint32_t>& rays, VisibilitySearch search = {}) const;
   Split find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info,
-                           const std::vector<uint32_t>& rays) const;
+                           const std::vector<uint32_t>& rays, VisibilitySearch search = {}) const;
+  Split choose_split(uint32_t begin, uint32_t count, uint32_t capacity, uint32_t depth, const NodeInfo& info,
+                     SweepOrders& orders, const std::vector<uint32_t>& rays, Split* object_fallback) const;
+  Split find_object_or_sweep(uint32_t begin, uint32_t count, const NodeInfo& info, SweepOrders& orders,
+                             const std::vector<uint32_t>& rays, VisibilitySearch search = {}) const;
+  Split with_spatial_split(const Split& object, uint32_t begin, uint32_t count, uint32_t capacity,
+                           uint32_t depth, const NodeInfo& info, const std::vector<uint32_t>& rays) const;
+  bool sweeps(uint32_t count) const;
+  static bool fits(const Split& s, uint32_t capacity) {
+    return uint64_t(s.left_count) + s.right_count <= capacity;
+  }
   uint32_t partition_object(const Split& split, uint32_t begin, uint32_t count,
                             const NodeInfo& info, const SweepKey* sweep_order);
   bool partition_spatial(const Split& split, uint32_t begin, uint32_t count, uint32_t capacity,
@@ -450,7 +471,7 @@ class Builder {
   float root_area_ = 0;
   bool spatial_at_root_ = true;  // false: the root takes the best object split
   bool root_split_spatial_ = false;
-  std::atomic<uint64_t> spatial_splits_{0}, forced_splits_{0}, median_splits_{0};
+  std::atomic<uint64_t> spatial_splits_{0}, forced_splits_{0}, median_splits_{0}, visibility_splits_{0};
   std::atomic<uint64_t> ray_node_pairs_{0};
 };
 
@@ -475,7 +496,7 @@ NodeInfo Builder::node_info(uint32_t begin, uint32_t count) const {
 
 inline float Builder::split_cost(float area_left, float weight_left, uint32_t visible_left,
                                  float area_right, float weight_right, uint32_t visible_right,
-                                 float node_area, const NodeInfo& info, RayCounts rays) const {
+                                 float node_area, const NodeInfo& info, float mix, RayCounts rays) const {
   float p_left = 1.0f, p_right = 1.0f;
   // A node box without area (all vertices on a line or a point) gives no
   // probability information: both children count as certainly visited.
@@ -492,18 +513,18 @@ inline float Builder::split_cost(float area_left, float weight_left, uint32_t vi
     p_left = (p_left + float(rays.left) / k) / denominator;
     p_right = (p_right + float(rays.right) / k) / denominator;
   }
-  // OSAH: only nodes holding both visible and hidden triangles mix in visibility.
-  if (config_.visible && info.visible > 0 && info.visible < info.count) {
-    const float w = config_.osah_w;
+  // OSAH's visibility split: P_i = w * V_i / V + (1 - w) * P_i (mix = w; 0 for every
+  // plain candidate).
+  if (mix > 0 && info.visible > 0) {
     const float v = float(info.visible);
-    p_left = w * float(visible_left) / v + (1.0f - w) * p_left;
-    p_right = w * float(visible_right) / v + (1.0f - w) * p_right;
+    p_left = mix * float(visible_left) / v + (1.0f - mix) * p_left;
+    p_right = mix * float(visible_right) / v + (1.0f - mix) * p_right;
   }
   return 2.0f * config_.t1 + config_.t2 * (p_left * weight_left + p_right * weight_right);
 }
 
 Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo& info,
-                                 const std::vector<uint32_t>& rays) const {
+                                 const std::vector<uint32_t>& rays, VisibilitySearch search) const {
   const uint32_t bins = config_.bins;
   const CentroidBinning binning(info.centroids, bins);
   Split best;
@@ -571,25 +592,35 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
       if (left.count == 0 || right_count[i + 1] == 0) continue;
       const RayCounts counts =
           with_rays ? RayCounts{rays_left[i], rays_right[i], uint32_t(rays.size())} : RayCounts{};
+      auto take = [&](Split& s, float cost) {
+        s.kind = Split::Kind::Object;
+        s.axis = a;
+        s.bin = i;
+        s.cost = cost;
+        s.left_count = left.count;
+        s.right_count = right_count[i + 1];
+        s.left_visible = left.visible;
+        s.right_visible = right_visible[i + 1];
+        s.left_box = left.box();
+      };
       const float cost = split_cost(left.area(), left.weight, left.visible, right_area[i + 1],
                                     right_weight[i + 1], right_visible[i + 1], node_area, info,
-                                    counts);
-      if (cost < best.cost) {
-        best.kind = Split::Kind::Object;
-        best.axis = a;
-        best.bin = i;
-        best.cost = cost;
-        best.left_count = left.count;
-        best.right_count = right_count[i + 1];
-        best.left_box = left.box();
+                                    0.0f, counts);
+      if (cost < best.cost) take(best, cost);
+      if (search.best) {
+        const float mixed = split_cost(left.area(), left.weight, left.visible, right_area[i + 1],
+                                       right_weight[i + 1], right_visible[i + 1], node_area, info,
+                                       search.weight, counts);
+        if (mixed < search.best->cost) take(*search.best, mixed);
       }
     }
   }
-  if (best.valid()) {
-    // The right box is needed by the SBVH overlap test only; recompute it here.
+  // The right box is needed by the SBVH overlap test only; recompute it here.
+  for (Split* s : {&best, search.best}) {
+    if (!s || !s->valid()) continue;
     Bin right;
-    for (uint32_t i = best.bin + 1; i < bins; ++i) right.add(binned[best.axis * bins + i]);
-    best.right_box = right.box();
+    for (uint32_t i = s->bin + 1; i < bins; ++i) right.add(binned[s->axis * bins + i]);
+    s->right_box = right.box();
   }
   return best;
 }
@@ -616,7 +647,7 @@ void sweep_order(const Scene& scene, const Ref* refs, uint32_t count, int axis, 
 // orders (count entries per axis) are sorted here where they are not yet; the best
 // split's axis order is what partition_object then applies without sorting again.
 Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info, SweepOrders& orders,
-                                const std::vector<uint32_t>& rays) const {
+                                const std::vector<uint32_t>& rays, VisibilitySearch search) const {
   Split best;
   if (count < 2) return best;
   const float node_area = info.box.area();
@@ -668,31 +699,43 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
       left.add(refs[keys[i].slot]);
       const RayCounts counts =
           with_rays ? RayCounts{rays_left[i], rays_right[i], uint32_t(rays.size())} : RayCounts{};
+      auto take = [&](Split& s, float cost) {
+        s.kind = Split::Kind::Sweep;
+        s.axis = a;
+        s.bin = i;
+        s.cost = cost;
+        s.left_count = i + 1;
+        s.right_count = count - i - 1;
+        s.left_visible = left.visible;
+        s.right_visible = right_visible[i + 1];
+        s.left_box = left.box();
+      };
       const float cost = split_cost(left.area(), left.weight, left.visible, right_area[i + 1],
                                     right_weight[i + 1], right_visible[i + 1], node_area, info,
-                                    counts);
-      if (cost < best.cost) {
-        best.kind = Split::Kind::Sweep;
-        best.axis = a;
-        best.bin = i;
-        best.cost = cost;
-        best.left_count = i + 1;
-        best.right_count = count - i - 1;
-        best.left_box = left.box();
+                                    0.0f, counts);
+      if (cost < best.cost) take(best, cost);
+      if (search.best) {
+        const float mixed = split_cost(left.area(), left.weight, left.visible, right_area[i + 1],
+                                       right_weight[i + 1], right_visible[i + 1], node_area, info,
+                                       search.weight, counts);
+        if (mixed < search.best->cost) take(*search.best, mixed);
       }
     }
   }
-  if (best.valid() && config_.spatial_splits) {
+  if (config_.spatial_splits) {
     // The right box is needed by the SBVH overlap test only.
-    Aabb right;
-    for (uint32_t i = best.bin + 1; i < count; ++i) right.extend(refs[orders.keys[best.axis][i].slot].box());
-    best.right_box = right;
+    for (Split* s : {&best, search.best}) {
+      if (!s || !s->valid()) continue;
+      Aabb right;
+      for (uint32_t i = s->bin + 1; i < count; ++i) right.extend(refs[orders.keys[s->axis][i].slot].box());
+      s->right_box = right;
+    }
   }
   return best;
 }
 
 Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo& info,
-                                  const std::vector<uint32_t>& rays) const {
+                                  const std::vector<uint32_t>& rays, VisibilitySearch search) const {
   const uint32_t bins = spatial_bins();
   const float node_area = info.box.area();
   Split best;
@@ -767,26 +810,37 @@ Split Builder::find_spatial_split(uint32_t begin, uint32_t count, const NodeInfo
       if (left.enter == 0 || right_count[i + 1] == 0) continue;
       const RayCounts counts =
           with_rays ? RayCounts{rays_left[i], rays_right[i], uint32_t(rays.size())} : RayCounts{};
-      const float cost =
-          split_cost(left.box.area(), left.enter_weight, left.enter_visible, right_area[i + 1],
-                     right_weight[i + 1], right_visible[i + 1], node_area, info, counts);
-      if (cost < best.cost) {
-        best.kind = Split::Kind::Spatial;
-        best.axis = a;
-        best.bin = i;
-        best.position = binning.plane(i);
-        best.cost = cost;
-        best.left_count = left.enter;
-        best.right_count = right_count[i + 1];
-        best.left_box = left.box.box();
-        best.left_weight = left.enter_weight;
-        best.right_weight = right_weight[i + 1];
+      auto take = [&](Split& s, float cost) {
+        s.kind = Split::Kind::Spatial;
+        s.axis = a;
+        s.bin = i;
+        s.position = binning.plane(i);
+        s.cost = cost;
+        s.left_count = left.enter;
+        s.right_count = right_count[i + 1];
+        s.left_visible = left.enter_visible;
+        s.right_visible = right_visible[i + 1];
+        s.left_box = left.box.box();
+        s.left_weight = left.enter_weight;
+        s.right_weight = right_weight[i + 1];
+      };
+      const float cost = split_cost(left.box.area(), left.enter_weight, left.enter_visible, right_area[i + 1],
+                                    right_weight[i + 1], right_visible[i + 1], node_area, info,
+                                    0.0f, counts);
+      if (cost < best.cost) take(best, cost);
+      if (search.best) {
+        const float mixed = split_cost(left.box.area(), left.enter_weight, left.enter_visible,
+                                       right_area[i + 1], right_weight[i + 1], right_visible[i + 1],
+                                       node_area, info, search.weight, counts);
+        if (mixed < search.best->cost) take(*search.best, mixed);
       }
     }
-    if (best.kind == Split::Kind::Spatial && best.axis == a) {
+    // This axis's bins are gone after the loop: the right boxes of the splits on it now.
+    for (Split* s : {&best, search.best}) {
+      if (!s || s->kind != Split::Kind::Spatial || s->axis != a) continue;
       BoxLanes right;
-      for (uint32_t i = best.bin + 1; i < bins; ++i) right.extend(b[i].box);
-      best.right_box = right.box();
+      for (uint32_t i = s->bin + 1; i < bins; ++i) right.extend(b[i].box);
+      s->right_box = right.box();
     }
   }
   return best;
@@ -881,7 +935,11 @@ bool Builder::partition_spatial(const Split& split, uint32_t begin, uint32_t cou
         left_box.area() * (left_weight - r.weight) + right_with.area() * right_weight;
     const float cost_split = left_box.area() * left_weight + right_box.area() * right_weight;
     const bool may_split = r.splits() < config_.split_limit;
-    if (may_split && cost_split <= cost_whole_left && cost_split <= cost_whole_right) {
+    // OSAH's visibility split keeps its hidden child tight: a straddling reference
+    // goes whole only into a child that holds visible references.
+    const float whole_left = !split.visibility || split.left_visible > 0 ? cost_whole_left : kInf;
+    const float whole_right = !split.visibility || split.right_visible > 0 ? cost_whole_right : kInf;
+    if (may_split && cost_split <= whole_left && cost_split <= whole_right) {
       BoxLanes left_part, right_part;
       TriangleCut(scene_, r.prim()).split(BoxLanes::of(r), a, split.position, &left_part, &right_part);
       const Aabb lb = left_part.box(), rb = right_part.box();
@@ -897,7 +955,7 @@ bool Builder::partition_spatial(const Split& split, uint32_t begin, uint32_t cou
         left.push_back(l);
         right.push_back(rr);
       }
-    } else if (cost_whole_left <= cost_whole_right) {
+    } else if (whole_left <= whole_right) {
       left.push_back(r);
       left_box = left_with;
       right_weight -= r.weight;
@@ -925,6 +983,7 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
   const NodeInfo info = node_info(begin, count);
   const uint32_t index = uint32_t(nodes_.emplace_back() - nodes_.begin());
   nodes_[index].box = info.box;
+  nodes_[index].visible = info.visible;
 
   // RDH: the parent's sample rays whose segment meets this node's box, in the
   // parent's order (sequential: the same list for any thread count). The root
@@ -954,9 +1013,7 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
   SweepKey small_keys[3][kSmallSweep];
   std::vector<SweepKey> big_keys;
   SweepOrders orders;
-  Split best;
-  const uint32_t sweep_below = config_.spatial_splits ? kExactSweepBelowSpatial : kExactSweepBelow;
-  if (config_.bins == 0 || count <= sweep_below) {
+  if (sweeps(count)) {
     if (presorted) {
       orders = *presorted;
     } else {
@@ -964,20 +1021,9 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
       for (int a = 0; a < 3; ++a)
         orders.keys[a] = count > kSmallSweep ? big_keys.data() + size_t(a) * count : small_keys[a];
     }
-    best = find_sweep_split(begin, count, info, orders, rays);
-  } else {
-    best = find_object_split(begin, count, info, rays);
   }
-  if (config_.spatial_splits && best.valid() && capacity > count &&
-      (depth > 0 || spatial_at_root_)) {
-    const Aabb overlap = Aabb::intersection(best.left_box, best.right_box);
-    if (!overlap.empty() && overlap.area() >= config_.sbvh_alpha * root_area_) {
-      const Split spatial = find_spatial_split(begin, count, info, rays);
-      if (spatial.valid() && spatial.cost < best.cost &&
-          uint64_t(spatial.left_count) + spatial.right_count <= capacity)
-        best = spatial;
-    }
-  }
+  Split object_fallback;
+  Split best = choose_split(begin, count, capacity, depth, info, orders, rays, &object_fallback);
   const float leaf_cost = config_.t2 * info.weight;
   const bool fits_leaf = count <= config_.max_leaf_size;
   if (fits_leaf && (!best.valid() || leaf_cost <= best.cost)) return make_leaf();
@@ -991,10 +1037,21 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
                                       &right_count, &left_capacity);
       if (partitioned) spatial_splits_.fetch_add(1);
       if (partitioned && depth == 0) root_split_spatial_ = true;
+      if (partitioned && best.visibility) visibility_splits_.fetch_add(1);
+      // A spatial split whose children came out empty or over the budget: the best
+      // object split instead (refs_ is untouched), as the authors' OSAH does.
+      if (!partitioned && object_fallback.valid() &&
+          depth_allows(depth, object_fallback.left_count, object_fallback.right_count)) {
+        best = object_fallback;
+        left_count = partition_object(best, begin, count, info, orders.keys[best.axis]);
+        right_count = count - left_count;
+        partitioned = left_count > 0 && right_count > 0;
+      }
     } else {
       left_count = partition_object(best, begin, count, info, orders.keys[best.axis]);
       right_count = count - left_count;
       partitioned = left_count > 0 && right_count > 0;
+      if (partitioned && best.visibility) visibility_splits_.fetch_add(1);
     }
   }
   if (!partitioned) {
@@ -1054,9 +1111,97 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
     left_node = build(begin, left_count, left_capacity, depth + 1, child_rays, left_sorted);
     right_node = build(right_begin, right_count, right_capacity, depth + 1, child_rays, right_sorted);
   }
+  // The authors' OSAH puts the child holding more visible references first.
+  if (config_.visible_first && nodes_[right_node].visible > nodes_[left_node].visible)
+    std::swap(left_node, right_node);
   nodes_[index].left = left_node;
   nodes_[index].right = right_node;
   return index;
+}
+
+bool Builder::sweeps(uint32_t count) const {
+  // Small nodes take the exact sweep even in binned mode: it is cheaper than
+  // filling and sweeping 3 x bins bins there, and never worse.
+  const uint32_t sweep_below = config_.spatial_splits ? kExactSweepBelowSpatial : kExactSweepBelow;
+  return config_.bins == 0 || count <= sweep_below;
+}
+
+Split Builder::find_object_or_sweep(uint32_t begin, uint32_t count, const NodeInfo& info, SweepOrders& orders,
+                                    const std::vector<uint32_t>& rays, VisibilitySearch search) const {
+  return sweeps(count) ? find_sweep_split(begin, count, info, orders, rays, search)
+                       : find_object_split(begin, count, info, rays, search);
+}
+
+// SBVH's choice (Stich et al. 2009): a spatial split is looked for only where the
+// object split's children overlap by more than sbvh_alpha x the root's area, and
+// taken when it is cheaper and its references fit the node's budget.
+Split Builder::with_spatial_split(const Split& object, uint32_t begin, uint32_t count, uint32_t capacity,
+                                  uint32_t depth, const NodeInfo& info, const std::vector<uint32_t>& rays) const {
+  if (!config_.spatial_splits || !object.valid() || capacity <= count || depth < config_.spatial_min_depth ||
+      (depth == 0 && !spatial_at_root_))
+    return object;
+  const Aabb overlap = Aabb::intersection(object.left_box, object.right_box);
+  if (overlap.empty() || overlap.area() < config_.sbvh_alpha * root_area_) return object;
+  const Split spatial = find_spatial_split(begin, count, info, rays);
+  if (spatial.valid() && spatial.cost < object.cost && fits(spatial, capacity)) return spatial;
+  return object;
+}
+
+// The split a node takes before the leaf test: SAH's (object), SBVH's (object or
+// spatial), or under the authors' OSAH rule (Vinkler, Havran and Sochor 2012, as
+// NTrace's OcclusionBVHBuilder builds it):
+//   - in mixed nodes (0 < visible < all references) above visibility_depth, a
+//     visibility split: the best split under P_i = w V_i / V + (1 - w) A_i / A over
+//     spatial bins (w = osah_w), or over object bins with the weight w (1 - V / N)
+//     without spatial splits. It is taken only when the child holding fewer visible
+//     references has more references than the larger child of the best plain split
+//     of the same kind (visibility_any_split: always). Otherwise the plain object or
+//     spatial split, whichever is cheaper (no overlap test there, as theirs);
+//   - elsewhere, SBVH where visible references are and object splits where none
+//     are, with spatial splits only from spatial_min_depth (the visibility depth)
+//     on: above it, nodes that are all visible or all hidden take object splits.
+// *object_fallback: the best object split, should a spatial partition fail.
+Split Builder::choose_split(uint32_t begin, uint32_t count, uint32_t capacity, uint32_t depth,
+                            const NodeInfo& info, SweepOrders& orders, const std::vector<uint32_t>& rays,
+                            Split* object_fallback) const {
+  if (!config_.visible) {
+    *object_fallback = find_object_or_sweep(begin, count, info, orders, rays);
+    return with_spatial_split(*object_fallback, begin, count, capacity, depth, info, rays);
+  }
+  const bool upper = depth < config_.visibility_depth;
+  const bool mixed = info.visible > 0 && info.visible < info.count;
+  auto accepted = [&](const Split& visibility, const Split& plain) {
+    if (!visibility.valid()) return false;
+    if (config_.visibility_any_split) return true;
+    const uint32_t hidden_child = visibility.left_visible < visibility.right_visible ? visibility.left_count
+                                                                                     : visibility.right_count;
+    return hidden_child > std::max(plain.left_count, plain.right_count);
+  };
+  if (upper && mixed) {
+    Split visibility;
+    if (config_.spatial_splits) {
+      *object_fallback = find_object_or_sweep(begin, count, info, orders, rays);
+      const Split spatial = capacity > count
+                                ? find_spatial_split(begin, count, info, rays, {config_.osah_w, &visibility})
+                                : Split{};
+      if (accepted(visibility, spatial) && fits(visibility, capacity)) {
+        visibility.visibility = true;
+        return visibility;
+      }
+      if (spatial.valid() && spatial.cost < object_fallback->cost && fits(spatial, capacity)) return spatial;
+      return *object_fallback;
+    }
+    const float w = config_.osah_w * (1.0f - float(info.visible) / float(info.count));
+    *object_fallback = find_object_or_sweep(begin, count, info, orders, rays, {w, &visibility});
+    if (accepted(visibility, *object_fallback)) {
+      visibility.visibility = true;
+      return visibility;
+    }
+    return *object_fallback;
+  }
+  *object_fallback = find_object_or_sweep(begin, count, info, orders, rays);
+  if (info.visible == 0) return *object_fallback;
+  return with_spatial_split(*object_fallback, begin, count, capacity, depth, info, rays);
 }
 
 Bvh Builder::run(CoreStats* stats) {
@@ -1077,7 +1222,8 @@ Bvh Builder::run(CoreStats* stats) {
   if (config_.rays && !(std::isfinite(config_.rdh_prior) && config_.rdh_prior > 0))
     throw InputError("rdh_prior", "must be a positive finite number");
 
-  if (!config_.spatial_splits) return run_once(true, stats);
+  // The authors' OSAH takes its root split as its rules give it (no second build).
+  if (!config_.spatial_splits || config_.visible) return run_once(true, stats);
   // The greedy choice at the root can be wrong: a spatial split that is cheaper
   // by the SAH of one level can give a dearer tree (interior). When the root was
   // split spatially, build the tree again with an object split at the root and
@@ -1107,7 +1253,7 @@ Bvh Builder::run_once(bool spatial_at_root, CoreStats* stats) {
   const size_t n = scene_.triangle_count();
   spatial_at_root_ = spatial_at_root;
   root_split_spatial_ = false;
-  spatial_splits_ = 0, forced_splits_ = 0, median_splits_ = 0, ray_node_pairs_ = 0;
+  spatial_splits_ = 0, forced_splits_ = 0, median_splits_ = 0, ray_node_pairs_ = 0, visibility_splits_ = 0;
   nodes_.clear();
   const uint64_t capacity64 =
       config_.spatial_splits
@@ -1165,6 +1311,7 @@ Bvh Builder::run_once(bool spatial_at_root, CoreStats* stats) {
     stats->spatial_splits = spatial_splits_.load();
     stats->forced_splits = forced_splits_.load();
     stats->median_splits = median_splits_.load();
+    stats->visibility_splits = visibility_splits_.load();
     stats->ray_node_pairs = ray_node_pairs_.load();
     stats->working_bytes = refs_.capacity() * sizeof(Ref) + nodes_.size() * sizeof(TempNode) +
                            bvh.nodes.capacity() * sizeof(BvhNode) +

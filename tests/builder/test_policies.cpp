@@ -99,17 +99,6 @@ TEST(Policies, EqualOcclusionValuesGiveExactlyTheSbvhTreeWithSpatialSplits) {
   expect_valid(weighted, scene, p);
 }
 
-TEST(Policies, UniformVisibilityGivesExactlyTheSahTree) {
-  const Scene scene = test::triangle_soup(20000, 9, 0.1f);
-  const Bvh sah = build(scene, "sah");
-  for (uint8_t v : {uint8_t(0), uint8_t(1)}) {
-    BuildParams p;
-    p.builder = "osah";
-    p.visibility.assign(scene.triangle_count(), v);
-    EXPECT_TRUE(same_tree(build_bvh(scene, p), sah)) << "visibility " << int(v);
-  }
-}
-
 TEST(Policies, UnequalWeightsChangeTheTree) {
   const Scene scene = test::triangle_soup(5000, 9, 0.1f);
   BuildParams p;

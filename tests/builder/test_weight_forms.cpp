@@ -1,6 +1,6 @@
 // How the weighted builders turn their per-triangle information into costs:
 // the AO-BVH's two weight forms (normalised to mean 1, or the patent's literal
-// sum of occlusion values) and the OSAH's visibility mix.
+// sum of occlusion values). OSAH's visibility rules: test_osah.cpp.
 #include <rtsim/builder/build.h>
 #include <rtsim/builder/metrics.h>
 #include <rtsim/builder/occlusion.h>
@@ -72,60 +72,6 @@ TEST(WeightForms, LiteralFormWithOpenValuesIsTheSahTree) {
   p.ao_weight_floor = 0.0f;
   p.occlusion_values.assign(scene.triangle_count(), 1.0f);
   EXPECT_TRUE(same_tree(build_bvh(scene, p), build_bvh(scene, BuildParams{})));
-}
-
-// Visible triangles: those in the slab y < 0.3 of a soup (as if a camera saw
-// only that part).
-std::vector<uint8_t> slab_visibility(const Scene& scene) {
-  std::vector<uint8_t> visible(scene.triangle_count());
-  for (size_t i = 0; i < visible.size(); ++i)
-    visible[i] = scene.triangle_bounds(uint32_t(i)).centre().y < 0.3f ? 1 : 0;
-  return visible;
-}
-
-TEST(WeightForms, OsahWithZeroVisibilityWeightIsTheSahTree) {
-  const Scene scene = test::triangle_soup(20000, 13, 0.1f);
-  BuildParams p;
-  p.builder = "osah";
-  p.osah_w = 0.0f;
-  p.visibility = slab_visibility(scene);
-  EXPECT_TRUE(same_tree(build_bvh(scene, p), build_bvh(scene, BuildParams{})));
-}
-
-TEST(WeightForms, OsahLowersItsOwnCostAndLiftsVisibleTrianglesTowardsTheRoot) {
-  // The OSAH cost P_i = w V_i / V + (1 - w) A_i / A (V, A of the parent) is what
-  // the builder minimises: its tree must be cheaper than the SAH tree under that
-  // cost, and the visible triangles must sit higher up than in the SAH tree.
-  // (Whether that pays off for real rays depends on the scene: see
-  // BuildParams::osah_w; on `interior` it does not.)
-  const Scene scene = test::triangle_soup(20000, 14, 0.05f);
-  BuildParams p;
-  p.builder = "osah";
-  p.visibility = slab_visibility(scene);
-  BuildReport report;
-  const Bvh osah = build_bvh(scene, p, &report);
-  const Bvh sah = build_bvh(scene, BuildParams{});
-  EXPECT_TRUE(validate_bvh(osah, scene, limits_for(p)).ok());
-  const double osah_cost = sah_cost(osah, p.t1, p.t2, {}, report.visibility, p.osah_w);
-  const double sah_under_osah = sah_cost(sah, p.t1, p.t2, {}, report.visibility, p.osah_w);
-  EXPECT_LT(osah_cost, 0.9 * sah_under_osah);
-
-  auto mean_visible_depth = [&](const Bvh& bvh) {
-    std::vector<uint32_t> depth(bvh.nodes.size(), 0);
-    double sum = 0;
-    uint64_t count = 0;
-    for (size_t i = 0; i < bvh.nodes.size(); ++i) {
-      const BvhNode& n = bvh.nodes[i];
-      if (!n.is_leaf()) {
-        depth[n.index] = depth[n.index + 1] = depth[i] + 1;
-        continue;
-      }
-      for (uint32_t k = n.index; k < n.index + n.count; ++k)
-        if (report.visibility[bvh.prim_refs[k]]) sum += depth[i], ++count;
-    }
-    return count ? sum / double(count) : 0.0;
-  };
-  EXPECT_LT(mean_visible_depth(osah), mean_visible_depth(sah) - 0.5);
 }
 
 }  // namespace

@@ -14,6 +14,7 @@ detail::CoreConfig core_config(const BuildParams& p) {
   c.threads = p.threads;
   c.osah_w = p.osah_w;
   c.sbvh_alpha = p.sbvh_alpha;
+  c.spatial_min_depth = p.sbvh_min_depth;
   c.reference_budget = p.sbvh_reference_budget;
   c.split_limit = p.sbvh_split_limit;
   return c;
@@ -29,6 +30,7 @@ Bvh run_core(const Scene& scene, const detail::CoreConfig& config, BuildReport& 
   report.treelets_restructured = stats.treelets_restructured;
   report.forced_splits = stats.forced_splits;
   report.median_splits = stats.median_splits;
+  report.visibility_splits = stats.visibility_splits;
   report.peak_memory_bytes = std::max<uint64_t>(report.peak_memory_bytes, stats.working_bytes);
   return bvh;
 }

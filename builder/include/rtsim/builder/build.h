@@ -27,21 +27,32 @@ struct BuildParams {
   uint32_t threads = 0;         // 0 = all cores; never changes the tree
   // sbvh
   float sbvh_alpha = 1e-5f;
+  uint32_t sbvh_min_depth = 0;         // spatial splits only at depth >= this (osah: its visibility depth)
   float sbvh_reference_budget = 2.0f;  // x N triangles (Embree's embree-sbvh capacity: 2 x N)
   uint32_t sbvh_split_limit = 7;       // times one reference may be split (0..7)
   uint32_t treelet_passes = 2;         // sbvh: treelet restructuring passes after the build (docs/build-speed.md)
   uint32_t treelet_leaves = 7;         // leaves per restructured treelet (3..8)
-  // osah: P_i = osah_w * V_i / V + (1 - osah_w) * A_i / A in nodes holding both
-  // visible and hidden triangles (osah_w = 0: exactly the SAH tree). A faithful
-  // build of this rule can make the camera's own primary rays dearer: it lowers
-  // its own cost (interior, view1: 29.7 vs 46.3 for the SAH tree) while primary
-  // rays take 55.0 instead of 30.1 ops/ray, because the probabilities of a mixed
-  // node's children sum to about 1 (a ray is assumed to enter one child) whereas
-  // real rays pass through the loose, overlapping boxes that separating visible
-  // from hidden triangles creates (other scenes and w: issue 3 notes).
+  // osah (Vinkler, Havran and Sochor 2012, the authors' rules; builders/osah.cpp):
+  // in mixed nodes (0 < visible < all) at depth < floor(osah_depth x log2 N), a
+  // visibility split with P_i = osah_w * V_i / V + (1 - osah_w) * A_i / A over
+  // spatial bins (osah_spatial off: over object bins, weight osah_w * (1 - V/N)),
+  // taken when the child holding fewer visible triangles has more references than
+  // the larger child of the best plain split (osah_acceptance "authors"; "always":
+  // whenever one exists); SBVH below that depth in nodes holding visible
+  // triangles, object splits elsewhere; osah_child_order "visible-first" puts the
+  // child with more visible references first ("split": the split's order).
+  // Visibility: primary rays through the pixel centres of an osah_width x
+  // osah_height image from `camera`, and osah_ao_rays AO rays from each hit (the
+  // scene's AO length, ao_cutoff_relative; none when the scene has AO off), seeded
+  // by `seed`.
   std::string camera = "view1";
   float osah_w = 0.9f;
-  uint32_t osah_width = 256, osah_height = 256;  // primary rays cast for visibility
+  uint32_t osah_width = 256, osah_height = 256;
+  uint32_t osah_ao_rays = 4;
+  float osah_depth = 0.5f;
+  std::string osah_acceptance = "authors";
+  bool osah_spatial = true;
+  std::string osah_child_order = "visible-first";
   // aobvh
   uint32_t ao_rays = 4;           // K AO rays per estimate (docs/build-speed.md: K = 4..64 give the same mean ops/ray)
   uint32_t ao_share = 16;         // at most this many nearby triangles share one estimate (occlusion.h;
@@ -89,6 +100,8 @@ struct BuildReport {
   uint64_t median_splits = 0;   // fallback median splits (no usable SAH split / depth limit)
   uint64_t sanitised_values = 0;  // NaN/invalid weights or occlusion values replaced by 1
   uint64_t visible_triangles = 0;  // osah
+  uint32_t visibility_depth = 0;   // osah: the visibility split is tried above this depth
+  uint64_t visibility_splits = 0;  // osah: nodes given the visibility split
   double mean_occlusion = 0;    // aobvh: mean occlusion value (1 = open)
   uint64_t ao_rays = 0;         // aobvh: rays cast
   uint64_t rdh_rays = 0;        // rdh: sample rays cast (primary + AO)

@@ -9,10 +9,10 @@
 //        + sum over wide leaves       r(l) * T2 * W(l)  (W: sum of the leaf's weights)
 //
 // r(n) is the probability that a ray reaching the root reaches binary node n, the
-// product along its path of the builder's child probabilities: A(child)/A(parent),
-// or OSAH's visibility mix in mixed nodes. With weights (AO-BVH) W is the weight
-// sum, so an AO-weighted tree stays AO-weighted when it is made wide; without, W
-// is the triangle count and the cost is the SAH cost of metrics.h.
+// product along its path of the child probabilities A(child)/A(parent). With
+// weights (AO-BVH) W is the weight sum, so an AO-weighted tree stays AO-weighted
+// when it is made wide; without, W is the triangle count and the cost is the SAH
+// cost of metrics.h.
 //
 // For each binary node n and i = 1..width, C(n, i) is the least cost of covering
 // n's subtree with at most i wide-tree slots (subtrees whose roots become children
@@ -32,11 +32,8 @@ struct CollapseParams {
   uint32_t width = 4;          // 2..kMaxBvhWidth
   uint32_t max_leaf_size = 4;  // the node format's leaf capacity
   float t1 = 1.0f, t2 = 1.0f;
-  // The builder's rule (empty = SAH): per-triangle leaf weights (aobvh), and
-  // per-triangle visibility with its mix weight (osah).
+  // The builder's rule (empty = SAH): per-triangle leaf weights (aobvh, aosbvh).
   std::vector<float> weights;
-  std::vector<uint8_t> visibility;
-  float osah_w = 0.9f;
 };
 
 struct CollapseReport {

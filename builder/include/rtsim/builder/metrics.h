@@ -10,8 +10,9 @@
 // (A node of zero area - all geometry on a line or point - counts P_i = 1, as in
 // the builders.)
 // Weighted cost: the same recursion with the builder's weights and probability
-// rule (AO-BVH: weight sums; OSAH: visibility mix in mixed nodes) - the quantity
-// that builder minimised. Equals the SAH cost for sah, median and Embree.
+// rule (AO-BVH: weight sums) - the quantity that builder minimised. Equals the SAH
+// cost for every other builder (OSAH's visibility split is a rule of where to
+// split, not a cost it minimises over the tree).
 // EPO (end-point overlap, Aila, Karras, Laine 2013): for every node n the area of
 // the triangles NOT referenced below n that lie inside n's box, weighted by the
 // node's cost c(n) (2*T1 for inner nodes, T2*count for leaves), summed and divided
@@ -44,9 +45,8 @@ struct BvhMetrics {
   uint64_t treelets_restructured = 0;
 };
 
-// weights/visibility empty = all 1 / no visibility rule.
-double sah_cost(const Bvh& bvh, float t1, float t2, const std::vector<float>& weights = {},
-                const std::vector<uint8_t>& visibility = {}, float osah_w = 0.9f);
+// weights empty = all 1.
+double sah_cost(const Bvh& bvh, float t1, float t2, const std::vector<float>& weights = {});
 double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2);
 
 BvhMetrics compute_metrics(const Bvh& bvh, const Scene& scene, const BuildParams& params,

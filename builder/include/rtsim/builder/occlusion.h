@@ -20,8 +20,11 @@
 // estimate exactly (the same rays, the same values). docs/build-speed.md measures
 // what sharing costs in tree quality.
 //
-// Visibility (OSAH): a triangle is visible if any primary ray of the camera
-// (one through each pixel centre of a width x height image) hits it first.
+// Visibility (OSAH), as Vinkler, Havran and Sochor's renderer marks it (NTrace's
+// Renderer and CudaBVH::trace): a triangle is visible if a primary ray of the camera
+// (one through each pixel centre of a width x height image) hits it first, or, when
+// the workload has AO, one of the AO rays cast from those hits does
+// (cast_camera_rays, the rays rdh samples too).
 #include <rtsim/workloads/embree_scene.h>
 #include <rtsim/workloads/scene.h>
 
@@ -45,8 +48,14 @@ struct OcclusionParams {
 std::vector<float> estimate_occlusion(const Scene& scene, const EmbreeScene& embree,
                                       const OcclusionParams& params, uint64_t* rays_cast = nullptr);
 
-std::vector<uint8_t> estimate_visibility(const Scene& scene, const EmbreeScene& embree,
-                                         const Camera& camera, uint32_t width, uint32_t height);
+struct VisibilityParams {
+  uint32_t width = 256, height = 256;  // primary rays through the pixel centres
+  uint32_t ao_rays = 4;                // AO rays per primary hit that also mark (0: primary only)
+  float ao_cutoff = 0;                 // absolute AO length (<= 0: no AO rays)
+  uint64_t seed = 1;                   // the AO directions
+};
+std::vector<uint8_t> estimate_visibility(const Scene& scene, const EmbreeScene& embree, const Camera& camera,
+                                         const VisibilityParams& params);
 
 // AO-BVH weights from occlusion values: w = floor + (1 - floor) * value.
 // normalise = true (the default): then scaled to mean 1 so that T2 keeps meaning
