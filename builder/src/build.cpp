@@ -3,6 +3,7 @@
 #include <rtsim/builder/build.h>
 #include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/collapse.h>
+#include <rtsim/builder/metrics.h>
 #include <rtsim/workloads/error.h>
 
 #include "builders/builders.h"
@@ -90,6 +91,7 @@ Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report
   ordered_params.visibility = ordered.to_ordered(params.visibility);
   r.order_seconds = builders::seconds_since(order_start);
   Bvh bvh = info.build(ordered.scene, ordered_params, r);
+  if (info.splits_references) r.spatial_splits = count_spatial_splits(bvh);
   if (params.width > 2 && !info.builds_wide) {
     CollapseParams cp;
     cp.width = params.width;

@@ -95,6 +95,53 @@ double sah_cost(const Bvh& bvh, float t1, float t2, const std::vector<float>& we
   return cost[0];
 }
 
+uint64_t count_spatial_splits(const Bvh& bvh) {
+  const size_t count = bvh.nodes.size();
+  if (count == 0) return 0;
+  std::vector<uint32_t> parent(count, ~0u);
+  for (size_t i = 0; i < count; ++i) {
+    const BvhNode& n = bvh.nodes[i];
+    if (!n.is_leaf())
+      for (uint32_t c = n.index; c < n.index + n.children; ++c) parent[c] = uint32_t(i);
+  }
+  // Each triangle's leaves, grouped by triangle.
+  std::vector<std::pair<uint32_t, uint32_t>> leaf_of;  // (triangle, leaf)
+  leaf_of.reserve(bvh.prim_refs.size());
+  for (size_t i = 0; i < count; ++i) {
+    const BvhNode& n = bvh.nodes[i];
+    if (n.is_leaf())
+      for (uint32_t k = n.index; k < n.index + n.count; ++k) leaf_of.push_back({bvh.prim_refs[k], uint32_t(i)});
+  }
+  std::sort(leaf_of.begin(), leaf_of.end());
+  // Walk up from each of a triangle's leaves; a node reached from a second child
+  // is where the triangle branched. A walk stops at a node this triangle reached
+  // before (the rest of the path is walked already).
+  std::vector<uint32_t> stamp(count, ~0u), from(count, 0);
+  std::vector<uint8_t> split(count, 0);
+  for (size_t i = 0; i < leaf_of.size();) {
+    size_t end = i + 1;
+    while (end < leaf_of.size() && leaf_of[end].first == leaf_of[i].first) ++end;
+    if (end - i > 1) {
+      const uint32_t tri = leaf_of[i].first;
+      for (size_t k = i; k < end; ++k) {
+        uint32_t child = leaf_of[k].second;
+        for (uint32_t node = parent[child]; node != ~0u; child = node, node = parent[node]) {
+          if (stamp[node] == tri) {
+            if (from[node] != child) split[node] = 1;
+            break;
+          }
+          stamp[node] = tri;
+          from[node] = child;
+        }
+      }
+    }
+    i = end;
+  }
+  uint64_t splits = 0;
+  for (uint8_t s : split) splits += s;
+  return splits;
+}
+
 double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2) {
   const size_t n = scene.triangle_count(), count = bvh.nodes.size();
   if (count == 0 || n == 0) return 0;

@@ -471,7 +471,7 @@ class Builder {
   float root_area_ = 0;
   bool spatial_at_root_ = true;  // false: the root takes the best object split
   bool root_split_spatial_ = false;
-  std::atomic<uint64_t> spatial_splits_{0}, forced_splits_{0}, median_splits_{0}, visibility_splits_{0};
+  std::atomic<uint64_t> forced_splits_{0}, median_splits_{0}, visibility_splits_{0};
   std::atomic<uint64_t> ray_node_pairs_{0};
 };
 
@@ -1035,7 +1035,6 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
     if (best.kind == Split::Kind::Spatial) {
       partitioned = partition_spatial(best, begin, count, capacity, info, &left_count,
                                       &right_count, &left_capacity);
-      if (partitioned) spatial_splits_.fetch_add(1);
       if (partitioned && depth == 0) root_split_spatial_ = true;
       if (partitioned && best.visibility) visibility_splits_.fetch_add(1);
       // A spatial split whose children came out empty or over the budget: the best
@@ -1253,7 +1252,7 @@ Bvh Builder::run_once(bool spatial_at_root, CoreStats* stats) {
   const size_t n = scene_.triangle_count();
   spatial_at_root_ = spatial_at_root;
   root_split_spatial_ = false;
-  spatial_splits_ = 0, forced_splits_ = 0, median_splits_ = 0, ray_node_pairs_ = 0, visibility_splits_ = 0;
+  forced_splits_ = 0, median_splits_ = 0, ray_node_pairs_ = 0, visibility_splits_ = 0;
   nodes_.clear();
   const uint64_t capacity64 =
       config_.spatial_splits
@@ -1308,7 +1307,6 @@ Bvh Builder::run_once(bool spatial_at_root, CoreStats* stats) {
   }
   if (stats) {
     stats->references = bvh.prim_refs.size();
-    stats->spatial_splits = spatial_splits_.load();
     stats->forced_splits = forced_splits_.load();
     stats->median_splits = median_splits_.load();
     stats->visibility_splits = visibility_splits_.load();

@@ -64,7 +64,6 @@ struct CoreConfig {
 
 struct CoreStats {
   uint64_t references = 0;      // prim_refs in the final tree
-  uint64_t spatial_splits = 0;  // nodes split spatially
   uint64_t forced_splits = 0;   // nodes over max_leaf_size split although a leaf was cheaper
   uint64_t median_splits = 0;   // object/index-median fallbacks (no usable SAH split or depth limit)
   uint64_t visibility_splits = 0;  // OSAH (authors' rule): nodes given the visibility split

@@ -58,6 +58,35 @@ TEST(Metrics, EndPointOverlapMatchesAHandComputation) {
   EXPECT_NEAR(sah_cost(bvh, 1.0f, 1.0f), cost, 1e-6);
 }
 
+// Triangle 1 is in two leaves that meet at the root; triangle 2 in two leaves
+// that meet at node 2; triangle 0 in one: two nodes split spatially.
+TEST(Metrics, SpatialSplitsAreTheNodesWhereATrianglesLeavesBranch) {
+  Bvh bvh;
+  const Aabb box{vec3(0.0f), vec3(1.0f)};
+  bvh.nodes = {BvhNode{box, 1, 0, 2},   // 0: root
+               BvhNode{box, 0, 2, 0},   // 1: leaf {0, 1}
+               BvhNode{box, 3, 0, 2},   // 2: inner
+               BvhNode{box, 2, 2, 0},   // 3: leaf {1, 2}
+               BvhNode{box, 4, 1, 0}};  // 4: leaf {2}
+  bvh.prim_refs = {0, 1, 1, 2, 2};
+  EXPECT_EQ(count_spatial_splits(bvh), 2u);
+  bvh.prim_refs = {0, 1, 2, 3, 4};
+  EXPECT_EQ(count_spatial_splits(bvh), 0u);
+}
+
+// The same count for every builder, ours and Embree's, read off the tree.
+TEST(Metrics, EveryReferenceSplittingBuilderReportsItsSpatialSplits) {
+  const Scene scene = test::triangle_soup(3000, 5, 0.3f);
+  for (const char* builder : {"sah", "sbvh", "embree", "embree-sbvh"}) {
+    BuildParams p;
+    p.builder = builder;
+    BuildReport report;
+    const Bvh bvh = build_bvh(scene, p, &report);
+    EXPECT_EQ(report.spatial_splits, count_spatial_splits(bvh)) << builder;
+    EXPECT_EQ(report.spatial_splits > 0, bvh.prim_refs.size() > scene.triangle_count()) << builder;
+  }
+}
+
 TEST(Metrics, ReportCountsAreConsistent) {
   const Scene scene = test::triangle_soup(2000, 3, 0.2f);
   for (const char* builder : {"sah", "sbvh", "median"}) {

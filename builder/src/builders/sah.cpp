@@ -26,7 +26,6 @@ Bvh run_core(const Scene& scene, const detail::CoreConfig& config, BuildReport& 
   Bvh bvh = detail::build_weighted_sah(scene, config, &stats);
   report.build_seconds = seconds_since(start);
   report.references = stats.references;
-  report.spatial_splits = stats.spatial_splits;
   report.treelets_restructured = stats.treelets_restructured;
   report.forced_splits = stats.forced_splits;
   report.median_splits = stats.median_splits;

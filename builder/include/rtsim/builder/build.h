@@ -94,7 +94,10 @@ struct BuildReport {
   std::vector<float> weights;   // per-triangle weights the builder used (empty for sah/median)
   std::vector<uint8_t> visibility;  // osah: per-triangle visibility from the camera
   uint64_t references = 0;      // prim_refs (> N only with spatial splits)
-  uint64_t spatial_splits = 0;  // sbvh: nodes split spatially
+  // Nodes of the builder's own tree whose children share a triangle: the spatial
+  // splits that duplicated references (count_spatial_splits; 0 for builders that do
+  // not split references), read off the tree alike for ours and Embree's.
+  uint64_t spatial_splits = 0;
   uint64_t treelets_restructured = 0;  // sbvh: treelets rebuilt after the build (all passes)
   uint64_t forced_splits = 0;   // nodes over max_leaf_size split although a leaf was cheaper
   uint64_t median_splits = 0;   // fallback median splits (no usable SAH split / depth limit)

@@ -49,6 +49,11 @@ struct BvhMetrics {
 double sah_cost(const Bvh& bvh, float t1, float t2, const std::vector<float>& weights = {});
 double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2);
 
+// Inner nodes whose children share a triangle: where a spatial split sent parts of
+// one triangle to two children (a triangle referenced by several leaves branches
+// at exactly those nodes). Needs children after their parent (validated trees).
+uint64_t count_spatial_splits(const Bvh& bvh);
+
 BvhMetrics compute_metrics(const Bvh& bvh, const Scene& scene, const BuildParams& params,
                            const BuildReport& report, bool with_epo = true);
 
