@@ -38,8 +38,17 @@ std::string strict_number_problem(const std::string& type, const std::string& va
 
 }  // namespace
 
-bool is_numeric_option(const CLI::Option& option) {
+namespace {
+// CLI11's type of the option's values: get_type_name() without the descriptions its
+// checks append ("INT:INT in [1 - 1024]" for -j with CLI::Range).
+std::string value_type(const CLI::Option& option) {
   const std::string type = option.get_type_name();
+  return type.substr(0, type.find(':'));
+}
+}  // namespace
+
+bool is_numeric_option(const CLI::Option& option) {
+  const std::string type = value_type(option);
   return option.get_expected_max() > 0 && (type == "UINT" || type == "INT" || type == "FLOAT");
 }
 
@@ -52,7 +61,7 @@ bool is_numeric_option(const CLI::Option& option) {
 void make_numbers_strict(CLI::App& app) {
   for (CLI::Option* option : app.get_options()) {
     if (!is_numeric_option(*option)) continue;
-    const std::string type = option->get_type_name();
+    const std::string type = value_type(*option);
     option->transform(CLI::Validator(
         [type](std::string& value) { return strict_number_problem(type, value); }, "", "strict-number"));
   }
