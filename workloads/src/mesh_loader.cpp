@@ -15,6 +15,7 @@
 #include <rtsim/workloads/fork.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <csignal>
@@ -377,8 +378,15 @@ Mesh load_mesh_assimp(const std::filesystem::path& path) {
   return decode_mesh(answer.substr(1), path.string());
 }
 
+namespace {
+std::atomic<uint64_t> g_mesh_files_loaded{0};
+}  // namespace
+
+uint64_t mesh_files_loaded() { return g_mesh_files_loaded.load(); }
+
 Mesh load_mesh(const std::filesystem::path& path, const MeshOptions& options) {
   if (!path_exists(path)) throw InputError(path.string(), "no such file or folder");
+  ++g_mesh_files_loaded;
   const std::string ext = lower(path.extension().string());
   const std::string file_name = lower(path.filename().string());
   if (ext == ".bsp") return parse_q3bsp(read_file_bytes(path), path.string(), options);
