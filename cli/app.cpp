@@ -79,8 +79,8 @@ void add_rtsim_commands(CLI::App& app) {
            parse_memory_size(size, "--memory-limit");
            ::setenv(kMemoryLimitVariable, size.c_str(), 1);
          },
-         std::string("the most memory one rtsim process may plan to use (e.g. 64G; default: half the "
-                     "machine's memory); sets ") + kMemoryLimitVariable)
+         std::string("most memory one rtsim may plan to use, e.g. 64G (default: half the\n"
+                     "machine's memory); sets ") + kMemoryLimitVariable + " for it and its jobs")
       ->type_name("SIZE");
   add_scenes_command(app);
   add_build_command(app);
