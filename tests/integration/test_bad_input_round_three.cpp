@@ -156,8 +156,12 @@ TEST(RoundThree, ABigFileGivenToBvhIsRefusedByItsMagicWithoutReadingIt) {
   const fs::path big = dir / "big.bin";
   { std::ofstream(big) << "not a tree"; }
   fs::resize_file(big, uint64_t(2) << 30);  // sparse
-  const CliResult r = run_rtsim_command("cd " + shell_quote(dir.string()) + " && ulimit -v 1200000 && " +
-                                        shell_quote(RTSIM_BINARY) + " trace --scene cornell --bvh big.bin 2>&1");
+  const std::string limited = "cd " + shell_quote(dir.string()) + " && ulimit -v 1200000 && " + shell_quote(RTSIM_BINARY);
+  if (run_rtsim_command(limited + " --version 2>&1").exit_code != 0) {
+    fs::remove(big);
+    GTEST_SKIP() << "rtsim cannot start in 1.2 GB of address space (a sanitizer build reserves terabytes)";
+  }
+  const CliResult r = run_rtsim_command(limited + " trace --scene cornell --bvh big.bin 2>&1");
   expect_refused(r, {"big.bin", "header.magic", "not an rtsim BVH file"}, "2 GB");
   fs::remove(big);
 }
