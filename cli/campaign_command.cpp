@@ -112,6 +112,10 @@ void add_campaign_command(CLI::App& root) {
     cmd->callback([=] {
       const Campaign c = load(*a);
       const CampaignPaths paths = paths_of(c, *a);
+      // Every path the run writes, before the first job (they failed as "internal
+      // error: filesystem error" once jobs were under way).
+      check_output_folder(paths.dir, "--out-dir");
+      check_output_file(paths.database, "--db");
       RunOptions o;
       o.parallel = *parallel;
       o.retry_failed = *retry_failed;
@@ -119,7 +123,7 @@ void add_campaign_command(CLI::App& root) {
       o.binary = job_binary(*a);
       o.timeout_seconds = *timeout;
       o.progress = Progress::enabled();
-      o.tree_cache = tree_cache_of(*a);
+      o.tree_cache = usable_tree_cache(tree_cache_of(*a), "--tree-cache");
       const RunSummary s = run_campaign(c, paths, o);
       ResultsStore store(paths.database, ResultsStore::Access::ReadOnly);
       const CampaignStatus st = campaign_status(c, paths, store);
@@ -268,8 +272,14 @@ void add_campaign_command(CLI::App& root) {
         ->check(CLI::NonNegativeNumber);
     cmd->callback([=] {
       if (!*slurm && !*parallel) throw InputError("campaign emit", "choose --slurm or --parallel");
+      // Each option is one #SBATCH line: a line break would start a line of the script.
+      for (const std::string& option : o->sbatch_options)
+        if (option.find_first_of("\n\r") != std::string::npos)
+          throw InputError("--sbatch-option", "must be one line; '" + option.substr(0, option.find_first_of("\n\r")) +
+                                                  "...' holds a line break");
       const Campaign c = load(*a);
       const CampaignPaths paths = paths_of(c, *a);
+      check_output_folder(paths.dir, "--out-dir");
       ResultsStore store(paths.database, ResultsStore::Access::ReadOnly);
       if (!a->binary.empty()) o->binary = job_binary(*a);
       const fs::path runner = o->runner.empty() ? self_executable() : o->runner;
@@ -305,6 +315,7 @@ void add_campaign_command(CLI::App& root) {
     cmd->callback([=] {
       const Campaign c = load(*a);
       const CampaignPaths paths = paths_of(c, *a);
+      check_output_file(paths.database, "--db");
       ResultsStore store(paths.database);
       const CollectSummary s = collect_results(c, paths, store);
       if (*json_out)
@@ -341,8 +352,10 @@ void add_campaign_command(CLI::App& root) {
       if (!job)
         throw InputError("--key " + *key, "no job with this key in " + c.file.string() +
                                               " at revision " + c.revision);
-      const RunRecord r = run_one_job(c, *job, paths_of(c, *a), job_binary(*a), *timeout, *force,
-                                      tree_cache_of(*a));
+      const CampaignPaths paths = paths_of(c, *a);
+      check_output_folder(paths.dir, "--out-dir");
+      const RunRecord r = run_one_job(c, *job, paths, job_binary(*a), *timeout, *force,
+                                      usable_tree_cache(tree_cache_of(*a), "--tree-cache"));
       if (*json_out)
         std::cout << r.to_json().dump(2) << "\n";
       else

@@ -35,8 +35,9 @@ void add_claim_command(CLI::App& root) {
   cmd->add_option("--scenes", o->claim.scenes,
                   "scenes (default: the built-in ones and every fetched scene in the cache)");
   cmd->add_option("--cameras", o->claim.cameras, "cameras")->capture_default_str();
-  cmd->add_option("--replicates", o->claim.replicates, "seed replicates (>= 2)")->capture_default_str();
-  cmd->add_option("--res", o->claim.resolution, "image size WxH")->capture_default_str();
+  CLI::Option* replicates =
+      cmd->add_option("--replicates", o->claim.replicates, "seed replicates (>= 2)")->capture_default_str();
+  CLI::Option* resolution = cmd->add_option("--res", o->claim.resolution, "image size WxH")->capture_default_str();
   cmd->add_option("--ao", o->claim.ao_rays, "AO rays per primary hit")->capture_default_str();
   cmd->add_option("--config", o->claim.preset, "hardware preset or TOML")->capture_default_str();
   cmd->add_option("-j,--jobs", o->claim.jobs, "simulations at once")->check(CLI::Range(1, 1024))->capture_default_str();
@@ -49,18 +50,28 @@ void add_claim_command(CLI::App& root) {
                   "so a newer report can read an older binary's finished map)");
   cmd->add_flag("--quick", o->quick, "a smoke run of a minute or two (cornell, 3 replicates, 32x32)");
   cmd->add_flag("--json", o->json, "print claim.json to stdout instead of the summary");
-  cmd->callback([o] {
-    ClaimOptions options = o->quick ? quick_claim_options(o->claim) : o->claim;
+  cmd->add_flag("--retry-failed", o->claim.retry_failed,
+                "rerun the jobs recorded as failed (a read-only tree cache, a full disk) instead of keeping them");
+  cmd->callback([o, replicates, resolution] {
+    // The flags as given first, then what --quick would replace: it must not hide them.
     uint32_t w = 0, h = 0;
+    parse_resolution(o->claim.resolution, w, h);
+    if (o->claim.replicates < 2) throw InputError("--replicates", "needs at least 2 for an interval");
+    for (const CLI::Option* fixed : {replicates, resolution})
+      if (o->quick && fixed->count() > 0)
+        throw InputError(fixed->get_name(), "--quick sets it (3 replicates, 32x32); give one or the other");
+    ClaimOptions options = o->quick ? quick_claim_options(o->claim) : o->claim;
     parse_resolution(options.resolution, w, h);
     options.rtsim_binary = o->binary.empty() ? self_executable() : std::filesystem::absolute(o->binary);
     // Another binary's trees are shared only where asked (as campaign run does).
     if (!o->binary.empty() && o->tree_cache.empty() && !o->no_tree_cache)
       throw InputError("--rtsim", "give --tree-cache (or --no-tree-cache) with another job binary");
     options.progress = Progress::enabled();
-    options.tree_cache = o->no_tree_cache       ? std::filesystem::path()
-                         : o->tree_cache.empty() ? scene_cache_dir() / "trees"
-                                                 : std::filesystem::absolute(o->tree_cache);
+    options.tree_cache = usable_tree_cache(o->no_tree_cache       ? std::filesystem::path()
+                                           : o->tree_cache.empty() ? scene_cache_dir() / "trees"
+                                                                   : std::filesystem::absolute(o->tree_cache),
+                                           "--tree-cache");
+    check_output_folder(options.out_dir, "--out-dir");
     const ClaimSummary s = run_claim(options);
     if (s.interrupted) throw ExitStatus(130, "interrupted; the same command resumes");
     if (o->json)

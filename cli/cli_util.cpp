@@ -4,9 +4,11 @@
 
 #include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/bvh_file.h>
+#include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/workloads/config_reader.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
+#include <rtsim/workloads/host.h>
 #include <rtsim/workloads/scene_registry.h>
 
 #include <cerrno>
@@ -116,6 +118,32 @@ OutputFolder::~OutputFolder() {
   }
 }
 
+void check_output_folder(const fs::path& path, const std::string& flag) {
+  OutputFolder folder;
+  folder.prepare(path, flag);
+  folder.keep();
+}
+
+fs::path usable_tree_cache(const fs::path& cache, const std::string& flag) {
+  if (cache.empty()) return cache;
+  const std::string name = typed_flag(flag) + " " + cache.string();
+  if (path_exists(cache) && !is_folder(cache)) throw InputError(name, "exists and is not a folder");
+  for (fs::path p = cache.parent_path(); !p.empty(); p = p.parent_path()) {
+    if (path_exists(p)) {
+      if (!is_folder(p)) throw InputError(name, "'" + p.string() + "' is a file, not a folder");
+      break;
+    }
+    if (p == p.parent_path()) break;
+  }
+  std::error_code ec;
+  fs::create_directories(cache, ec);
+  const std::string why = ec ? ec.message() : probe_writable(cache);
+  if (why.empty()) return cache;
+  std::fprintf(stderr, "rtsim: warning: %s: the tree cache cannot be written (%s); every job builds its own "
+                       "tree in its folder\n", name.c_str(), why.c_str());
+  return {};
+}
+
 void check_output_file(const fs::path& path, const std::string& flag) {
   const std::string name = typed_flag(flag) + " " + path.string();
   if (path.empty()) throw InputError(typed_flag(flag), "must name a file");
@@ -151,6 +179,34 @@ void check_build_flags(const BuildParams& params) {
   }
 }
 
+void check_frame_flags(const EffectSettings& settings) {
+  if (settings.spp == 0 || settings.spp > 1024) throw InputError(typed_flag("--spp"), "must be 1..1024");
+  if (settings.ao_samples < -1 || settings.ao_samples > 1024)
+    throw InputError(typed_flag("--ao"), "must be 0..1024 (or -1: the scene decides)");
+  if (settings.max_depth > kMaxBounces)
+    throw InputError(typed_flag("--bounces"), "must be 0.." + std::to_string(kMaxBounces) + ", got " +
+                                                  std::to_string(settings.max_depth));
+}
+
+void check_frame_memory(const Scene& scene, const EffectSettings& settings) {
+  const EffectPlan plan = plan_effects(scene, settings);
+  const uint64_t primary = uint64_t(settings.width) * settings.height * settings.spp;
+  const uint64_t rays = max_frame_rays(scene, plan, primary);
+  check_memory_budget(saturating_mul(rays, sizeof(Ray) + sizeof(TraceResult)), "--res x --spp x --bounces",
+                      "up to " + std::to_string(rays) + " rays: " + std::to_string(settings.width) + "x" +
+                          std::to_string(settings.height) + " x " + std::to_string(settings.spp) +
+                          " spp primary rays, each with " + std::to_string(plan.ao_samples) + " AO rays and " +
+                          std::to_string(plan.max_depth) + " bounces in scene '" + scene.name + "'");
+}
+
+void refuse_with_rays_in(const std::vector<const CLI::Option*>& flags) {
+  for (const CLI::Option* flag : flags)
+    if (flag->count() > 0)
+      throw InputError(typed_flag(flag->get_name()),
+                       "has no effect with --rays-in: the ray file fixes every ray (no rays are generated or "
+                       "spawned); leave it out");
+}
+
 std::string node_format_flag(const std::string& value, const std::string& fallback,
                              const std::string& flag) {
   if (value.empty()) return fallback;
@@ -161,10 +217,13 @@ std::string node_format_flag(const std::string& value, const std::string& fallba
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
                    uint64_t shuffle_seed, uint32_t threads, const std::string& node_format,
-                   const std::vector<std::string>& build_settings, float ao_cutoff_relative) {
+                   const std::vector<std::string>& build_settings, float ao_cutoff_relative,
+                   bool builder_given, const std::function<void(const Scene&)>& check_scene) {
   if (!bvh_file.empty() && !build_settings.empty())
     throw InputError("--build-set", "cannot change a saved tree (--bvh); build it with these settings");
+  if (bvh_file.empty()) builder_info(builder, typed_flag("--builder"));  // before the scene is loaded
   out.scene = load_scene(scene.empty() ? default_scene_name() : scene);
+  if (check_scene) check_scene(out.scene);
   if (shuffle_seed != 0) shuffle_triangles(out.scene, shuffle_seed);
   if (ao_cutoff_relative > 0) out.scene.ao.cutoff_relative = ao_cutoff_relative;
   out.camera = camera.empty() ? &out.scene.default_camera() : &out.scene.camera(camera);
@@ -183,6 +242,9 @@ void load_workload(Workload& out, const std::string& scene, const std::string& c
     // table1 runs use exactly the tree that was measured.
     BvhFileHeader header;
     out.bvh = load_bvh(bvh_file, &out.scene, &header);
+    if (builder_given && builder != header.builder)
+      throw InputError("--builder", "'" + builder + "' does not match the saved tree (--bvh " + bvh_file +
+                                        "), built by '" + header.builder + "'; leave --builder out");
     out.params.builder = header.builder;
     // The tree must have been built for the node format's width: a binary tree in
     // 6-wide records would run, but measure neither tree nor format.

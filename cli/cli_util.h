@@ -4,12 +4,14 @@
 // work with a warning, output paths checked before any work, errors that name
 // the flag the user typed.
 #include <rtsim/builder/build.h>
+#include <rtsim/model/core/ray_generation.h>
 #include <rtsim/workloads/scene.h>
 
 #include <CLI/CLI.hpp>
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -82,6 +84,16 @@ class OutputFolder {
   bool keep_ = false;
 };
 
+// A folder a command writes into for good (a campaign's folder): prepare() and
+// keep() of OutputFolder in one call.
+void check_output_folder(const std::filesystem::path& path, const std::string& flag);
+
+// The tree cache a campaign or claim shares trees through, checked before any job:
+// a path that is a file (or under one) is refused, naming `flag`; a folder that
+// cannot be created or written gives a warning and no cache (every job builds its
+// own tree in its folder). Empty in, empty out.
+std::filesystem::path usable_tree_cache(const std::filesystem::path& cache, const std::string& flag);
+
 // An output file: not a folder, and its folder (the first one that exists on the
 // way up; the rest is created when the file is written) can be written.
 void check_output_file(const std::filesystem::path& path, const std::string& flag);
@@ -114,12 +126,29 @@ struct Workload {
 // node format; not allowed with a saved tree. `ao_cutoff_relative` > 0 replaces the
 // scene's AO ray length (x diagonal) before the build: the workload's and the
 // builders' AO rays (simulate --ao-cutoff).
+// `builder_given`: --builder was on the command line; with a saved tree it must then
+// name the tree's builder (a tree labelled sah must not carry median's numbers).
+// `check_scene` runs after the scene is loaded, before the tree is built or read.
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
                    uint64_t shuffle_seed = 0, uint32_t threads = 0,
                    const std::string& node_format = "bvh2-64",
                    const std::vector<std::string>& build_settings = {},
-                   float ao_cutoff_relative = -1);
+                   float ao_cutoff_relative = -1, bool builder_given = false,
+                   const std::function<void(const Scene&)>& check_scene = {});
+
+// ---- the frame: trace's and simulate's image flags, checked alike
+
+// --spp 1..1024, --ao -1..1024, --bounces 0..kMaxBounces (the reflection/refraction
+// depth Ray::bounce can count), before any work.
+void check_frame_flags(const EffectSettings& settings);
+// Refuses a frame whose rays could need more memory than the limit (rtsim/workloads/
+// host.h), from the scene's materials and lights: --res x --spp x (AO, shadow and
+// bounce rays per primary ray). `frames` copies are kept (simulate --frames: 1).
+void check_frame_memory(const Scene& scene, const EffectSettings& settings);
+// With a replayed ray file (--rays-in) the rays are fixed: these flags, each one
+// that generates or spawns rays, would be ignored; refused when given.
+void refuse_with_rays_in(const std::vector<const CLI::Option*>& flags);
 
 // --node-format NAME: checks the name (a message listing the formats, naming the
 // flag) and returns it; empty value: `fallback` (the hardware's memory.node_format).

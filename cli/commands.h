@@ -24,4 +24,11 @@ void add_accuracy_command(CLI::App& root);
 void add_report_command(CLI::App& root);
 void add_claim_command(CLI::App& root);
 
+// The whole command line: every subcommand above, then make_numbers_strict.
+void add_rtsim_commands(CLI::App& app);
+// Puts the strict number reader in front of every numeric option of `app` and its
+// subcommands (an option is numeric when CLI11 types it UINT, INT or FLOAT).
+void make_numbers_strict(CLI::App& app);
+bool is_numeric_option(const CLI::Option& option);
+
 }  // namespace rtsim::cli

@@ -9,17 +9,7 @@
 int main(int argc, char** argv) {
   CLI::App app{"rtsim: build BVHs (SAH, SBVH, OSAH, AO-BVH) and simulate a ray-tracing accelerator\n"
                "(TRV, IST, shading, caches, DRAM) at three fidelity levels"};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", RTSIM_VERSION " (" RTSIM_GIT_REVISION ")");
-  rtsim::cli::add_scenes_command(app);
-  rtsim::cli::add_build_command(app);
-  rtsim::cli::add_campaign_command(app);
-  rtsim::cli::add_report_command(app);
-  rtsim::cli::add_trace_command(app);
-  rtsim::cli::add_simulate_command(app);
-  rtsim::cli::add_table1_command(app);
-  rtsim::cli::add_accuracy_command(app);
-  rtsim::cli::add_claim_command(app);
+  rtsim::cli::add_rtsim_commands(app);
   // No arguments at all: the list of subcommands, as --help gives it, not an error.
   if (argc <= 1) {
     std::fputs(app.help().c_str(), stdout);

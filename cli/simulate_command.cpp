@@ -38,6 +38,9 @@ struct SimulateOptions {
   uint64_t seed = 1, shuffle_faces = 0;
   std::vector<std::string> build_settings;  // --build-set KEY=VALUE
   bool json = false;
+  // Flags whose presence matters (given or not), filled when the command is added.
+  const CLI::Option* builder_flag = nullptr;
+  std::vector<const CLI::Option*> ray_making_flags;  // meaningless with --rays-in
 };
 
 void run_simulate(const SimulateOptions& o) {
@@ -46,12 +49,12 @@ void run_simulate(const SimulateOptions& o) {
   request.config = sim::load_hardware_config(o.config);
   request.config.node_format = node_format_flag(o.node_format, request.config.node_format);
   parse_resolution(o.resolution, request.settings.width, request.settings.height);
-  if (o.ao < -1 || o.ao > 1024) throw InputError("--ao", "must be 0..1024");
-  if (o.spp == 0 || o.spp > 1024) throw InputError("--spp", "must be 1..1024");
   request.settings.ao_samples = o.ao;
   request.settings.spp = o.spp;
   request.settings.seed = o.seed;
   request.settings.max_depth = o.bounces;
+  check_frame_flags(request.settings);
+  if (!o.rays_in.empty()) refuse_with_rays_in(o.ray_making_flags);
   // The output folder first: a wrong one must not cost a whole simulation.
   OutputFolder out_dir;
   out_dir.prepare(o.out_dir, "--out-dir");
@@ -62,7 +65,10 @@ void run_simulate(const SimulateOptions& o) {
   if (o.ao_cutoff != -1 && !(o.ao_cutoff > 0 && o.ao_cutoff <= AoSettings::kMaxCutoffRelative))
     throw InputError("--ao-cutoff", "must be in (0, 10] (x scene diagonal)");
   load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, 0,
-                request.config.node_format, o.build_settings, float(o.ao_cutoff));
+                request.config.node_format, o.build_settings, float(o.ao_cutoff), o.builder_flag->count() > 0,
+                [&](const Scene& loaded) {
+                  if (o.rays_in.empty()) check_frame_memory(loaded, request.settings);
+                });
   const Scene& scene = workload.scene;
   const Camera& camera = *workload.camera;
   const BuildParams& params = workload.params;
@@ -166,7 +172,8 @@ void add_simulate_command(CLI::App& root) {
   CLI::App* cmd = root.add_subcommand(
       "simulate", "Run the accelerator model (functional | lt | cycle) and write config/stats JSON");
   cmd->add_option("--scene", opts->scene, "scene name or file (default: interior)");
-  cmd->add_option("--builder", opts->builder, "BVH builder: " + builder_list())->capture_default_str();
+  opts->builder_flag =
+      cmd->add_option("--builder", opts->builder, "BVH builder: " + builder_list())->capture_default_str();
   cmd->add_option("--camera", opts->camera, "camera name (default: view1, else the scene's first)");
   cmd->add_option("--fidelity", opts->fidelity, "functional | lt | cycle")->capture_default_str();
   cmd->add_option("--config", opts->config, "hardware preset (mobile | desktop | mobile-gpu | desktop-gpu) or TOML file")
@@ -179,12 +186,15 @@ void add_simulate_command(CLI::App& root) {
   cmd->add_option("--ao-cutoff", opts->ao_cutoff,
                   "AO ray length x scene diagonal (default: the scene's); the builders' AO rays follow\n"
                   "it unless --build-set ao_cutoff_relative says otherwise");
-  cmd->add_option("--ao", opts->ao, "AO rays per primary hit (-1: the scene decides, 0: off)")
-      ->capture_default_str();
-  cmd->add_option("--spp", opts->spp, "samples per pixel")->capture_default_str();
-  cmd->add_option("--bounces", opts->bounces, "reflection/refraction bounces")->capture_default_str();
-  add_deprecated_option(cmd, "--max-depth", "--bounces", opts->bounces,
-                        " (the bounce count in trace and simulate; the BVH depth in build and table1)");
+  opts->ray_making_flags = {
+      cmd->add_option("--ao", opts->ao, "AO rays per primary hit (-1: the scene decides, 0: off)")
+          ->capture_default_str(),
+      cmd->add_option("--spp", opts->spp, "samples per pixel")->capture_default_str(),
+      cmd->add_option("--bounces", opts->bounces,
+                      "reflection/refraction bounces (0.." + std::to_string(kMaxBounces) + ")")
+          ->capture_default_str(),
+      add_deprecated_option(cmd, "--max-depth", "--bounces", opts->bounces,
+                            " (the bounce count in trace and simulate; the BVH depth in build and table1)")};
   cmd->add_option("--seed", opts->seed, "seed of every random choice (rays and the build)")
       ->capture_default_str();
   cmd->add_option("--rays-in", opts->rays_in, "replay this ray file (rtsim trace --rays-out; no secondary rays)");

@@ -39,6 +39,9 @@ struct TraceOptions {
   uint64_t seed = 1;
   float heat_max = 150.0f;
   bool json = false, validate = false;
+  // Flags whose presence matters (given or not), filled when the command is added.
+  const CLI::Option* builder_flag = nullptr;
+  std::vector<const CLI::Option*> ray_making_flags;  // meaningless with --rays-in
 };
 
 nlohmann::json totals_json(const CounterTotals& t, uint64_t all_ops) {
@@ -88,8 +91,6 @@ double hit_rate(const std::vector<std::unique_ptr<sim::CacheModel>>& level) {
 void run_trace(const TraceOptions& o) {
   EffectSettings settings;
   parse_resolution(o.resolution, settings.width, settings.height);
-  if (o.spp == 0 || o.spp > 1024) throw InputError("--spp", "must be 1..1024");
-  if (o.ao < -1 || o.ao > 1024) throw InputError("--ao", "must be 0..1024");
   if (!(o.heat_max > 0.0f)) throw InputError("--heat-max", "must be > 0");
   if (o.stack_limit < 1) throw InputError("--stack-limit", "must be at least 1");
   sim::HardwareConfig hardware = sim::load_hardware_config(o.config);
@@ -110,6 +111,8 @@ void run_trace(const TraceOptions& o) {
   settings.seed = o.seed;
   settings.ao_samples = o.ao;
   settings.max_depth = o.bounces;
+  check_frame_flags(settings);
+  if (!o.rays_in.empty()) refuse_with_rays_in(o.ray_making_flags);
   // Output paths first: a wrong one must not cost a build and a trace.
   OutputFolder pictures;
   if (!o.out_dir.empty()) pictures.prepare(o.out_dir, "--out-dir");
@@ -117,7 +120,9 @@ void run_trace(const TraceOptions& o) {
 
   Workload workload;
   load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, o.threads,
-                hardware.node_format);
+                hardware.node_format, {}, -1, o.builder_flag->count() > 0, [&](const Scene& loaded) {
+                  if (o.rays_in.empty()) check_frame_memory(loaded, settings);
+                });
   const Scene& scene = workload.scene;
   const Camera& camera = *workload.camera;
   const Bvh& bvh = workload.bvh;
@@ -270,16 +275,23 @@ void add_trace_command(CLI::App& root) {
   CLI::App* cmd = root.add_subcommand(
       "trace", "Trace primary rays and the secondary rays the scene calls for through the functional core");
   cmd->add_option("--scene", options->scene, "scene name or file (default: the default scene)");
-  cmd->add_option("--builder", options->builder, "BVH builder: " + builder_list())->capture_default_str();
+  options->builder_flag =
+      cmd->add_option("--builder", options->builder, "BVH builder: " + builder_list())->capture_default_str();
   cmd->add_option("--camera", options->camera, "camera name (default: view1, else the scene's first)");
-  cmd->add_option("--ao", options->ao, "AO rays per primary hit (0: off; default: the scene's)");
+  options->ray_making_flags.push_back(
+      cmd->add_option("--ao", options->ao, "AO rays per primary hit (0: off; default: the scene's)"));
   cmd->add_option("--res", options->resolution, "image resolution WxH")->capture_default_str();
-  cmd->add_option("--spp", options->spp, "samples per pixel")->capture_default_str();
+  options->ray_making_flags.push_back(
+      cmd->add_option("--spp", options->spp, "samples per pixel")->capture_default_str());
   cmd->add_option("--seed", options->seed, "seed of every random choice (rays and the build)")
       ->capture_default_str();
-  cmd->add_option("--bounces", options->bounces, "reflection/refraction bounces")->capture_default_str();
-  add_deprecated_option(cmd, "--max-depth", "--bounces", options->bounces,
-                        " (the bounce count in trace and simulate; the BVH depth in build and table1)");
+  options->ray_making_flags.push_back(
+      cmd->add_option("--bounces", options->bounces,
+                      "reflection/refraction bounces (0.." + std::to_string(kMaxBounces) + ")")
+          ->capture_default_str());
+  options->ray_making_flags.push_back(
+      add_deprecated_option(cmd, "--max-depth", "--bounces", options->bounces,
+                            " (the bounce count in trace and simulate; the BVH depth in build and table1)"));
   cmd->add_option("--threads", options->threads,
                   "threads for the build, the trace and validation (0: all); results do not depend on it");
   cmd->add_option("--config", options->config,

@@ -1,5 +1,6 @@
 // The two tables of builder_registry.h: the builders, and their parameters.
 #include <rtsim/builder/builder_registry.h>
+#include <rtsim/workloads/numbers.h>
 #include <rtsim/workloads/error.h>
 
 #include "builders/builders.h"
@@ -256,17 +257,14 @@ void set_build_parameter(BuildParams& target, const std::string& key, const std:
           else
             throw InputError(name, "'" + text + "' is not on/off (or true/false)");
         } else {
-          const char* begin = text.c_str();
-          char* end = nullptr;
-          errno = 0;
-          const double v = std::strtod(begin, &end);
-          if (text.empty() || end != begin + text.size() || errno == ERANGE || !std::isfinite(v))
-            throw InputError(name, "'" + text + "' is not a finite number");
+          // The strict reader (rtsim/workloads/numbers.h): "010", "0x10", "+2" and
+          // "" are refused, and a seed past 2^53 keeps every digit.
           if constexpr (std::is_integral_v<T>) {
-            if (v != std::floor(v) || v < 0 || v > double(std::numeric_limits<T>::max()))
-              throw InputError(name, "'" + text + "' is not a whole number >= 0");
+            params.*member = T(read_unsigned(text, 0, std::numeric_limits<T>::max(), name));
+          } else {
+            params.*member = T(read_real(text, -std::numeric_limits<double>::max(),
+                                         std::numeric_limits<double>::max(), name));
           }
-          params.*member = T(v);
         }
       },
       p->field);

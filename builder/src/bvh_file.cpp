@@ -3,10 +3,12 @@
 #include <rtsim/builder/validate_bvh.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
+#include <rtsim/workloads/host.h>
 #include <rtsim/workloads/random.h>
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -124,6 +126,17 @@ void save_bvh(const std::filesystem::path& path, const Bvh& bvh, const BvhFileHe
 
 Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeader* header_out) {
   const std::string file = path.string();
+  // The magic first, from the first bytes alone: a 2 GB file that is no BVH file
+  // must not be read whole (it was: 4.2 GB peak and 48 s) to be refused.
+  const uint64_t size = check_input_file(path, kMaxDataFileBytes);
+  {
+    char magic[sizeof kMagic] = {};
+    std::ifstream in(path, std::ios::binary);
+    in.read(magic, sizeof magic);
+    if (size < sizeof kMagic || !in || std::memcmp(magic, kMagic, sizeof kMagic) != 0)
+      throw InputError(file + ": header.magic", "not an rtsim BVH file (it does not start with RTSIMBVH)");
+  }
+  check_memory_budget(saturating_mul(size, 2), file, "the file's " + memory_text(size) + ", read whole, then its tree");
   const std::string data = read_input_file(path, kMaxDataFileBytes);
   Reader r(file, data);
 
@@ -141,6 +154,21 @@ Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeade
   h.triangle_count = r.get<uint64_t>("header.triangle_count");
   h.builder = r.text("header.builder");
   h.params_json = r.text("header.parameters");
+  // The builder must be one this rtsim knows (a tree is labelled with it in every
+  // result, and a name that is not UTF-8 cannot even be written to JSON), and the
+  // parameters a JSON object.
+  const std::vector<std::string> known = builder_names();
+  if (std::find(known.begin(), known.end(), h.builder) == known.end()) {
+    std::string list;
+    for (const std::string& b : known) list += (list.empty() ? "" : ", ") + b;
+    std::string shown;
+    for (unsigned char c : h.builder.substr(0, 64)) shown += c >= 0x20 && c < 0x7f ? char(c) : '?';
+    r.fail("header.builder", "'" + shown + "' is not a builder this rtsim knows (" + list + ")");
+  }
+  {
+    const nlohmann::json parameters = nlohmann::json::parse(h.params_json, nullptr, /*allow_exceptions=*/false);
+    if (!parameters.is_object()) r.fail("header.parameters", "is not a JSON object");
+  }
   const uint64_t node_count = r.get<uint64_t>("header.node_count");
   const uint64_t ref_count = r.get<uint64_t>("header.reference_count");
   // Sizes must match exactly: nodes, refs and the 8-byte checksum.

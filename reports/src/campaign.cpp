@@ -319,10 +319,21 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
     campaign.description = meta.string("description", "");
     meta.finish();
   }
-  if (campaign.name.empty() ||
+  // The name is a folder's (rtsim-campaigns/<name>): "." and ".." would put the
+  // campaign beside its file or above, and a name past what a file system takes in
+  // one path component fails every command.
+  constexpr size_t kMaxCampaignName = 200;
+  const bool control = std::any_of(campaign.name.begin(), campaign.name.end(),
+                                   [](char ch) { return static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f; });
+  if (campaign.name.empty() || control || campaign.name == "." || campaign.name == ".." ||
       campaign.name.find_first_of("/\\ \t\n'\"") != std::string::npos)
     throw InputError(fname + ": key 'campaign.name'",
-                     "must be a non-empty name without spaces, quotes or slashes");
+                     "must be a non-empty name without spaces, quotes, slashes or control characters, "
+                     "and not . or ..");
+  if (campaign.name.size() > kMaxCampaignName)
+    throw InputError(fname + ": key 'campaign.name'",
+                     "is " + std::to_string(campaign.name.size()) + " characters long; at most " +
+                         std::to_string(kMaxCampaignName) + " (it names a folder)");
 
   Sweep base;
   base.axes["preset"] = {json("mobile")};

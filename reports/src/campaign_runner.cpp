@@ -2,11 +2,14 @@
 #include <rtsim/reports/campaign_runner.h>
 #include <rtsim/reports/simulation_job.h>
 
+#include <rtsim/builder/build.h>
 #include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/bvh_file.h>
+#include <rtsim/builder/node_format.h>
 
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
+#include <rtsim/workloads/numbers.h>
 
 #include <fcntl.h>
 #include <signal.h>
@@ -146,20 +149,53 @@ fs::path fresh_job_dir(const CampaignPaths& paths, const std::string& key) {
 // error, an interrupted copy) would fail every job that replays it, for ever; it
 // is moved aside so that the next job builds it again. Checked once per process
 // and file: a tree being built is only renamed into place when complete.
-void discard_damaged_tree(const fs::path& tree) {
+// Why a cached tree is not the tree `job` asks for ("" when it is): the header's
+// builder and the parameters that shape the tree (build_params_json, as `rtsim
+// build` writes it) against the job's. The scene is checked by simulate itself
+// (load_bvh with the scene: its hash and triangle count), a refusal, not a wrong tree.
+std::string tree_mismatch(const BvhFileHeader& header, const CampaignJob& job) {
+  if (header.builder != job.builder)
+    return "it holds a tree built by '" + header.builder + "', the job asks for '" + job.builder + "'";
+  BuildParams expected;
+  expected.builder = job.builder;
+  expected.seed = job.seed;
+  for (const auto& [k, v] : job.build_settings) set_build_parameter(expected, k, v);
+  if (!job.tree_camera().empty()) expected.camera = job.tree_camera();
+  if (!job.node_format.empty()) apply_node_format(expected, node_format(job.node_format));
+  const json want = json::parse(build_params_json(expected));
+  const json have = json::parse(header.params_json, nullptr, /*allow_exceptions=*/false);
+  if (!have.is_object()) return "its parameters are not a JSON object";
+  for (const auto& [key, value] : want.items()) {
+    if (key == "camera" && job.tree_camera().empty()) continue;  // the build's default camera
+    if (key == "width" && !have.contains(key) && value == 2) continue;  // binary trees leave it out
+    if (!have.contains(key) || have.at(key) != value)
+      return "its " + key + " is " + (have.contains(key) ? have.at(key).dump() : std::string("absent")) +
+             ", the job asks for " + value.dump();
+  }
+  return "";
+}
+
+// A cached tree that cannot be read, or that is not the job's tree (a file copied
+// over it, a key collision), is moved aside and built again, never used.
+void discard_unusable_tree(const fs::path& tree, const CampaignJob& job) {
   static std::set<std::string> checked;
   if (!checked.insert(tree.string()).second || !is_file(tree)) return;
+  std::string why;
   try {
-    load_bvh(tree);
+    BvhFileHeader header;
+    load_bvh(tree, nullptr, &header);
+    why = tree_mismatch(header, job);
   } catch (const InputError& e) {
-    fs::path aside = tree;
-    aside += ".damaged";
-    std::error_code ec;
-    fs::rename(tree, aside, ec);
-    std::fprintf(stderr, "rtsim campaign: tree cache: %s is damaged (%s); it is built again%s\n",
-                 tree.string().c_str(), e.what(),
-                 ec ? "" : (" (the damaged file is kept as " + aside.filename().string() + ")").c_str());
+    why = std::string("it is damaged (") + e.what() + ")";
   }
+  if (why.empty()) return;
+  fs::path aside = tree;
+  aside += why.rfind("it is damaged", 0) == 0 ? ".damaged" : ".mismatch";
+  std::error_code ec;
+  fs::rename(tree, aside, ec);
+  std::fprintf(stderr, "rtsim campaign: tree cache: %s is not this job's tree: %s; it is built again%s\n",
+               tree.string().c_str(), why.c_str(),
+               ec ? "" : (" (the file is kept as " + aside.filename().string() + ")").c_str());
 }
 
 // What a job process executes: the binary and its arguments.
@@ -185,11 +221,11 @@ JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, con
   if (tree_cache.empty()) return {binary, args};
   const fs::path tree = cached_tree(tree_cache, campaign, job);
   fs::create_directories(tree_cache);
-  discard_damaged_tree(tree);
+  discard_unusable_tree(tree, job);
   BuildJob build_job;
   build_job.scene = job.scene_path.empty() ? job.scene : job.scene_path.string();
   build_job.builder = job.builder;
-  build_job.seed = job.build_settings.count("seed") ? uint64_t(std::stoull(job.build_settings.at("seed")))
+  build_job.seed = job.build_settings.count("seed") ? read_unsigned(job.build_settings.at("seed"), 0, UINT64_MAX, "build.seed")
                                                     : job.seed;
   build_job.build_settings.assign(job.build_settings.begin(), job.build_settings.end());
   build_job.camera = job.tree_camera();

@@ -370,6 +370,7 @@ ClaimSummary run_claim(const ClaimOptions& o) {
   run.binary = o.rtsim_binary;
   run.progress = o.progress;
   run.tree_cache = o.tree_cache;
+  run.retry_failed = o.retry_failed;
   const RunSummary ran = run_campaign(campaign, paths, run);
   ClaimSummary summary;
   if (ran.interrupted) {

@@ -23,9 +23,10 @@ namespace rtsim {
 namespace fs = std::filesystem;
 
 std::vector<std::string> SimulationJob::arguments() const {
-  std::vector<std::string> a = {"simulate", "--scene", scene, "--builder", builder,
-                                "--fidelity", fidelity, "--config", config,
+  std::vector<std::string> a = {"simulate", "--scene", scene, "--fidelity", fidelity, "--config", config,
                                 "--seed", std::to_string(seed), "--out-dir", out_dir.string()};
+  // A saved tree carries its builder (simulate refuses a --builder that differs).
+  if (bvh.empty()) a.insert(a.begin() + 3, {"--builder", builder});
   if (!camera.empty()) a.insert(a.end(), {"--camera", camera});
   if (!resolution.empty()) a.insert(a.end(), {"--res", resolution});
   if (ao_rays >= 0) a.insert(a.end(), {"--ao", std::to_string(ao_rays)});

@@ -82,8 +82,18 @@ TEST(BuilderRegistry, SettingsChangeTheFieldAndBadOnesNameTheKey) {
   BuildParams q;
   EXPECT_NE(error_of(q, "max_leaf", "8").find("build.max_leaf: unknown builder parameter"), std::string::npos);
   EXPECT_NE(error_of(q, "t1", "-1").find("build.t1: must be a positive finite number"), std::string::npos);
-  EXPECT_NE(error_of(q, "t1", "1x").find("build.t1: '1x' is not a finite number"), std::string::npos);
-  EXPECT_NE(error_of(q, "max_leaf_size", "2.5").find("whole number"), std::string::npos);
+  EXPECT_NE(error_of(q, "t1", "1x").find("build.t1: expected a decimal number"), std::string::npos);
+  EXPECT_NE(error_of(q, "max_leaf_size", "2.5").find("decimal digits only"), std::string::npos);
+  // The strict reader (numbers.h), as on the command line: no octal, hex, sign or
+  // empty value, and no wrap (max_leaf_size=010 gave 10 and --max-leaf-size 010 gave 8).
+  for (const char* bad : {"010", "0x10", "+2", "-1", "", " 2", "18446744073709551616"})
+    EXPECT_NE(error_of(q, "max_leaf_size", bad).find("build.max_leaf_size: "), std::string::npos) << bad;
+  for (const char* bad : {"0x1p3", "+2", "nan", "inf", "1e999", ".5", ""})
+    EXPECT_NE(error_of(q, "t2", bad).find("build.t2: "), std::string::npos) << bad;
+  // A seed keeps every digit (strtod kept 53 bits of them).
+  BuildParams seeded;
+  set_build_parameter(seeded, "seed", "18446744073709551615");
+  EXPECT_EQ(seeded.seed, UINT64_MAX);
   EXPECT_NE(error_of(q, "ao_weight_floor", "1.5").find("must be in [0, 1]"), std::string::npos);
   EXPECT_NE(error_of(q, "bins", "1").find("must be 0 (full sweep) or 2..256"), std::string::npos);
   EXPECT_NE(error_of(q, "ao_normalise", "maybe").find("on/off"), std::string::npos);

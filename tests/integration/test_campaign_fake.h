@@ -5,7 +5,8 @@
 // collect) is tested without depending on the simulator's speed or state.
 // Knobs (environment): FAKE_SLEEP seconds per job, FAKE_FAIL_BUILDER makes every job
 // of that builder fail, FAKE_LOG gets one line per started job (its --out folder),
-// FAKE_REVISION the revision --version reports.
+// FAKE_REVISION the revision --version reports, FAKE_HOLD_UNTIL a file each job
+// waits for before it finishes.
 #include <rtsim/reports/campaign.h>
 
 #include <gtest/gtest.h>
@@ -37,6 +38,11 @@ done
 [ -n "$FAKE_LOG" ] && echo "$out" >> "$FAKE_LOG"
 echo "fake: simulating $scene $builder $preset"
 sleep "$sleep_s"
+# FAKE_HOLD_UNTIL: the job waits until that file exists (a test's "go"), so that a
+# test can act while jobs are certainly running, whatever the load.
+if [ -n "$FAKE_HOLD_UNTIL" ]; then
+  while [ ! -e "$FAKE_HOLD_UNTIL" ]; do sleep 0.02; done
+fi
 if [ -n "$FAKE_FAIL_BUILDER" ] && [ "$builder" = "$FAKE_FAIL_BUILDER" ]; then
   echo "fake: builder $builder refused on purpose" >&2; exit 3
 fi

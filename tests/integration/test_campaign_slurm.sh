@@ -25,7 +25,11 @@ cleanup() {
     [ -s "$pidfile" ] && kill "$(cat "$pidfile")" 2>/dev/null || true
   done
   [ -n "$started_munged" ] && kill "$started_munged" 2>/dev/null || true
-  sleep 1
+  # Until the daemons are gone (they write into $work until they exit).
+  for pidfile in "$work/slurmd.pid" "$work/slurmctld.pid"; do
+    [ -s "$pidfile" ] || continue
+    for _ in $(seq 100); do kill -0 "$(cat "$pidfile")" 2>/dev/null || break; sleep 0.1; done
+  done
   rm -rf "$work"
 }
 trap cleanup EXIT
@@ -35,7 +39,8 @@ if ! munge -n >/dev/null 2>&1; then
   [ -f /etc/munge/munge.key ] || { echo "SKIP: no /etc/munge/munge.key"; exit 77; }
   mkdir -p /run/munge && chown munge:munge /run/munge
   runuser -u munge -- /usr/sbin/munged
-  sleep 1
+  # Until munged answers (a fixed second was a guess at its start-up time).
+  for _ in $(seq 300); do munge -n >/dev/null 2>&1 && break; sleep 0.1; done
   started_munged=$(pgrep -u munge -n munged || true)
 fi
 

@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <fstream>
 #include <map>
 #include <set>
 #include <thread>
@@ -23,12 +24,14 @@ namespace {
 namespace fs = std::filesystem;
 
 // Starts `rtsim campaign run` in the background and returns its pid.
+// `hold_until` non-empty: every job waits for that file before it finishes.
 pid_t start_runner(const fs::path& campaign, const fs::path& work, const fs::path& fake,
-                   const fs::path& log, const std::string& sleep_seconds) {
+                   const fs::path& log, const std::string& sleep_seconds, const fs::path& hold_until = {}) {
   const pid_t pid = fork();
   if (pid == 0) {
     setenv("FAKE_LOG", log.c_str(), 1);
     setenv("FAKE_SLEEP", sleep_seconds.c_str(), 1);
+    if (!hold_until.empty()) setenv("FAKE_HOLD_UNTIL", hold_until.c_str(), 1);
     const int null_fd = open("/dev/null", O_WRONLY);
     dup2(null_fd, 1);
     dup2(null_fd, 2);
@@ -145,20 +148,43 @@ TEST(CampaignKill, ResultFileWithoutDatabaseRowIsCollectedNotRerun) {
 }
 
 // Two runners on one campaign at once would do the work twice: the second is refused.
+// The first runner's jobs are held (FAKE_HOLD_UNTIL) and the second starts only once
+// a job of the first is running, so the first holds run.lock then, whatever the
+// load (a 200 ms sleep stood for that and failed at a load average of 8).
 TEST(CampaignKill, SecondConcurrentRunnerIsRefused) {
   const fs::path dir = test::fresh_folder("lock");
   const fs::path fake = test::write_fake_rtsim(dir);
   const fs::path campaign = test::write_text(dir / "c.toml", test::small_campaign("demo", 1));
-  const fs::path work = dir / "w", log = dir / "fake.log";
-  const pid_t first = start_runner(campaign, work, fake, log, "0.5");
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  const fs::path work = dir / "w", log = dir / "fake.log", go = dir / "go";
+  const pid_t first = start_runner(campaign, work, fake, log, "0", go);
+  // However the test ends, the held jobs are let go (no runner left waiting).
+  struct Release {
+    fs::path go;
+    ~Release() { std::ofstream{go}; }
+  } release{go};
+  // A started job means the lock is held: the runner takes it before any job.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  int status = 0;
+  while (test::read_lines(log).empty()) {  // polled: the condition, not a guess at its time
+    ASSERT_NE(waitpid(first, &status, WNOHANG), first) << "the first runner ended before starting a job";
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "the first runner started no job in 120 s";
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
   const Campaign c = load_campaign(campaign, "fakerev1");
   RunOptions o;
   o.binary = fake;
-  EXPECT_THROW(run_campaign(c, campaign_paths(c, work, ""), o), std::exception);
-  int status = 0;
+  std::string refusal;
+  try {
+    run_campaign(c, campaign_paths(c, work, ""), o);
+  } catch (const std::exception& e) {
+    refusal = e.what();
+  }
+  EXPECT_NE(refusal.find("run.lock is held"), std::string::npos) << "refused for another reason: " << refusal;
+  test::write_text(go, "");
   ASSERT_EQ(waitpid(first, &status, 0), first);
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  // The first runner did all the work, each job once.
+  EXPECT_EQ(test::read_lines(log).size(), c.jobs.size());
 }
 
 }  // namespace

@@ -356,6 +356,45 @@ TEST(Pk3, LoadsTheNamedMapAndNamesArchiveAndMemberWhenItIsMissing) {
   fs::remove_all(dir);
 }
 
+// Issue 36: a member whose header declares 3 GB made a 1 KB archive allocate
+// 2.9 GB (read_zip_member trusted stat.size). Refused by what deflate can reach
+// from the compressed bytes, naming archive and member, before any allocation.
+TEST(Pk3, AMemberDeclaringMoreThanItsBytesCanHoldIsRefused) {
+  const fs::path dir = temp_dir("pk3-huge");
+  std::vector<uint8_t> zip = make_zip({{"maps/arena.bsp", std::vector<uint8_t>(1000, 'x')}});
+  const uint32_t declared = 3000000000u;
+  for (size_t at = 0; at + 4 <= zip.size(); ++at) {
+    uint32_t signature;
+    std::memcpy(&signature, &zip[at], 4);
+    if (signature == 0x04034b50) std::memcpy(&zip[at + 22], &declared, 4);  // local header
+    if (signature == 0x02014b50) std::memcpy(&zip[at + 24], &declared, 4);  // central directory
+  }
+  const fs::path pk3 = dir / "huge.pk3";
+  write_bytes(pk3, zip);
+  expect_input_error([&] { read_zip_member(pk3, "maps/arena.bsp"); },
+                     {pk3.string() + ":maps/arena.bsp", "declares 3000000000 bytes from 1000 compressed"});
+  fs::remove_all(dir);
+}
+
+// Issue 36: a descriptor naming one OBJ 300 times loads it once (each load forks
+// an assimp child, 64 ms: 3,000 references took over a minute), and every
+// reference still gets its own placed copy.
+TEST(Descriptor, AMeshNamedManyTimesIsLoadedOnce) {
+  const fs::path dir = temp_dir("many-references");
+  write_text(dir / "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  std::string text = "name = \"many\"\n";
+  for (int i = 0; i < 300; ++i) text += "[[mesh]]\nfile = \"tri.obj\"\ntranslate = [" + std::to_string(i) + ", 0, 0]\n";
+  text += "[[camera]]\nname = \"view1\"\nposition = [0, 0, 5]\ntarget = [0, 0, 0]\n";
+  write_text(dir / "scene.toml", text);
+  const uint64_t before = mesh_files_loaded();
+  const Scene scene = load_scene_descriptor(dir / "scene.toml");
+  EXPECT_EQ(mesh_files_loaded() - before, 1u);
+  ASSERT_EQ(scene.triangle_count(), 300u);
+  EXPECT_EQ(scene.vertex(299, 0).x, 299.0f);  // the last copy where its table put it
+  EXPECT_EQ(scene.vertex(0, 1).x, 1.0f);
+  fs::remove_all(dir);
+}
+
 // ---------------------------------------------------------------- SuperTuxKart .spm
 struct SpmBuffer {
   std::vector<vec3> positions;

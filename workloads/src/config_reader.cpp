@@ -4,7 +4,6 @@
 
 #include <toml++/toml.h>
 
-#include <charconv>
 #include <cmath>
 #include <sstream>
 
@@ -83,37 +82,6 @@ nlohmann::json parse_config_text(const std::string& text, const std::string& fil
     throw InputError(file_name + ": key '" + finder.duplicate + "'",
                      "is defined twice in one object (JSON would keep the last silently)");
   return document;
-}
-
-namespace {
-// Digits only (no sign, no space, no trailing text), and no wrap-around.
-bool parse_decimal(std::string_view text, uint64_t max, uint64_t& out) {
-  if (text.empty() || text.front() < '0' || text.front() > '9') return false;
-  uint64_t value = 0;
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (error != std::errc() || end != text.data() + text.size() || value > max) return false;
-  out = value;
-  return true;
-}
-}  // namespace
-
-bool parse_unsigned(std::string_view text, uint64_t min, uint64_t max, uint64_t& out) {
-  uint64_t value = 0;
-  if (!parse_decimal(text, max, value) || value < min) return false;
-  out = value;
-  return true;
-}
-
-bool parse_resolution_text(std::string_view text, uint32_t& width, uint32_t& height) {
-  const size_t x = text.find_first_of("xX");
-  if (x == std::string_view::npos) return false;
-  uint64_t w = 0, h = 0;
-  if (!parse_unsigned(text.substr(0, x), 1, kMaxResolutionSide, w) ||
-      !parse_unsigned(text.substr(x + 1), 1, kMaxResolutionSide, h))
-    return false;
-  width = uint32_t(w);
-  height = uint32_t(h);
-  return true;
 }
 
 nlohmann::json parse_config_file(const std::filesystem::path& path) {

@@ -1,12 +1,14 @@
 #include <rtsim/workloads/config_reader.h>
 #include <rtsim/workloads/descriptor.h>
 #include <rtsim/workloads/error.h>
+#include <rtsim/workloads/host.h>
 #include <rtsim/workloads/mesh_loader.h>
 #include <rtsim/workloads/validate.h>
 
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <map>
+#include <tuple>
 
 namespace rtsim {
 
@@ -110,6 +112,11 @@ Scene load_scene_descriptor(const std::filesystem::path& path) {
   uint64_t dropped_sky_faces = 0, dropped_tool_faces = 0;
   std::vector<ConfigTable> meshes = root.array_of_tables("mesh");
   if (meshes.empty()) throw InputError(root.where("mesh"), "at least one [[mesh]] is required");
+  // A file named by many [[mesh]] tables (instances with their own transforms) is
+  // loaded once per set of load options: each load forks an assimp child (64 ms),
+  // and 3,000 references took over a minute.
+  std::map<std::tuple<std::string, int, std::string, bool>, Mesh> loaded;
+  uint64_t scene_bytes = 0;  // vertices, triangles and material ids so far
   for (ConfigTable& t : meshes) {
     MeshOptions options;
     const std::filesystem::path file = path.parent_path() / t.string("file");
@@ -122,7 +129,17 @@ Scene load_scene_descriptor(const std::filesystem::path& path) {
     if (!override_material.empty() && !material_index.count(override_material))
       throw InputError(t.where("material"), "no [[material]] named '" + override_material + "'");
 
-    Mesh mesh = load_mesh(file, options);
+    std::error_code ec;
+    const std::filesystem::path canonical = std::filesystem::weakly_canonical(file, ec);
+    const auto key = std::make_tuple((ec ? file : canonical).string(), options.bsp_patch_level, options.pk3_map,
+                                     options.bsp_drop_sky);
+    auto found = loaded.find(key);
+    if (found == loaded.end()) found = loaded.emplace(key, load_mesh(file, options)).first;
+    const Mesh& mesh = found->second;
+    scene_bytes = saturating_add(scene_bytes, saturating_add(saturating_mul(mesh.vertices.size(), sizeof(vec3)),
+                                                             saturating_mul(mesh.triangles.size(), sizeof(uvec3) + 4)));
+    check_memory_budget(scene_bytes, path.string(),
+                        "the [[mesh]] tables' vertices and triangles, each reference a copy");
     dropped_sky_faces += mesh.dropped_sky_faces;
     dropped_tool_faces += mesh.dropped_tool_faces;
     const uint32_t vertex_base = uint32_t(scene.vertices.size());

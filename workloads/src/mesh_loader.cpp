@@ -11,9 +11,11 @@
 #include <zip.h>
 
 #include <rtsim/workloads/files.h>
+#include <rtsim/workloads/host.h>
 #include <rtsim/workloads/fork.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <csignal>
@@ -82,19 +84,43 @@ std::vector<uint8_t> read_zip_member(const std::filesystem::path& archive, const
   if (!file)
     throw InputError(archive.string() + ":" + member,
                      std::string("cannot open member: ") + zip_strerror(zip.handle));
-  std::vector<uint8_t> bytes(static_cast<size_t>(stat.size));
+  // The member's header states its size, and a hostile one can say 3 GB in a 1 KB
+  // archive: a size deflate cannot reach from the compressed bytes (at most about
+  // 1032:1) is refused, so is one past the data limit or the memory limit, and the
+  // bytes are read in chunks, so that what is allocated is what arrives.
+  constexpr uint64_t kMaxDeflateRatio = 1032;
+  const std::string name = archive.string() + ":" + member;
+  if ((stat.valid & ZIP_STAT_COMP_SIZE) && stat.size > saturating_add(saturating_mul(stat.comp_size, kMaxDeflateRatio), 1024)) {
+    zip_fclose(file);
+    throw InputError(name, "declares " + std::to_string(stat.size) + " bytes from " + std::to_string(stat.comp_size) +
+                               " compressed: more than deflate can expand (the archive is damaged or hostile)");
+  }
+  if (stat.size > kMaxDataFileBytes) {
+    zip_fclose(file);
+    throw InputError(name, "declares " + memory_text(stat.size) + ", over the " + memory_text(kMaxDataFileBytes) +
+                               " limit of data files");
+  }
+  try {
+    check_memory_budget(stat.size, name, "the member's declared size");
+  } catch (...) {
+    zip_fclose(file);
+    throw;
+  }
+  std::vector<uint8_t> bytes;
   zip_uint64_t done = 0;
   while (done < stat.size) {
-    const zip_int64_t n = zip_fread(file, bytes.data() + done, stat.size - done);
+    const zip_uint64_t chunk = std::min<zip_uint64_t>(stat.size - done, zip_uint64_t(1) << 20);
+    bytes.resize(size_t(done + chunk));
+    const zip_int64_t n = zip_fread(file, bytes.data() + done, chunk);
     if (n <= 0) {
-      const std::string reason = zip_file_strerror(file);
+      const std::string reason = n == 0 ? std::string("the member ends early") : zip_file_strerror(file);
       zip_fclose(file);
-      throw InputError(archive.string() + ":" + member,
-                       "read failed after " + std::to_string(done) + " of " +
-                           std::to_string(stat.size) + " bytes: " + reason);
+      throw InputError(name, "read failed after " + std::to_string(done) + " of " + std::to_string(stat.size) +
+                                 " bytes: " + reason);
     }
     done += zip_uint64_t(n);
   }
+  bytes.resize(size_t(done));
   zip_fclose(file);
   return bytes;
 }
@@ -352,8 +378,15 @@ Mesh load_mesh_assimp(const std::filesystem::path& path) {
   return decode_mesh(answer.substr(1), path.string());
 }
 
+namespace {
+std::atomic<uint64_t> g_mesh_files_loaded{0};
+}  // namespace
+
+uint64_t mesh_files_loaded() { return g_mesh_files_loaded.load(); }
+
 Mesh load_mesh(const std::filesystem::path& path, const MeshOptions& options) {
   if (!path_exists(path)) throw InputError(path.string(), "no such file or folder");
+  ++g_mesh_files_loaded;
   const std::string ext = lower(path.extension().string());
   const std::string file_name = lower(path.filename().string());
   if (ext == ".bsp") return parse_q3bsp(read_file_bytes(path), path.string(), options);

@@ -16,12 +16,21 @@
 namespace rtsim {
 
 std::filesystem::path scene_cache_dir() {
-  if (const char* dir = std::getenv("RTSIM_CACHE"); dir && *dir) return dir;
-  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg)
-    return std::filesystem::path(xdg) / "rtsim";
-  if (const char* home = std::getenv("HOME"); home && *home)
-    return std::filesystem::path(home) / ".cache" / "rtsim";
-  return std::filesystem::current_path() / ".cache" / "rtsim";
+  std::filesystem::path dir;
+  std::string from;  // what chose it, for a message
+  if (const char* env = std::getenv("RTSIM_CACHE"); env && *env) {
+    dir = env, from = "RTSIM_CACHE";
+  } else if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) {
+    dir = std::filesystem::path(xdg) / "rtsim", from = "XDG_CACHE_HOME";
+  } else if (const char* home = std::getenv("HOME"); home && *home) {
+    dir = std::filesystem::path(home) / ".cache" / "rtsim", from = "HOME";
+  } else {
+    dir = std::filesystem::current_path() / ".cache" / "rtsim", from = "the current folder";
+  }
+  // A cache that is a file would fail later as a file-system error deep in a command.
+  if (path_exists(dir) && !is_folder(dir))
+    throw InputError(from + " (the scene cache " + dir.string() + ")", "exists and is not a folder");
+  return dir;
 }
 
 std::string default_scene_name() { return "interior"; }

@@ -10,6 +10,7 @@
 
 #include <rtsim/workloads/files.h>
 #include <rtsim/workloads/mesh_loader.h>
+#include <rtsim/workloads/numbers.h>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <pugixml.hpp>
@@ -303,10 +304,11 @@ std::vector<Camera> quad_cameras(const std::filesystem::path& quads_path) {
       const std::string where = "quad " + std::to_string(quads.size()) + " " + key + "=\"" + text + "\"";
       // "i:j" refers to corner j of quad i.
       if (const size_t colon = text.find(':'); colon != std::string::npos) {
-        char* end = nullptr;
-        const long q = std::strtol(text.c_str(), &end, 10);
-        const long c = std::strtol(text.c_str() + colon + 1, nullptr, 10);
-        if (q < 0 || size_t(q) >= quads.size() || c < 0 || c > 3)
+        uint64_t q = 0, c = 0;
+        if (!parse_unsigned(std::string_view(text).substr(0, colon), 0, UINT64_MAX, q) ||
+            !parse_unsigned(std::string_view(text).substr(colon + 1), 0, UINT64_MAX, c))
+          throw InputError(quads_path.string(), where + ": expected i:j, two whole numbers (decimal digits only)");
+        if (q >= quads.size() || c > 3)
           throw InputError(quads_path.string(), where + ": refers to a quad corner that does not exist yet");
         corners[size_t(k)] = quads[size_t(q)][size_t(c)];
       } else if (!parse_vec3(text.c_str(), corners[size_t(k)])) {

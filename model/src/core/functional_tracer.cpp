@@ -222,7 +222,9 @@ Image shaded_image(const Scene& scene, const FrameRun& run) {
       continue;
     }
     if (r.type == RayType::Shadow) {
-      if (parent && !hit.hit()) {
+      // A replayed ray file may hold a shadow ray whose parent missed (rays edited,
+      // or made for other bounds): it lights nothing, and the parent has no surface.
+      if (parent && !hit.hit() && run.results[r.parent].hit.hit()) {
         const SurfaceHit s = surface_at(scene, run.rays[r.parent], run.results[r.parent].hit);
         parent->direct += std::max(0.0f, glm::dot(glm::normalize(r.direction), s.normal)) / light_count;
       }

@@ -1,5 +1,6 @@
 #include <rtsim/model/core/intersect.h>
 #include <rtsim/model/core/ray_generation.h>
+#include <rtsim/workloads/host.h>
 #include <rtsim/workloads/random.h>
 
 #include <cmath>
@@ -97,6 +98,22 @@ Ray make_primary_ray(const Camera& camera, const EffectSettings& settings, uint3
   ray.pixel = pixel;
   ray.sample = sample;
   return ray;
+}
+
+uint64_t max_frame_rays(const Scene& scene, const EffectPlan& plan, uint64_t primary_rays) {
+  uint64_t branching = 0;  // children of one hit, at most
+  for (const Material& m : scene.materials)
+    branching = std::max<uint64_t>(branching, (plan.on(RayType::Reflection) && m.reflectance > 0.0f ? 1 : 0) +
+                                                  (plan.on(RayType::Refraction) && m.transmittance > 0.0f ? 1 : 0));
+  // Closest-hit rays per primary: 1 + k + k^2 + ... + k^max_depth.
+  uint64_t closest = 0, level = 1;
+  for (uint32_t depth = 0; depth <= plan.max_depth && level > 0; ++depth) {
+    closest = saturating_add(closest, level);
+    level = saturating_mul(level, branching);
+  }
+  const uint64_t shadows = plan.on(RayType::Shadow) ? scene.lights.size() : 0;
+  const uint64_t per_primary = saturating_add(saturating_mul(closest, 1 + shadows), plan.ao_samples);
+  return saturating_mul(per_primary, primary_rays);
 }
 
 std::vector<Ray> generate_primary_rays(const Camera& camera, const EffectSettings& settings) {

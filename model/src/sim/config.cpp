@@ -1,7 +1,10 @@
 #include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/machine.h>
 #include <rtsim/builder/node_format.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
+#include <rtsim/workloads/host.h>
+#include <rtsim/workloads/numbers.h>
 
 #include <nlohmann/json.hpp>
 #include <toml++/toml.h>
@@ -458,11 +461,8 @@ HardwareConfig preset(const std::string& name) {
 }
 
 std::pair<uint32_t, uint32_t> parse_tile(const std::string& text) {
-  unsigned w = 0, h = 0;
-  char tail = 0;
-  if (std::sscanf(text.c_str(), "%ux%u%c", &w, &h, &tail) != 2 || w == 0 || h == 0 || w > 4096 ||
-      h > 4096 || text.find_first_not_of("0123456789x") != std::string::npos)
-    throw InputError("raygen.tile", "'" + text + "' is not WxH with 1..4096 each");
+  uint32_t w = 0, h = 0;
+  read_size_text(text, 4096, "raygen.tile", w, h);
   return {w, h};
 }
 
@@ -485,6 +485,11 @@ void check_cache(const std::string& key, const CacheConfig& c) {
 
 void validate(const HardwareConfig& c) {
   parse_tile(c.raygen_tile);
+  // Each key inside its range can still multiply past the host's memory (256 cores
+  // x 256 units of 1 GiB L1s): refused here, before any model is built.
+  std::string factors;
+  const uint64_t model_bytes = model_memory_bytes(c, &factors);
+  check_memory_budget(model_bytes, "hardware", "the model of this machine; largest part " + factors);
   if (c.triangle_packing == "line" && c.l1_triangle.line_bytes < c.triangle_bytes)
     throw InputError("memory.triangle_packing", "'line' needs l1_triangle.line_bytes (" +
                                                     std::to_string(c.l1_triangle.line_bytes) +
@@ -640,7 +645,13 @@ HardwareConfig parse_hardware_config(const std::string& toml_text, const std::st
   std::map<std::string, ParameterInfo> params;
   for_each_parameter(config, [&](ParameterInfo& p) { params.emplace(p.key, p); });
   std::vector<std::pair<std::string, const toml::node*>> per_core;
+  // One key under two spellings ([l2] size_bytes and "l2.size_bytes", or a [core.1]
+  // table and "core.1.l1_node.size_bytes") flattens to one name twice: refused, as
+  // the campaign reader does, rather than keeping one of them silently.
+  std::set<std::string> seen;
   for (auto& [key, node] : leaves) {
+    if (!node->is_table() && !seen.insert(key).second)
+      throw InputError(where + key, "is set twice (under two spellings: a table and a dotted, quoted key)");
     if (key.rfind("core.", 0) == 0) {  // after every machine-wide key, whatever the order
       per_core.emplace_back(key, node);
       continue;
@@ -663,9 +674,10 @@ HardwareConfig parse_hardware_config(const std::string& toml_text, const std::st
     // core.<N>.<l1_node|l1_triangle>.<field>
     const size_t dot = key.find('.', 5);
     const std::string index = key.substr(5, dot == std::string::npos ? std::string::npos : dot - 5);
-    if (index.empty() || index.size() > 3 || index.find_first_not_of("0123456789") != std::string::npos)
-      throw InputError(where + key, "per-core keys are core.<N>.<key>, N a core number");
-    const uint32_t core = uint32_t(std::stoul(index));
+    uint64_t core_number = 0;
+    if (!parse_unsigned(index, 0, 999, core_number))
+      throw InputError(where + key, "per-core keys are core.<N>.<key>, N a core number (decimal, no leading zero)");
+    const uint32_t core = uint32_t(core_number);
     const std::string rest = dot == std::string::npos ? "" : key.substr(dot + 1);
     auto [entry, fresh] = config.core_caches.try_emplace(core);
     if (fresh) entry->second = {config.l1_node, config.l1_triangle};
@@ -687,6 +699,13 @@ HardwareConfig parse_hardware_config(const std::string& toml_text, const std::st
   } catch (const InputError& e) {
     throw InputError(where + e.what());
   }
+  // A core whose caches equal the machine's is no override: dropped (after the
+  // checks), so that the resolved configuration and a campaign job's key are the
+  // same as without it.
+  for (auto it = config.core_caches.begin(); it != config.core_caches.end();)
+    it = it->second.l1_node == config.l1_node && it->second.l1_triangle == config.l1_triangle
+             ? config.core_caches.erase(it)
+             : std::next(it);
   return config;
 }
 

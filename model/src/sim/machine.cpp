@@ -1,9 +1,49 @@
 #include <rtsim/model/sim/machine.h>
 
+#include <rtsim/model/core/traversal.h>
+#include <rtsim/workloads/host.h>
+
 #include <algorithm>
 #include <cmath>
 
 namespace rtsim::sim {
+
+uint64_t model_memory_bytes(const HardwareConfig& c, std::string* factors) {
+  struct Term {
+    uint64_t bytes;
+    std::string keys;
+  };
+  std::vector<Term> terms;
+  auto lines = [](const CacheConfig& cache) { return cache.line_bytes ? cache.size_bytes / cache.line_bytes : 0; };
+  uint64_t l1_node = 0, l1_triangle = 0;
+  for (uint32_t core = 0; core < c.cores; ++core) {
+    l1_node = saturating_add(l1_node, saturating_mul(c.trv_units, lines(c.l1_node_of(core))));
+    l1_triangle = saturating_add(l1_triangle, saturating_mul(c.ist_units, lines(c.l1_triangle_of(core))));
+  }
+  terms.push_back({saturating_mul(l1_node, kCacheLineHostBytes),
+                   "cores " + std::to_string(c.cores) + " x trv.units " + std::to_string(c.trv_units) +
+                       " L1 node caches of l1_node.size_bytes " + std::to_string(c.l1_node.size_bytes)});
+  terms.push_back({saturating_mul(l1_triangle, kCacheLineHostBytes),
+                   "cores " + std::to_string(c.cores) + " x ist.units " + std::to_string(c.ist_units) +
+                       " L1 triangle caches of l1_triangle.size_bytes " + std::to_string(c.l1_triangle.size_bytes)});
+  terms.push_back({saturating_mul(lines(c.l2), kCacheLineHostBytes),
+                   "l2.size_bytes " + std::to_string(c.l2.size_bytes)});
+  // A slot: its traversal state, its stack (trv.stack_entries, at most the spill
+  // area) and the engine's per-slot bookkeeping.
+  const uint64_t per_slot = sizeof(RayTraversal) + 2 * sizeof(MemoryAccess) * 16 +
+                            uint64_t(TraversalContext::kStackAreaEntries) * 16 + 64;
+  terms.push_back({saturating_mul(saturating_mul(uint64_t(c.cores) * c.trv_units, c.trv_ray_slots), per_slot),
+                   "cores " + std::to_string(c.cores) + " x trv.units " + std::to_string(c.trv_units) +
+                       " x trv.ray_slots " + std::to_string(c.trv_ray_slots) + " ray slots"});
+  uint64_t total = 0;
+  const Term* largest = &terms.front();
+  for (const Term& t : terms) {
+    total = saturating_add(total, t.bytes);
+    if (t.bytes > largest->bytes) largest = &t;
+  }
+  if (factors) *factors = largest->keys + ": " + memory_text(largest->bytes);
+  return total;
+}
 
 MachineShape MachineShape::of(const HardwareConfig& c) {
   MachineShape m;

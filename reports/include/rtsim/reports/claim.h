@@ -44,6 +44,7 @@ struct ClaimOptions {
   std::string preset = "mobile";
   int jobs = 2;             // simulations at once
   bool quick = false;       // recorded; quick_claim_options sets the sizes
+  bool retry_failed = false;  // rerun jobs recorded as failed (campaign run --retry-failed)
   bool progress = false;
   std::filesystem::path out_dir = "claim";
   std::filesystem::path rtsim_binary;  // runs every job

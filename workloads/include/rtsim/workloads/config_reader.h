@@ -3,6 +3,7 @@
 // every error names the file and the dotted key, unknown keys are refused.
 // Used by scene descriptors, hardware configurations and campaign files.
 #include <rtsim/workloads/geometry.h>
+#include <rtsim/workloads/numbers.h>  // parse_unsigned, parse_resolution_text
 
 #include <nlohmann/json.hpp>
 
@@ -15,13 +16,6 @@
 #include <vector>
 
 namespace rtsim {
-
-// Strict numbers from text (command lines, campaign values): decimal digits only,
-// nothing before or after, and a value past `max` is refused, never wrapped.
-bool parse_unsigned(std::string_view text, uint64_t min, uint64_t max, uint64_t& out);
-// "WxH" (or "WXH") with each side in 1..kMaxResolutionSide.
-constexpr uint32_t kMaxResolutionSide = 16384;
-bool parse_resolution_text(std::string_view text, uint32_t& width, uint32_t& height);
 
 // Parses .toml (toml++) or .json (nlohmann) into JSON; InputError with the file,
 // line and column on a syntax error, and for a key repeated in one JSON object.

@@ -34,6 +34,9 @@ struct MeshOptions {
 
 // Dispatches on the file name: .bsp/.pk3, .spm, scene.xml (a STK track), else assimp.
 Mesh load_mesh(const std::filesystem::path& path, const MeshOptions& options = {});
+// load_mesh calls so far in this process, each of which reads and parses its file
+// (a scene descriptor loads a file named by many [[mesh]] tables once).
+uint64_t mesh_files_loaded();
 
 // assimp, run in a forked child so that a file on which assimp aborts or crashes
 // is an InputError, not the end of rtsim; a PLY is first checked against its

@@ -8,10 +8,18 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
 namespace rtsim {
+
+// The most reflection/refraction bounces a run may ask for (--bounces, documented in
+// docs/robustness.md). Ray::bounce counts them; it must hold the limit + 1 without
+// wrapping, or a closed mirror box never stops spawning.
+constexpr uint32_t kMaxBounces = 64;
+static_assert(kMaxBounces + 1 < std::numeric_limits<decltype(Ray::bounce)>::max(),
+              "Ray::bounce must count up to kMaxBounces + 1");
 
 struct EffectSettings {
   uint32_t width = 256, height = 256;
@@ -34,6 +42,12 @@ struct EffectPlan {
   bool on(RayType t) const { return enabled[ray_type_index(t)]; }
 };
 EffectPlan plan_effects(const Scene& scene, const EffectSettings& settings);
+
+// The most rays one frame can spawn, before it is traced: per primary ray its AO
+// rays, and down to plan.max_depth bounces every closest-hit ray's shadow rays (one
+// per light) and children (reflection and refraction where a material of the scene
+// has them: up to two per hit, so 2^bounces in glass). Saturates at UINT64_MAX.
+uint64_t max_frame_rays(const Scene& scene, const EffectPlan& plan, uint64_t primary_rays);
 
 // Primary ray of (x, y, sample): through the pixel centre for spp == 1, jittered
 // by KeyedRng(seed, {pixel, sample, 0, 0}) otherwise. tmin 0, tmax inf.

@@ -32,6 +32,14 @@ struct CacheConfig {
   uint32_t interleave = 1;          // an L2 slice: it holds every interleave-th line (not a key)
   uint32_t sets() const { return size_bytes / (line_bytes * associativity); }
 };
+// Field by field; a field added above must be added here (the size check says so).
+inline bool operator==(const CacheConfig& a, const CacheConfig& b) {
+  static_assert(sizeof(CacheConfig) == 8 * sizeof(uint32_t), "compare every CacheConfig field");
+  return a.size_bytes == b.size_bytes && a.line_bytes == b.line_bytes && a.associativity == b.associativity &&
+         a.hit_latency_cycles == b.hit_latency_cycles && a.mshrs == b.mshrs && a.ports == b.ports &&
+         a.fill_latency_cycles == b.fill_latency_cycles && a.interleave == b.interleave;
+}
+inline bool operator!=(const CacheConfig& a, const CacheConfig& b) { return !(a == b); }
 
 // DRAM timing is in DRAM clock cycles (tCK), as the datasheets and public DRAM
 // simulators state it; the model converts to picoseconds with tck_ps. The values

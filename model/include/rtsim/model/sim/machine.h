@@ -25,6 +25,14 @@
 
 namespace rtsim::sim {
 
+// Host memory the model of machine `c` needs before its first ray, from the
+// configuration alone: cache tags (kCacheLineHostBytes a line: tag, LRU clock,
+// arrival time, dirty flag) of every L1 (one per TRV / IST unit of every core) and
+// of the L2, and the ray slots (cores x trv.units x trv.ray_slots). `factors`
+// gets the largest term written with its keys, for a refusal's message.
+constexpr uint64_t kCacheLineHostBytes = 25;
+uint64_t model_memory_bytes(const HardwareConfig& c, std::string* factors = nullptr);
+
 struct MachineShape {
   uint32_t cores = 1;
   uint32_t trv_per_core = 1, ist_per_core = 1, slots_per_trv = 1;
