@@ -10,6 +10,8 @@
 // "holds" only where the interval lies below zero, "reverses" where it lies above.
 // Also the rank correlation of each tree's modelled cost (SAH, weighted, EPO) with
 // the measured ops/ray, and our builders (rdh, rdh-sbvh, aosbvh) at the defaults.
+#include <rtsim/reports/interval.h>
+
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -70,8 +72,6 @@ struct ClaimSummary {
 // OUT/claim.{md,json,csv} and the heatmaps claim_<relation>.png.
 ClaimSummary run_claim(const ClaimOptions& options);
 
-// Two-sided 95% quantile of Student's t with `df` degrees of freedom (df >= 1).
-double t_quantile_975(size_t df);
 // Spearman's rank correlation (average ranks for ties); NaN if fewer than 3 points
 // or a constant series.
 double spearman(const std::vector<double>& x, const std::vector<double>& y);
