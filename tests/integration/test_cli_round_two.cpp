@@ -5,6 +5,7 @@
 #include "integration/cli_runner.h"
 #include "integration/test_campaign_fake.h"
 
+#include <rtsim/builder/build.h>
 #include <rtsim/reports/child_process.h>
 #include <rtsim/workloads/files.h>
 
@@ -534,6 +535,16 @@ TEST(OneCommandLine, Table1HonoursOsahResolution) {
   ASSERT_EQ(tree.exit_code, 0) << tree.output;
   const auto j = nlohmann::json::parse(tree.output);
   EXPECT_EQ(j["trees"][0]["parameters"]["osah_width"], 7) << tree.output;
+  // Without the flag OSAH samples its visibility as build and trace do (256x256),
+  // not at the frame's resolution: one OSAH tree everywhere.
+  ASSERT_EQ(run_in(dir, "table1 --scene cornell --res 16x16 --no-cycle --builders osah --build-seeds 1 --out-dir u")
+                .exit_code,
+            0);
+  const CliResult plain = run_in(dir, "build --scene cornell --load u/trees/osah-view1.bvh --json --no-epo", 60, true);
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  const auto p = nlohmann::json::parse(plain.output)["trees"][0]["parameters"];
+  EXPECT_EQ(p["osah_width"], rtsim::BuildParams{}.osah_width) << plain.output;
+  EXPECT_EQ(p["osah_height"], rtsim::BuildParams{}.osah_height) << plain.output;
 }
 
 // Before: the BSP loader's dropped sky and textures/common faces were counted
