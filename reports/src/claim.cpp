@@ -86,11 +86,17 @@ std::string interval_text(const Interval& i) {
 namespace {
 
 std::vector<Relation> relations(const ClaimOptions& o) {
-  std::vector<Relation> r = {{"aobvh<sah", "aobvh", "sah", "AO-BVH < SAH BVH"},
-                             {"aobvh<sbvh", "aobvh", "sbvh", "AO-BVH < SBVH"},
-                             {"aobvh<osah", "aobvh", "osah", "AO-BVH < OSAH"},
+  std::vector<Relation> r = {{"aobvh<sah", "aobvh", "sah", "AO-BVH (object) < SAH BVH"},
+                             {"aobvh<sbvh", "aobvh", "sbvh", "AO-BVH (object) < SBVH"},
+                             {"aobvh<osah", "aobvh", "osah", "AO-BVH (object) < OSAH"},
                              {"all<median", "", "median", "SAH, SBVH, OSAH, AO-BVH < median BVH"}};
   const std::set<std::string> extra(o.extra_builders.begin(), o.extra_builders.end());
+  // The patent's AO-BVH read as splitting space (aosbvh): its relations where it is
+  // built (the default condition, with the other extra trees).
+  if (extra.count("aosbvh"))
+    for (const char* other : {"sah", "sbvh", "osah"})
+      r.push_back({std::string("aosbvh<") + other, "aosbvh", other,
+                   "AO-BVH (spatial) < " + std::string(std::string(other) == "sah" ? "SAH BVH" : builder_info(other).display_name)});
   for (const std::string& ours : {std::string("rdh"), std::string("rdh-sbvh")}) {
     if (!extra.count(ours)) continue;
     for (const std::string& other : {std::string("sah"), std::string("sbvh"), std::string("aobvh"),
