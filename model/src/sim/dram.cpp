@@ -597,6 +597,7 @@ bool DramModel::idle() const {
 
 void DramModel::enqueue(const DramRequest& request, uint64_t now_ps) {
   const DramAddress where = map_.decode(request.address);
+  if (request_observer_) request_observer_({request.arrival_ps, request.address, request.write, where});
   Channel& ch = channels_[where.channel];
   const uint64_t ready = edge(now_ps);
   // Decisions before this request could take part: idle-time refreshes and timeouts,
@@ -642,6 +643,7 @@ void DramModel::settle(uint64_t now_ps) {
 uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps) {
   lt_ = true;
   const DramAddress w = map_.decode(address);
+  if (request_observer_) request_observer_({now_ps, address, write, w});
   Channel& ch = channels_[w.channel];
   // Requests come nearly in time order, but not quite: one that waited upstream (for
   // an MSHR, say) arrives after later ones were placed. It is placed at its own time
@@ -705,7 +707,8 @@ uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps) {
   return done;
 }
 
-void DramModel::count_access(uint64_t, bool write) {
+void DramModel::count_access(uint64_t address, bool write) {
+  if (request_observer_) request_observer_({0, address, write, map_.decode(address)});
   if (write) {
     ++counters_.writes;
     counters_.bytes_written += access_bytes_;

@@ -1,6 +1,7 @@
 #include <rtsim/model/sim/cycle/cycle_system.h>
 #include <rtsim/model/sim/energy.h>
 #include <rtsim/model/sim/memory_system.h>
+#include <rtsim/model/sim/memory_trace.h>
 #include <rtsim/model/sim/ray_engine.h>
 #include <rtsim/model/sim/simulator.h>
 #include <rtsim/workloads/error.h>
@@ -13,6 +14,7 @@
 #include <ctime>
 #include <cmath>
 #include <stdexcept>
+#include <type_traits>
 
 namespace rtsim::sim {
 
@@ -300,9 +302,39 @@ void engine_figures(const RayEngine& engine, bool timed, const HardwareConfig& c
     units(f.shaded, engine.shading_time(), c.shading_rays_per_cycle, f.shading);
 }
 
-void run_functional(const HardwareConfig& config, const Workload& work, const Progress& progress,
-                    const std::function<void()>& stop_clock, SimulationResult& result) {
+// Connects the request's traces, if any, to the level's DRAM model and caches.
+void attach_traces(const SimulationRequest& request, DramModel& dram,
+                   const std::vector<CacheModel*>& l1_node, const std::vector<CacheModel*>& l1_triangle,
+                   const std::vector<CacheModel*>& l2) {
+  if (DramTraceWriter* t = request.dram_trace)
+    dram.set_request_observer([t](const DramRequestRecord& r) { t->write(r); });
+  if (CacheTraceWriter* t = request.cache_trace) {
+    const std::vector<CacheModel*>& caches =
+        t->cache() == "l1_node" ? l1_node : t->cache() == "l1_triangle" ? l1_triangle : l2;
+    t->header(caches.front()->config(), uint32_t(caches.size()));
+    for (size_t i = 0; i < caches.size(); ++i)
+      caches[i]->set_access_observer([t, i](const LineAccess& a, CacheModel::Outcome o) {
+        t->write(uint32_t(i), a, o);
+      });
+  }
+}
+
+template <typename Owner>
+std::vector<CacheModel*> models_of(const std::vector<std::unique_ptr<Owner>>& caches) {
+  std::vector<CacheModel*> out;
+  for (auto& c : caches) {
+    if constexpr (std::is_same_v<Owner, CacheModel>) out.push_back(c.get());
+    else out.push_back(&c->model);
+  }
+  return out;
+}
+
+void run_functional(const SimulationRequest& request, const HardwareConfig& config, const Workload& work,
+                    const Progress& progress, const std::function<void()>& stop_clock,
+                    SimulationResult& result) {
   FunctionalMemory memory(config);
+  attach_traces(request, memory.dram, models_of(memory.l1_node), models_of(memory.l1_triangle),
+                models_of(memory.l2));
   RayEngine engine(config, work, false);
   engine.run(
       memory, [](uint64_t) {},
@@ -345,9 +377,11 @@ void run_functional(const HardwareConfig& config, const Workload& work, const Pr
   report_machine(s, config, m, f, result.per_type, result.simulated_ps, false);
 }
 
-void run_lt(const HardwareConfig& config, const Workload& work, const Progress& progress,
-            const std::function<void()>& stop_clock, SimulationResult& result) {
+void run_lt(const SimulationRequest& request, const HardwareConfig& config, const Workload& work,
+            const Progress& progress, const std::function<void()>& stop_clock, SimulationResult& result) {
   LtSystem lt("lt", config, work, progress);
+  attach_traces(request, lt.dram->model, models_of(lt.l1_node), models_of(lt.l1_triangle),
+                models_of(lt.l2));
   sc_core::sc_start();
   stop_clock();
   const RayEngine& engine = lt.engine;
@@ -366,9 +400,12 @@ void run_lt(const HardwareConfig& config, const Workload& work, const Progress& 
   report_machine(result.stats, config, lt.shape, f, result.per_type, result.simulated_ps, true);
 }
 
-void run_cycle(const HardwareConfig& config, const Workload& work, const Progress& progress,
-               const std::function<void()>& stop_clock, SimulationResult& result) {
+void run_cycle(const SimulationRequest& request, const HardwareConfig& config, const Workload& work,
+               const Progress& progress, const std::function<void()>& stop_clock,
+               SimulationResult& result) {
   CycleSystem system("accelerator", config, work, progress);
+  attach_traces(request, system.dram->model, models_of(system.l1_node), models_of(system.l1_triangle),
+                models_of(system.l2));
   sc_core::sc_start();
   stop_clock();
   if (!system.finished)
@@ -455,9 +492,9 @@ SimulationResult simulate(const SimulationRequest& request) {
     result.cpu_seconds = cpu_now() - cpu_start;
   };
   switch (request.fidelity) {
-    case Fidelity::Functional: run_functional(config, work, progress, stop_clock, result); break;
-    case Fidelity::Lt: run_lt(config, work, progress, stop_clock, result); break;
-    case Fidelity::Cycle: run_cycle(config, work, progress, stop_clock, result); break;
+    case Fidelity::Functional: run_functional(request, config, work, progress, stop_clock, result); break;
+    case Fidelity::Lt: run_lt(request, config, work, progress, stop_clock, result); break;
+    case Fidelity::Cycle: run_cycle(request, config, work, progress, stop_clock, result); break;
   }
   StatsRegistry& s = result.stats;
   const double cycle_ps = config.clock_period_ps();

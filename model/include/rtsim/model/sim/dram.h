@@ -81,6 +81,14 @@ struct DramCompletion {
   bool write = false;
 };
 
+// One request as it reaches the DRAM, for request traces (memory_trace.h).
+struct DramRequestRecord {
+  uint64_t time_ps = 0;  // when the requester first tried to send it (functional level: 0)
+  uint64_t address = 0;
+  bool write = false;
+  DramAddress where;  // the address map's decode of it
+};
+
 enum class DramCommandKind : uint8_t { Activate, Precharge, Read, Write, Refresh };
 const char* dram_command_name(DramCommandKind kind);  // "ACT", "PRE", "RD", "WR", "REF"
 
@@ -134,6 +142,12 @@ class DramModel {
   void set_command_observer(std::function<void(const DramCommand&)> observer) {
     observer_ = std::move(observer);
   }
+  // Sees every request that reaches the model (enqueue, lt_access, count_access), in
+  // the order they reach it.
+  void set_request_observer(std::function<void(const DramRequestRecord&)> observer) {
+    request_observer_ = std::move(observer);
+  }
+  const DramAddressMap& address_map() const { return map_; }
 
   uint64_t latency_ps(RowOutcome outcome) const;  // isolated read from a DRAM clock edge
   uint64_t transfer_ps() const { return transfer_ps_; }  // tBURST of one access
@@ -298,6 +312,7 @@ class DramModel {
   std::vector<Channel> channels_;
   std::vector<DramCompletion> pending_completions_;  // issued while catching up in enqueue
   std::function<void(const DramCommand&)> observer_;
+  std::function<void(const DramRequestRecord&)> request_observer_;
   Counters counters_;
   std::vector<uint64_t> read_histogram_ns_, write_histogram_ns_;  // last bucket: above
 };
