@@ -4,6 +4,7 @@
 #include "integration/cli_runner.h"
 
 #include <rtsim/model/sim/dram.h>
+#include <rtsim/model/sim/dram_reference.h>
 #include <rtsim/model/sim/memory_trace.h>
 #include <rtsim/reports/child_process.h>
 #include <rtsim/workloads/error.h>
@@ -204,6 +205,63 @@ TEST(MemoryTraces, BitFieldEncodingKeepsEveryField) {
     const uint64_t address = (rng() % (uint64_t(1) << 34)) & ~uint64_t(63);
     ASSERT_EQ(same.encode(theirs.decode(address)), address);
   }
+}
+
+// dram-replay with our model gives back what the run's DRAM measured: the same
+// requests, and the latency to the rounding of each arrival to its DRAM clock edge.
+TEST(MemoryTraces, ReplayingARunsTraceGivesItsDramFigures) {
+  const fs::path dir = fresh("replay");
+  ASSERT_EQ(run_in(dir, "simulate --fidelity cycle --res 32x32 --config desktop --out-dir o "
+                        "--dram-trace-out d.trace")
+                .exit_code,
+            0);
+  const CliResult r = run_in(dir, "dram-replay --trace d.trace --config desktop");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json replay = nlohmann::json::parse(r.output);
+  const nlohmann::json stats = read_stats(dir / "o");
+  EXPECT_EQ(replay.at("reads").get<uint64_t>(), stat(stats, "dram.reads"));
+  const double in_run = stats.at("dram").at("latency_avg").at("value").get<double>();
+  EXPECT_NEAR(replay.at("read_latency_mean_ns").get<double>(), in_run, 0.02 * in_run);
+  EXPECT_EQ(replay.at("activates").get<uint64_t>() > 0, true);
+  EXPECT_EQ(run_in(dir, "dram-replay --trace d.trace --model dramsim").exit_code, 2);
+  EXPECT_EQ(run_in(dir, "dram-replay --trace missing.trace").exit_code, 2);
+}
+
+// DRAMsim3's configuration is written from our keys: the part's timings, the same
+// field order, channels rounded up to a power of two; a part it has no protocol for
+// is refused by key.
+TEST(MemoryTraces, Dramsim3ConfigurationFollowsOurDramKeys) {
+  rtsim::sim::DramConfig c;
+  rtsim::sim::apply_dram_part(c, "ddr4-2400");
+  const std::string ini = rtsim::sim::dramsim3_ini(c, 64);
+  for (const char* line : {"protocol = DDR4", "CL = 17", "tRCD = 17", "tFAW = 26", "tREFI = 9360",
+                           "BL = 8", "bus_width = 64", "address_mapping = rorabacobgch",
+                           "row_buf_policy = OPEN_PAGE", "trans_queue_size = 32"})
+    EXPECT_NE(ini.find(std::string("\n") + line + "\n"), std::string::npos) << line << "\n" << ini;
+  rtsim::sim::apply_dram_part(c, "gddr6");
+  c.channels = 12;
+  const std::string gddr6 = rtsim::sim::dramsim3_ini(c, 64);
+  EXPECT_NE(gddr6.find("\nchannels = 16\n"), std::string::npos) << gddr6;
+  EXPECT_NE(gddr6.find("\ntRCDWR = 16\n"), std::string::npos) << gddr6;
+  rtsim::sim::apply_dram_part(c, "lpddr5");
+  try {
+    rtsim::sim::dramsim3_ini(c, 64);
+    ADD_FAILURE() << "lpddr5 accepted";
+  } catch (const rtsim::InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("dram.model:", 0), 0u) << e.what();
+  }
+}
+
+// The default build has no DRAMsim3: asking for it is a bad input naming the key.
+TEST(MemoryTraces, DramModelDramsim3NeedsTheOptionalBuild) {
+  if (rtsim::sim::dramsim3_linked()) GTEST_SKIP() << "this build links DRAMsim3";
+  const fs::path dir = fresh("nodramsim3");
+  {
+    std::ofstream(dir / "d.toml") << "preset = \"desktop\"\n[dram]\nmodel = \"dramsim3\"\n";
+  }
+  const CliResult r = run_in(dir, "simulate --fidelity cycle --res 8x8 --config d.toml --out-dir o");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("dram.model:"), std::string::npos) << r.output;
 }
 
 }  // namespace

@@ -173,6 +173,9 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
   DramConfig& d = c.dram;
   std::vector<ParameterInfo> dram = {
       text("dram.part", d.part, dram_part_names(), "DRAM part the timings start from"),
+      text("dram.model", d.model, {"rtsim", "dramsim3"},
+           "cycle level: rtsim (ours) or dramsim3 (DRAMsim3 configured from these keys; needs an "
+           "rtsim configured with -DRTSIM_DRAMSIM3=DIR)"),
       u32("dram.channels", d.channels, 1, 64, "channels",
           "independent channels (any count: the address map's channel field is a mixed-radix digit)"),
       u32("dram.ranks", d.ranks, 1, 16, "ranks", "ranks per channel (power of two)"),

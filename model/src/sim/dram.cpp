@@ -449,9 +449,9 @@ DramModel::Choice DramModel::decide_until(Channel& ch, bool requests, uint64_t r
     }
     for (size_t i = 0; i < ch.queue.size(); ++i) {
       const Pending& p = ch.queue[i];
-      if (p.request.write != writes) continue;
       const uint32_t r = p.where.rank, bank = p.where.bank;
       const size_t b = size_t(r) * banks + bank;
+      if (p.request.write != writes) continue;
       const uint64_t due = ch.ranks[r].refresh_due_ps;  // nothing new for the rank from then
       Choice c;
       c.age = i, c.rank = r, c.bank = bank;
@@ -533,6 +533,31 @@ void DramModel::count_request(bool write, RowOutcome outcome, uint64_t latency) 
   if (outcome == RowOutcome::Hit) ++counters_.row_hits;
   else if (outcome == RowOutcome::Closed) ++counters_.row_closed;
   else ++counters_.row_conflicts;
+}
+
+void DramModel::set_reference_commands(uint64_t row_hits, uint64_t activates, uint64_t precharges,
+                                       uint64_t refreshes, uint64_t bus_busy_ps) {
+  // The reference tells hits from the rest but not closed banks from conflicts:
+  // every non-hit is counted as a miss (closed).
+  const uint64_t requests = counters_.reads + counters_.writes;
+  counters_.row_hits = std::min(row_hits, requests);
+  counters_.row_closed = requests - counters_.row_hits;
+  counters_.row_conflicts = 0;
+  counters_.activates = activates;
+  counters_.precharges = precharges;
+  counters_.refreshes = refreshes;
+  counters_.bus_busy_ps = bus_busy_ps;
+}
+
+void DramModel::set_reference_write_latencies(
+    const std::vector<std::pair<uint64_t, uint64_t>>& latency_count) {
+  std::fill(write_histogram_ns_.begin(), write_histogram_ns_.end(), 0);
+  counters_.write_latency_sum_ps = counters_.write_latency_max_ps = 0;
+  for (const auto& [latency, count] : latency_count) {
+    counters_.write_latency_sum_ps += latency * count;
+    counters_.write_latency_max_ps = std::max(counters_.write_latency_max_ps, latency);
+    write_histogram_ns_[std::min<uint64_t>(latency / 1000, kHistogramBuckets)] += count;
+  }
 }
 
 void DramModel::execute(Channel& ch, const Choice& c, std::vector<DramCompletion>& issued) {

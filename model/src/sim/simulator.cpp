@@ -1,4 +1,5 @@
 #include <rtsim/model/sim/cycle/cycle_system.h>
+#include <rtsim/model/sim/dram_reference.h>
 #include <rtsim/model/sim/energy.h>
 #include <rtsim/model/sim/memory_system.h>
 #include <rtsim/model/sim/memory_trace.h>
@@ -416,7 +417,7 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
   result.rays = system.rays_done;
   result.frame_history = system.frame_history;
   result.simulated_ps = system.end_ps - system.frame_start_ps;
-  system.dram->model.settle(system.end_ps);  // idle-time refreshes into the counts
+  system.dram->settle(system.end_ps);  // idle-time refreshes (or the reference's counts)
   MachineFigures f;
   for (auto& u : system.trv) {
     const Occupancy& o = u->occupancy;
@@ -455,6 +456,14 @@ SimulationResult simulate(const SimulationRequest& request) {
   if (request.frames < 1 || request.frames > 1000) throw InputError("--frames", "must be 1..1000");
   const HardwareConfig& config = request.config;
   validate(config);
+  if (config.dram.model == "dramsim3") {
+    if (request.fidelity != Fidelity::Cycle)
+      throw InputError("dram.model", "dramsim3 serves the cycle level only (--fidelity cycle)");
+    if (!dramsim3_linked())
+      throw InputError("dram.model",
+                       "dramsim3: this rtsim was built without DRAMsim3 (configure with -DRTSIM_DRAMSIM3=DIR)");
+    dramsim3_ini(config.dram, config.l2.line_bytes);  // throws when DRAMsim3 cannot express it
+  }
   if (request.fidelity != Fidelity::Functional) {
     if (systemc_used())
       throw std::runtime_error("a SystemC fidelity level runs once per process (one elaboration)");

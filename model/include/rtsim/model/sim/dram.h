@@ -167,6 +167,16 @@ class DramModel {
     uint64_t write_latency_sum_ps = 0, write_latency_max_ps = 0;
   };
   const Counters& counters() const { return counters_; }
+  // A reference model (dram_reference.h) served the requests: its requests and
+  // commands go into these counters so that report() and energy read them as ours.
+  void count_reference_request(bool write, uint64_t latency_ps) {
+    count_request(write, RowOutcome::Closed, latency_ps);
+  }
+  void set_reference_commands(uint64_t row_hits, uint64_t activates, uint64_t precharges,
+                              uint64_t refreshes, uint64_t bus_busy_ps);
+  // Writes: the reference answers them at once (posted) and measures their wait to the
+  // write command itself; latencies (ps) with their counts replace ours.
+  void set_reference_write_latencies(const std::vector<std::pair<uint64_t, uint64_t>>& latency_count);
   // Clears counters and latency histograms; bank, row, refresh and queue state stay
   // (statistics of the last of several frames).
   void reset_counters();
