@@ -349,6 +349,7 @@ void DramModel::precharge(Channel& ch, uint32_t rank, uint32_t bank, uint64_t t,
   Bank& k = bank_of(ch, rank, bank);
   const uint64_t row = uint64_t(k.open_row);
   k.open_row = -1;
+  k.opened_for = -1;
   k.auto_close_after_ps = UINT64_MAX;
   k.act_ready_ps = t + rp_;
   if (command_bus) take_command_slot(ch, t);
@@ -451,7 +452,23 @@ DramModel::Choice DramModel::decide_until(Channel& ch, bool requests, uint64_t r
       const Pending& p = ch.queue[i];
       const uint32_t r = p.where.rank, bank = p.where.bank;
       const size_t b = size_t(r) * banks + bank;
-      if (p.request.write != writes) continue;
+      if (p.request.write != writes) {
+        // A row activated for a request of the other direction is finished first: its
+        // column command goes (the bus turns for it) rather than the row being closed
+        // unused by the direction now served, which would cost the activate again.
+        const Bank& k = ch.banks[b];
+        if (k.opened_for != int8_t(p.request.write) || k.open_row != int64_t(p.where.row) ||
+            ch.column_mark[b] == stamp)
+          continue;
+        ch.column_mark[b] = stamp;
+        Choice c;
+        c.age = i, c.rank = r, c.bank = bank;
+        c.time_ps = earliest_column(ch, r, bank, p.request.write, p.ready_ps);
+        if (c.time_ps >= ch.ranks[r].refresh_due_ps) continue;
+        c.priority = 1, c.action = Action::Column;
+        consider(best, c);
+        continue;
+      }
       const uint64_t due = ch.ranks[r].refresh_due_ps;  // nothing new for the rank from then
       Choice c;
       c.age = i, c.rank = r, c.bank = bank;
@@ -465,6 +482,7 @@ DramModel::Choice DramModel::decide_until(Channel& ch, bool requests, uint64_t r
         if (ch.row_mark[b] == stamp) continue;  // row commands serve the bank's oldest
         ch.row_mark[b] = stamp;
         if (ch.active_hit_mark[b] == stamp) continue;  // hits first
+        if (ch.banks[b].opened_for == int8_t(!writes)) continue;  // committed to the other direction
         if (ch.banks[b].open_row >= 0) {
           c.time_ps = earliest_precharge(ch, r, bank, p.ready_ps);
           c.action = Action::Precharge, c.conflict = true;
@@ -568,6 +586,7 @@ void DramModel::execute(Channel& ch, const Choice& c, std::vector<DramCompletion
       ch.queue.erase(ch.queue.begin() + long(c.age));
       (p.request.write ? ch.writes_queued : ch.reads_queued)--;
       const uint64_t done = column(ch, c.rank, c.bank, p.request.write, c.time_ps);
+      k.opened_for = -1;
       count_request(p.request.write, p.outcome,
                     done - std::min(done, p.request.arrival_ps));
       issued.push_back({p.request.tag, done, p.outcome, p.request.write});
@@ -586,6 +605,7 @@ void DramModel::execute(Channel& ch, const Choice& c, std::vector<DramCompletion
       p.outcome = k.conflict_pending ? RowOutcome::Conflict : RowOutcome::Closed;
       k.conflict_pending = false;
       activate(ch, c.rank, c.bank, p.where.row, c.time_ps);
+      k.opened_for = int8_t(p.request.write);
       break;
     }
     case Action::Precharge:

@@ -197,6 +197,9 @@ class DramModel {
     uint64_t act_ready_ps = 0;    // precharge + tRP
     uint64_t last_use_ps = 0;     // last activate or column command (timeout policy)
     bool conflict_pending = false;  // precharged for a request needing another row
+    // Activated for a request of this direction (0 read, 1 write) whose column command
+    // has not issued yet; -1 once one has (or the row closed).
+    int8_t opened_for = -1;
     // lt, closed policy: the column command after which the row auto-precharges unless
     // the bank's next request hits it and arrived by then (UINT64_MAX: none pending).
     uint64_t auto_close_after_ps = UINT64_MAX;
