@@ -118,7 +118,13 @@ void run_simulate(const SimulateOptions& o) {
   const sim::SimulationResult result = sim::simulate(request);
   request.progress = nullptr;
   if (dram_trace) dram_trace->close();
-  if (cache_trace) cache_trace->close();
+  if (cache_trace) {
+    // The stats are the last frame's; with one frame they cover the whole trace.
+    if (o.frames == 1)
+      cache_trace->footer(uint64_t(result.stats.number(o.cache_trace == "l2" ? "l2.writebacks"
+                                                                              : o.cache_trace + ".all.writebacks")));
+    cache_trace->close();
+  }
   progress.reset();
 
   nlohmann::json config = nlohmann::json::parse(sim::to_json(request.config));

@@ -161,8 +161,11 @@ case $mode in
     shift
     channels=$("$rtsim" dram-replay --print-dramsim3-ini --config "$preset" --trace /dev/null 2>/dev/null |
                sed -n 's/^channels = //p')
+    # PAGE_POLICY=open: ours with DRAMsim3's policy (the presets' timeout has no DRAMsim3
+    # counterpart).
     printf 'preset = "%s"\n[dram]\nchannels = %s\n' "$preset" "${channels:-1}" >"$work/streams.toml"
-    header "workload streams, $preset (its page policy and queues; channels = ${channels:-1})"
+    [[ -z ${PAGE_POLICY:-} ]] || printf 'page_policy = "%s"\n' "$PAGE_POLICY" >>"$work/streams.toml"
+    header "workload streams, $preset (page policy ${PAGE_POLICY:-of the preset}; channels = ${channels:-1})"
     for trace in "$@"; do row "$(basename "$trace" .trace)" "$trace" "$work/streams.toml"; done
     ;;
   *) echo "unknown mode '$mode' (micro | streams)" >&2; exit 2 ;;

@@ -206,6 +206,10 @@ void CacheTraceWriter::write(uint32_t instance, const LineAccess& a, CacheModel:
   std::fprintf(file_, "%u %s 0x%" PRIx64 " %s\n", instance, a.write ? "W" : "R", a.line, what);
 }
 
+void CacheTraceWriter::footer(uint64_t writebacks) {
+  std::fprintf(file_, "# writebacks %" PRIu64 "\n", writebacks);
+}
+
 void CacheTraceWriter::close() { close_checked(file_, path_, flag_); }
 
 }  // namespace rtsim::sim

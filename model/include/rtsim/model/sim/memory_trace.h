@@ -88,7 +88,8 @@ std::vector<DramTraceEntry> read_dramsim3_trace(const std::string& path);
 
 // Cache traces: "# rtsim cache trace 1" and "# key value" header lines (cache,
 // instances, size_bytes, line_bytes, associativity, interleave, policy), then per
-// access "<instance> R|W 0x<line address> hit|miss|merge".
+// access "<instance> R|W 0x<line address> hit|miss|merge", and (one frame) a last
+// "# writebacks N".
 const std::vector<std::string>& cache_trace_names();  // l1_node, l1_triangle, l2
 class CacheTraceWriter {
  public:
@@ -100,6 +101,8 @@ class CacheTraceWriter {
   // Before the first access: the header, from instance 0's configuration.
   void header(const CacheConfig& config, uint32_t instances);
   void write(uint32_t instance, const LineAccess& access, CacheModel::Outcome outcome);
+  // After the last access: "# writebacks N", the dirty lines the instances evicted.
+  void footer(uint64_t writebacks);
   void close();
   const std::string& cache() const { return cache_; }
 
