@@ -201,7 +201,10 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
   filled.report(s, "dram.bytes_by_type", "bytes read from DRAM");
   s.set_real("dram.bytes_per_ray", rays ? double(f.dram->counters().bytes) / double(rays) : 0,
              "bytes/ray", "DRAM bytes read / rays");
-  report_energy(s, config, energy_counts(f, per_type, filled, config.dram));
+  EnergyCounts energy = energy_counts(f, per_type, filled, config.dram);
+  // mW x ps = 1e-15 J = 1e-3 pJ.
+  energy.dram_background_pj = config.dram.background_mw * config.dram.channels * double(sim_ps) * 1e-3;
+  report_energy(s, config, energy);
 }
 
 void report_layout(StatsRegistry& s, const MemoryImage& image, uint64_t triangles) {

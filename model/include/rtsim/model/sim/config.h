@@ -85,6 +85,7 @@ struct DramConfig {
   double read_burst_pj = 2700;    // one burst of burst_bytes read
   double write_burst_pj = 2000;   // one burst written
   double refresh_pj = 44000;      // one all-bank REF of a rank
+  double background_mw = 68.3;    // standby power of one channel, banks precharged (IDD2N)
   uint32_t banks_per_group() const { return banks / bank_groups; }
 };
 
