@@ -237,12 +237,12 @@ void add_simulate_command(CLI::App& root) {
       ->type_name("KEY=VALUE");
   cmd->add_option("--bvh", opts->bvh_in, "replay this saved tree (rtsim build --out) instead of building one");
   cmd->add_option("--dram-trace-out", opts->dram_trace_out,
-                  "write every request reaching DRAM to FILE, every frame (docs/dram.md, \"Traces\")");
+                  "write every request reaching DRAM to FILE (docs/dram.md, \"Checked against\")");
   cmd->add_option("--dram-trace-format", opts->dram_trace_format,
                   "dramsim3 (address, READ|WRITE, DRAM cycle) | ramulator2 (R|W, address vector)")
       ->capture_default_str();
   cmd->add_option("--cache-trace-out", opts->cache_trace_out,
-                  "write every access entering the --cache-trace cache (all instances) with its outcome to FILE");
+                  "write every access entering the --cache-trace cache, with its outcome, to FILE");
   cmd->add_option("--cache-trace", opts->cache_trace, "l1_node | l1_triangle | l2")->capture_default_str();
   cmd->add_flag("--json", opts->json, "print stats.json to stdout");
   cmd->callback([opts] {
