@@ -63,71 +63,13 @@ print('ddr4-2400 timings vs DDR4_8Gb_x8_2400.ini: ' + ('identical' if not diff e
 EOF
 }
 
-# The microbenchmarks, as dramsim3-format traces of one channel (fields encoded as
-# our default mapping row:rank:bank:column:bankgroup:channel lays them out).
-make_micro() {
-  local part=$1 dir=$2
-  python3 - "$part" "$dir" <<'EOF'
-import random, sys
-part, out = sys.argv[1:]
-# part: (bank groups, banks per group, 64-byte lines in a row, peak lines per tCK, tRC in tCK)
-org = {'ddr4-2400': (4, 4, 128, 1 / 4, 56), 'lpddr4-3200': (1, 8, 64, 1 / 8, 97), 'gddr6': (4, 4, 32, 1 / 4, 80)}[part]
-groups, banks, cols, peak, trc = org
-def addr(row, bank, col, group):
-    # line offset 6 bits, then bankgroup, column, bank, row (one channel, one rank)
-    a = group
-    a = a * cols + col
-    a = a * banks + bank
-    a = a + row * (groups * cols * banks)
-    return a << 6
-n = 20000
-rng = random.Random(37)
-def write(name, reqs):
-    with open('%s/%s.trace' % (out, name), 'w') as f:
-        for cycle, a, w in reqs:
-            f.write('0x%x %s %d\n' % (a, 'WRITE' if w else 'READ', cycle))
-lines = groups * cols * banks * 4096
-def seq_addr(i):
-    # consecutive lines: bank groups, then columns, then banks, then rows
-    return i << 6
-gap_seq = int(round(1 / peak / 0.8))        # 80% of peak
-gap_rand = int(round(1 / peak / 0.25))      # a quarter of peak
-write('seq-read', [(i * gap_seq, seq_addr(i), False) for i in range(n)])
-write('seq-read-saturated', [(0, seq_addr(i), False) for i in range(n)])
-write('random-read', [(i * gap_rand, rng.randrange(lines) << 6, False) for i in range(n)])
-# Every access a new row of one bank, at 80% of what tRC allows.
-write('row-conflict', [(i * int(trc * 1.25), addr(i + 1, 0, 0, 0), False) for i in range(n // 4)])
-write('random-30pct-writes', [(i * gap_rand, rng.randrange(lines) << 6, rng.random() < 0.3) for i in range(n)])
-# Bursts that fill the queue: 256 random reads at once, every 4000 tCK.
-write('queue-burst', [((i // 256) * 4000, rng.randrange(lines) << 6, False) for i in range(n // 4)])
-EOF
-}
+# The microbenchmarks: scripts/crosscheck/micro_traces.py.
+make_micro() { python3 "$here/scripts/crosscheck/micro_traces.py" "$1" "$2"; }
 
-row() {  # bench, trace, config: one line per model and their ratio
-  local name=$1 trace=$2 config=$3
-  local ours theirs
-  ours=$("$rtsim" dram-replay --trace "$trace" --config "$config" --model rtsim)
-  theirs=$("$rtsim" dram-replay --trace "$trace" --config "$config" --model dramsim3)
-  python3 - "$name" "$ours" "$theirs" <<'EOF'
-import json, sys
-name, a, b = sys.argv[1], json.loads(sys.argv[2]), json.loads(sys.argv[3])
-keys = [('bandwidth_gbs', 'GB/s', 5), ('read_latency_mean_ns', 'mean', 10), ('read_latency_p50_ns', 'p50', None),
-        ('read_latency_p99_ns', 'p99', None), ('row_hit_rate', 'row hit', 5), ('activates', 'ACT', None),
-        ('refreshes', 'REF', None), ('write_latency_mean_ns', 'write', None)]
-cells = []
-for k, label, goal in keys:
-    x, y = a[k], b[k]
-    if k == 'row_hit_rate':
-        # in points: a relative difference of two rates near 0 says nothing
-        d = (x - y) * 100
-        cells.append('%.3f/%.3f (%+.1f pt%s)' % (x, y, d, '' if abs(d) <= goal else ' !'))
-        continue
-    d = (x - y) / y * 100 if y else 0.0
-    mark = '' if goal is None or abs(d) <= goal else ' !'
-    fmt = '%.1f' if isinstance(x, float) else '%d'
-    cells.append((fmt % x) + '/' + (fmt % y) + ' (%+.0f%%%s)' % (d, mark))
-print('| %s | %s |' % (name, ' | '.join(cells)))
-EOF
+row() {  # bench, trace, config: ours beside DRAMsim3
+  python3 "$here/scripts/crosscheck/compare.py" "$1" \
+    "$("$rtsim" dram-replay --trace "$2" --config "$3" --model rtsim)" \
+    "$("$rtsim" dram-replay --trace "$2" --config "$3" --model dramsim3)"
 }
 
 header() {
