@@ -23,6 +23,9 @@
 
 namespace rtsim::sim {
 
+class DramTraceWriter;
+class CacheTraceWriter;
+
 struct SimulationRequest {
   const Scene* scene = nullptr;
   const Bvh* bvh = nullptr;
@@ -34,6 +37,10 @@ struct SimulationRequest {
   uint32_t frames = 1;                // the same rays this many times, caches warm; stats of the last
   std::function<void(uint64_t rays_done)> progress;
   AccessObserver observer;            // optional: every access the core names, per ray
+  // Optional (memory_trace.h): every request reaching the DRAM, and every access
+  // entering the cache the writer names (all its instances), over every frame.
+  DramTraceWriter* dram_trace = nullptr;
+  CacheTraceWriter* cache_trace = nullptr;
 };
 
 // The memory layout and traversal settings a hardware configuration implies
