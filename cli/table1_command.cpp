@@ -145,7 +145,8 @@ void add_table1_command(CLI::App& root) {
                   "Cycle-level frames of the same rays (the first cold; figures of the last)")
       ->check(CLI::Range(1u, 16u))->capture_default_str();
   cmd->add_option("--build-seeds", o->table.build_seeds,
-                  "Trees per sampled builder (osah, aobvh, aosbvh, rdh): seeds --build-seed, +1, ...;\n"
+                  "Trees per sampled builder (those reading the seed: osah, aobvh, aosbvh, rdh, rdh-sbvh):\n"
+                  "seeds --build-seed, +1, ...; "
                   "their figures are the means with a 95% interval (cycles: the first seed's tree)")
       ->check(CLI::Range(1u, 64u))->capture_default_str();
   cmd->add_flag("--no-cycle", o->no_cycle, "Skip the cycle-level runs (no DRAM bytes or cycles)");
