@@ -52,4 +52,45 @@ TEST(DramEnergy, BackgroundIsStandbyPowerOverEveryChannelForTheRun) {
   fs::remove_all(dir);
 }
 
+// energy.process_nm scales every on-chip component by one factor (Stillmaker and Baas)
+// and leaves the DRAM, its own chip, alone; the counts it multiplies do not move.
+TEST(ProcessNode, ScalesOnChipEnergyAndNotTheDram) {
+  const fs::path dir = fs::temp_directory_path() / ("rtsim_process_node_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const nlohmann::json at65 = simulate(dir, "preset = \"mobile-gpu\"\n");
+  const nlohmann::json at7 = simulate(dir, "preset = \"mobile-gpu\"\n[energy]\nprocess_nm = 7\n");
+  const nlohmann::json at7_lowv =
+      simulate(dir, "preset = \"mobile-gpu\"\n[energy]\nprocess_nm = 7\nvdd = 0.6\n");
+  const double factor = value(at7, "energy", "process_factor");
+  EXPECT_EQ(value(at65, "energy", "process_factor"), 1.0);
+  EXPECT_GT(factor, 0.0);
+  EXPECT_LT(factor, 0.2) << "7 nm should cost a small fraction of 65 nm's energy";
+  for (const char* part : {"trv", "ist", "l1_node", "l1_triangle", "l2", "noc"}) {
+    const double e65 = at65.at("energy").at(part).at("pj").at("value").get<double>();
+    const double e7 = at7.at("energy").at(part).at("pj").at("value").get<double>();
+    EXPECT_NEAR(e7, e65 * factor, 1e-9 * e65) << part;
+  }
+  EXPECT_EQ(at7.at("energy").at("dram").at("pj").at("value").get<double>(),
+            at65.at("energy").at("dram").at("pj").at("value").get<double>());
+  EXPECT_EQ(value(at7, "time", "cycles"), value(at65, "time", "cycles"));
+  // A lower supply at the same node costs less (the fit's V^2 term dominates there).
+  EXPECT_LT(value(at7_lowv, "energy", "process_factor"), factor);
+  fs::remove_all(dir);
+}
+
+TEST(ProcessNode, ANodeOutsideTheTableIsRefusedByName) {
+  const fs::path dir = fs::temp_directory_path() / ("rtsim_process_bad_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / "c.toml") << "[energy]\nprocess_nm = 28\n";
+  const CliResult r = run_rtsim_command("cd " + rtsim::shell_quote(dir.string()) + " && " +
+                                        rtsim::shell_quote(RTSIM_BINARY) +
+                                        " simulate --res 8x8 --config c.toml --out-dir o 2>&1");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("energy.process_nm"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("65, 45, 32, 20, 16, 14, 10, 7"), std::string::npos) << r.output;
+  fs::remove_all(dir);
+}
+
 }  // namespace

@@ -250,9 +250,16 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
   EnergyConfig& e = c.energy;
   std::vector<ParameterInfo> energy = {
       f64("energy.sram_scale", e.sram_scale, 0, 100, "ratio",
-          "factor on every cache access energy, which otherwise follows the cache's size in "
-          "SimTRaX's 65 nm CACTI table (1 bank, 64-byte lines: 16 KiB 126 pJ, 512 KiB 642 pJ, "
-          "4 MiB 1645 pJ)"),
+          "a further factor on every cache access energy (another SRAM design), which otherwise "
+          "follows the cache's size in SimTRaX's 65 nm CACTI table (1 bank, 64-byte lines: "
+          "16 KiB 126 pJ, 512 KiB 642 pJ, 4 MiB 1645 pJ) scaled to energy.process_nm"),
+      u32("energy.process_nm", e.process_nm, 7, 65, "nm",
+          "process node of the accelerator: the unit, cache and crossbar energies of the 65 nm "
+          "machine are scaled to it by Stillmaker and Baas's equations (65, 45, 32, 20, 16, 14, "
+          "10, 7; DRAM is its own chip and is not scaled)"),
+      f64("energy.vdd", e.vdd, 0, 2, "V",
+          "supply voltage at energy.process_nm; 0: the node's nominal (65 nm 1.1, 45 nm 1.0, "
+          "32 nm 0.9, 20 nm 0.9, 16 nm 0.85, 14 nm 0.8, 10 nm 0.75, 7 nm 0.7 V)"),
       f64("energy.box_test_pj", e.box_test_pj, 0, 1e6, "pJ",
           "one ray-box slab test: 6 multiplies, 6 adds, 13 min/max/compares at SimTRaX's 65 nm "
           "unit energies (FPMUL 14.2, FPADD 7.4, FPMIN 0.536 pJ)"),
@@ -275,6 +282,48 @@ double cache_access_pj(uint64_t size_bytes) {
   const int i = std::clamp(int(std::floor(x)), 0, last - 1);
   const double v = kPj[i] + (x - i) * (kPj[i + 1] - kPj[i]);  // beyond the ends: the end slope
   return std::max(1.0, v);
+}
+
+namespace {
+// Stillmaker and Baas, "Scaling equations for the accurate prediction of CMOS device
+// performance from 180 nm to 7 nm", Integration 58 (2017): energy of their benchmark
+// circuits fitted as a V^2 + b V + c per node (65 nm: commercial library data; 45 and
+// 32 nm: PTM high-performance; 20-7 nm: PTM-MG high-performance FinFETs). Only the
+// ratio of two nodes' values is used. Nominal supplies: CACTI's 65 nm (1.1 V), PTM's
+// and PTM-MG's nominal voltages for the others.
+struct ProcessNode {
+  uint32_t nm;
+  double a, b, c, nominal_vdd;
+};
+constexpr ProcessNode kProcessNodes[] = {
+    {65, 3.755, -4.398, 1.975, 1.1},     {45, 1.018, -0.3107, 0.1539, 1.0},
+    {32, 0.8367, -0.4341, 0.1701, 0.9},  {20, 0.373, -0.1582, 0.04104, 0.9},
+    {16, 0.2958, -0.1241, 0.03024, 0.85}, {14, 0.2363, -0.09675, 0.02239, 0.8},
+    {10, 0.2068, -0.09311, 0.02375, 0.75}, {7, 0.1776, -0.09097, 0.02447, 0.7},
+};
+const ProcessNode& process_node(uint32_t nm) {
+  for (const ProcessNode& n : kProcessNodes)
+    if (n.nm == nm) return n;
+  std::string all;
+  for (const ProcessNode& n : kProcessNodes) all += (all.empty() ? "" : ", ") + std::to_string(n.nm);
+  throw InputError("energy.process_nm", std::to_string(nm) + " nm is not a node of the scaling table (" +
+                                            all + ")");
+}
+double scaled_energy(const ProcessNode& n, double vdd) { return (n.a * vdd + n.b) * vdd + n.c; }
+}  // namespace
+
+std::vector<uint32_t> process_nodes() {
+  std::vector<uint32_t> out;
+  for (const ProcessNode& n : kProcessNodes) out.push_back(n.nm);
+  return out;
+}
+
+double nominal_vdd(uint32_t nm) { return process_node(nm).nominal_vdd; }
+
+double process_energy_factor(uint32_t from_nm, uint32_t to_nm, double vdd) {
+  const ProcessNode& from = process_node(from_nm);
+  const ProcessNode& to = process_node(to_nm);
+  return scaled_energy(to, vdd > 0 ? vdd : to.nominal_vdd) / scaled_energy(from, from.nominal_vdd);
 }
 
 std::vector<std::string> dram_part_names() {
@@ -499,6 +548,7 @@ void check_cache(const std::string& key, const CacheConfig& c) {
 
 void validate(const HardwareConfig& c) {
   parse_tile(c.raygen_tile);
+  process_node(c.energy.process_nm);  // one of the table's nodes, or a message naming them
   // Each key inside its range can still multiply past the host's memory (256 cores
   // x 256 units of 1 GiB L1s): refused here, before any model is built.
   std::string factors;

@@ -92,7 +92,9 @@ struct DramConfig {
 // Dynamic energy of the on-chip parts (energy.h). Cache accesses cost what a
 // CACTI table gives for one instance's size (cache_access_pj), times sram_scale.
 struct EnergyConfig {
-  double sram_scale = 1.0;          // 1: the 65 nm table; < 1 for a newer process
+  double sram_scale = 1.0;          // a further factor on cache energies (another SRAM design)
+  uint32_t process_nm = 65;         // the node every on-chip energy is scaled to
+  double vdd = 0;                   // its supply in volts; 0: the node's nominal
   double box_test_pj = 137;         // one ray-box slab test
   double triangle_test_pj = 721;    // one ray-triangle test
   double noc_byte_pj = 4.8;         // one byte across the crossbar (one hop)
@@ -101,6 +103,13 @@ struct EnergyConfig {
 // SimTRaX's CACTI table (dkoptacs/simtrax samples/configs/dcacheparams.txt),
 // interpolated in log2(size).
 double cache_access_pj(uint64_t size_bytes);
+
+// Stillmaker and Baas's energy scaling (Integration 58, 2017): the factor that takes a
+// circuit's energy at from_nm (its nominal supply) to to_nm at vdd volts (0: nominal).
+// Nodes: 65, 45, 32, 20, 16, 14, 10, 7.
+std::vector<uint32_t> process_nodes();
+double nominal_vdd(uint32_t nm);
+double process_energy_factor(uint32_t from_nm, uint32_t to_nm, double vdd);
 
 struct HardwareConfig {
   std::string preset = "mobile";
