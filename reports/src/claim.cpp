@@ -12,6 +12,7 @@
 #include <rtsim/workloads/files.h>
 #include <rtsim/workloads/procedural.h>
 #include <rtsim/workloads/scene_registry.h>
+#include <rtsim/model/sim/stat_names.h>
 
 #include <nlohmann/json.hpp>
 
@@ -200,7 +201,7 @@ Figures figures_of(const json& stats) {
       f.v[1][m] = get(p + "node_fetches") / rays;
       // Every kind the ray type read (nodes, prim refs, triangles, stack).
       double bytes = 0;
-      const std::string prefix = "dram.bytes_by_type." + mix + ".";
+      const std::string prefix = std::string(sim::stat::kDramBytesByType) + "." + mix + ".";
       for (auto it = s.lower_bound(prefix); it != s.end() && it->first.compare(0, prefix.size(), prefix) == 0; ++it)
         if (std::isfinite(it->second)) bytes += it->second;
       f.v[2][m] = rays > 0 ? bytes / rays : NAN;

@@ -4,6 +4,7 @@
 #include <rtsim/builder/metrics.h>
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/stat_names.h>
 #include <rtsim/reports/child_process.h>
 #include <rtsim/reports/results_store.h>
 #include <rtsim/reports/simulation_job.h>
@@ -71,7 +72,7 @@ std::string tree_key(const std::string& builder, const std::string& camera, cons
 // Every kind of data the ray type read from DRAM (nodes, prim refs, triangles, stack).
 double dram_bytes_of_type(const nlohmann::json& stats, const char* type) {
   double sum = 0;
-  const std::string prefix = std::string("dram.bytes_by_type.") + type + ".";
+  const std::string prefix = std::string(sim::stat::kDramBytesByType) + "." + type + ".";
   for (const auto& [key, value] : flatten_stats(stats))
     if (key.compare(0, prefix.size(), prefix) == 0 && value > 0) sum += value;
   return sum;
