@@ -5,6 +5,7 @@
 #include "commands.h"
 
 #include <rtsim/builder/build.h>
+#include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/bvh_file.h>
 #include <rtsim/builder/memory_image.h>
 #include <rtsim/builder/metrics.h>
@@ -13,9 +14,11 @@
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/progress.h>
 #include <rtsim/workloads/scene_registry.h>
+#include <rtsim/reports/interval.h>
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -37,6 +40,7 @@ struct BuildOptions {
   bool all = false;
   bool list_builders = false;
   bool no_epo = false;
+  uint32_t seed_spread = 1;  // trees per sampled builder for the spread of its costs
   std::string node_format = "bvh2-64";
   BuildParams params;
 };
@@ -47,6 +51,30 @@ double node_bytes_per_triangle(const Scene& scene, const Bvh& bvh, const std::st
   layout.node_format = format;
   const MemoryImage image(scene, bvh, layout);
   return double(image.footprint().node_bytes) / double(std::max<size_t>(1, scene.triangle_count()));
+}
+
+// A sampled builder's costs over `seeds` trees (seeds seed, seed + 1, ...): mean,
+// 95% interval, min and max. Empty for a builder that draws no random rays, or seeds 1.
+nlohmann::json seed_spread(const Scene& scene, const BuildParams& params, const BvhMetrics& first, uint32_t seeds) {
+  if (seeds < 2 || !parameter_used_by(*find_builder_parameter("seed"), params.builder)) return nullptr;
+  std::vector<double> sah = {first.sah_cost}, weighted = {first.weighted_cost};
+  for (uint32_t k = 1; k < seeds; ++k) {
+    BuildParams p = params;
+    p.seed = params.seed + k;
+    BuildReport r;
+    const Bvh bvh = build_bvh(scene, p, &r);
+    const BvhMetrics m = compute_metrics(bvh, scene, p, r, false);
+    sah.push_back(m.sah_cost);
+    weighted.push_back(m.weighted_cost);
+  }
+  auto spread = [](const std::vector<double>& v) {
+    const Interval i = interval_of(v);
+    return nlohmann::json{{"mean", i.mean}, {"lo95", i.lo}, {"hi95", i.hi},
+                          {"min", *std::min_element(v.begin(), v.end())},
+                          {"max", *std::max_element(v.begin(), v.end())}};
+  };
+  return {{"seeds", seeds}, {"first_seed", params.seed}, {"sah_cost", spread(sah)},
+          {"weighted_cost", spread(weighted)}};
 }
 
 std::string human_bytes(double bytes) {
@@ -61,7 +89,7 @@ std::string human_bytes(double bytes) {
 // Rows = metrics, columns = builders.
 void print_table(const std::string& scene, const std::vector<BvhMetrics>& all,
                  const std::vector<bool>& valid, const std::vector<double>& node_bytes,
-                 const std::string& format) {
+                 const std::string& format, const nlohmann::json& trees) {
   std::printf("scene %s: %llu triangles\n", scene.c_str(),
               (unsigned long long)(all.empty() ? 0 : all.front().triangles));
   auto row = [&](const char* label, auto cell) {
@@ -77,6 +105,15 @@ void print_table(const std::string& scene, const std::vector<BvhMetrics>& all,
   row("builder", [&](size_t i) { return all[i].builder; });
   row("valid", [&](size_t i) { return std::string(valid[i] ? "yes" : "NO"); });
   row("SAH cost", [&](size_t i) { return num("%.3f", all[i].sah_cost); });
+  bool any_spread = false;
+  for (const auto& t : trees) any_spread |= t.contains("seed_spread") && !t["seed_spread"].is_null();
+  if (any_spread)
+    row("  +-95% over seeds", [&](size_t i) {
+      const auto& t = trees[i];
+      if (!t.contains("seed_spread") || t["seed_spread"].is_null()) return std::string("-");
+      const auto& c = t["seed_spread"]["sah_cost"];
+      return num("%.3f", (c["hi95"].get<double>() - c["lo95"].get<double>()) / 2);
+    });
   row("weighted cost", [&](size_t i) { return num("%.3f", all[i].weighted_cost); });
   row("EPO", [&](size_t i) { return all[i].epo < 0 ? std::string("-") : num("%.3f", all[i].epo); });
   row("width", [&](size_t i) { return std::to_string(all[i].width); });
@@ -165,6 +202,10 @@ void run_build(const BuildOptions& o) {
       if (name == "aobvh" || name == "aosbvh") j["mean_occlusion"] = r.mean_occlusion, j["ao_rays"] = r.ao_rays;
       if (name == "osah") j["visible_triangles"] = r.visible_triangles;
       if (name == "rdh" || name == "rdh-sbvh") j["rdh_rays"] = r.rdh_rays;
+      if (parameter_used_by(*find_builder_parameter("seed"), name)) {
+        j["seeds"] = std::max<uint32_t>(1, o.seed_spread);
+        j["seed_spread"] = seed_spread(scene, params, m, o.seed_spread);
+      }
       // Before the tree: a cache that finds the tree finds its report too.
       if (!o.metrics_out.empty()) write_file_atomic(o.metrics_out, j.dump(2) + "\n");
       if (o.all ? !out_dir.empty() : !o.out.empty()) {
@@ -187,7 +228,7 @@ void run_build(const BuildOptions& o) {
     out["trees"] = report;
     std::cout << out.dump(2) << "\n";
   } else {
-    print_table(scene.name, metrics, valid, node_bytes, o.node_format);
+    print_table(scene.name, metrics, valid, node_bytes, o.node_format, report);
   }
   for (bool ok : valid)
     if (!ok) throw ExitStatus(1, "a built tree failed the structural checks");
@@ -201,9 +242,9 @@ void add_build_command(CLI::App& root) {
       "build",
       "Build a BVH for a scene, check it and print its quality report.\n"
       "Builders: sah (binned SAH; --bins 0 = full sweep), median (object median), sbvh\n"
-      "(spatial splits, Stich et al. 2009), osah (visibility from --camera, Vinkler et al.\n"
-      "2012), aobvh (the patent's occlusion-weighted SAH), aosbvh (AO-BVH weights with SBVH\n"
-      "spatial splits), embree, embree-sbvh (Embree's rtcBuildBVH, medium / high quality).\n"
+      "(spatial splits, Stich et al. 2009), osah (visibility splits from --camera, Vinkler et\n"
+      "al. 2012), aobvh / aosbvh (the patent's occlusion-weighted SAH read with object / with\n"
+      "spatial splits), rdh, rdh-sbvh (ours), embree, embree-sbvh (Embree's rtcBuildBVH).\n"
       "The report: SAH cost (normalised by the root area, with T1/T2), weighted cost,\n"
       "end-point overlap, counts, depths, times, memory.");
   cmd->add_option("--scene", o->scene, "scene name or path (default: " + default_scene_name() + ")");
@@ -218,6 +259,11 @@ void add_build_command(CLI::App& root) {
   cmd->add_flag("--list-builders", o->list_builders, "print the builder names, one a line, and stop");
   cmd->add_option("--load", o->load, "load a saved tree (checked against the scene) and report it");
   cmd->add_flag("--no-epo", o->no_epo, "skip the end-point overlap (the slowest metric)");
+  cmd->add_option("--seed-spread", o->seed_spread,
+                  "sampled builders (osah, aobvh, aosbvh, rdh, rdh-sbvh): build this many trees, seeds\n"
+                  "--build-seed, +1, ..., and report the spread of their costs (the saved tree: the first)")
+      ->check(CLI::Range(1u, 64u))
+      ->capture_default_str();
   cmd->add_option("--node-format", o->node_format,
                   "build for this node record format: " + node_format_names("|") +
                       "\n(its width: wide formats collapse the binary tree; its leaf capacity)")

@@ -10,6 +10,7 @@
 
 #include <rtsim/builder/build.h>
 #include <rtsim/model/core/ray_file.h>
+#include <rtsim/model/sim/memory_trace.h>
 #include <rtsim/model/sim/simulator.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
@@ -40,6 +41,7 @@ struct SimulateOptions {
   uint32_t spp = 1, bounces = 2, frames = 1;
   uint64_t seed = 1, shuffle_faces = 0;
   std::vector<std::string> build_settings;  // --build-set KEY=VALUE
+  std::string dram_trace_out, dram_trace_format = "dramsim3", cache_trace_out, cache_trace = "l2";
   bool json = false;
   // Flags whose presence matters (given or not), filled when the command is added.
   const CLI::Option* builder_flag = nullptr;
@@ -110,7 +112,7 @@ void run_simulate(const SimulateOptions& o) {
   if (!o.timeline.empty() && request.fidelity == sim::Fidelity::Functional)
     throw InputError("--timeline", "the functional level has no time to draw; use --fidelity lt or cycle");
   if (o.timeline_max_events < 1) throw InputError("--timeline-max-events", "must be at least 1");
-  // The output paths first: a wrong one must not cost a whole simulation.
+  // The output folder and trace files first: a wrong one must not cost a whole simulation.
   OutputFolder out_dir;
   if (!o.out_dir.empty()) out_dir.prepare(o.out_dir, "--out-dir");
   std::unique_ptr<sim::Timeline> timeline;
@@ -126,6 +128,20 @@ void run_simulate(const SimulateOptions& o) {
     t.level = o.fidelity;
     timeline = std::make_unique<sim::Timeline>(t);
     request.timeline = timeline.get();
+  }
+  std::unique_ptr<sim::DramTraceWriter> dram_trace;
+  std::unique_ptr<sim::CacheTraceWriter> cache_trace;
+  const sim::DramTraceFormat dram_format = sim::parse_dram_trace_format(o.dram_trace_format);
+  if (!o.dram_trace_out.empty()) {
+    dram_trace = std::make_unique<sim::DramTraceWriter>(o.dram_trace_out, dram_format, request.config.dram,
+                                                         request.config.l2.line_bytes);
+    request.dram_trace = dram_trace.get();
+  }
+  if (!o.cache_trace_out.empty()) {
+    cache_trace = std::make_unique<sim::CacheTraceWriter>(o.cache_trace_out, o.cache_trace, "--cache-trace-out");
+    request.cache_trace = cache_trace.get();
+  } else if (o.cache_trace != "l2") {
+    throw InputError("--cache-trace", "needs --cache-trace-out FILE");
   }
 
   Workload workload;
@@ -170,6 +186,14 @@ void run_simulate(const SimulateOptions& o) {
 
   const sim::SimulationResult result = sim::simulate(request);
   request.progress = nullptr;
+  if (dram_trace) dram_trace->close();
+  if (cache_trace) {
+    // The stats are the last frame's; with one frame they cover the whole trace.
+    if (o.frames == 1)
+      cache_trace->footer(uint64_t(result.stats.number(o.cache_trace == "l2" ? "l2.writebacks"
+                                                                              : o.cache_trace + ".all.writebacks")));
+    cache_trace->close();
+  }
   progress.reset();
 
   nlohmann::json config = nlohmann::json::parse(sim::to_json(request.config));
@@ -315,6 +339,14 @@ void add_simulate_command(CLI::App& root) {
                   "refraction; INDEX: the sample of a primary ray, the INDEX-th ray of TYPE the pixel spawns);\n"
                   "also written to ray_trace.json in --out-dir")
       ->type_name("X,Y[,TYPE[,INDEX]]");
+  cmd->add_option("--dram-trace-out", opts->dram_trace_out,
+                  "write every request reaching DRAM to FILE (docs/dram.md, \"Checked against\")");
+  cmd->add_option("--dram-trace-format", opts->dram_trace_format,
+                  "dramsim3 (address, READ|WRITE, DRAM cycle) | ramulator2 (R|W, address vector)")
+      ->capture_default_str();
+  cmd->add_option("--cache-trace-out", opts->cache_trace_out,
+                  "write every access entering the --cache-trace cache, with its outcome, to FILE");
+  cmd->add_option("--cache-trace", opts->cache_trace, "l1_node | l1_triangle | l2")->capture_default_str();
   cmd->callback([opts] {
     if (opts->out_dir.empty() && !opts->json)
       throw InputError("simulate", "--out-dir DIR is required (or --json to print the stats only)");

@@ -17,18 +17,26 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from plot_files import save  # noqa: E402
 
-NAMES = {"median": "BVH (median)", "sah": "BVH (SAH)", "sbvh": "SBVH", "osah": "OSAH",
-         "aobvh": "AO-BVH", "aosbvh": "AO-SBVH", "rdh": "RDH (ours)", "rdh-sbvh": "RDH-SBVH (ours)"}
+# The builders' display names come with the table (table1.json rows' display_name,
+# from the registry), so the pictures and the tables name a tree alike.
+NAMES = {}
 
+
+def spread_of(row):
+    """The combined ops/ray's 95% seed interval (lo, hi), or None for one tree."""
+    s = (row.get("ops_per_ray_spread") or {}).get("combined")
+    return (s["lo95"], s["hi95"]) if s else None
 
 
 def main(out_dir):
     with open(os.path.join(out_dir, "table1.json")) as f:
         table = json.load(f)
     rows = table["rows"]
+    NAMES.update({r["builder"]: r["display_name"] for r in rows})
     cameras = list(dict.fromkeys(r["camera"] for r in rows))
     builders = list(dict.fromkeys(r["builder"] for r in rows))
     ops = {(r["camera"], r["builder"]): r["combined"]["ops_per_ray"] for r in rows}
+    spread = {(r["camera"], r["builder"]): spread_of(r) for r in rows}
 
     # Bar chart: reduction of ops/ray against each baseline, per camera; the
     # patent's reductions against its BVH as hollow bars for comparison.
@@ -37,11 +45,13 @@ def main(out_dir):
     for i, cam in enumerate(cameras[:2]):
         key = "viewpoint%d" % (i + 1)
         base = patent["BVH"][key]
+        # The patent's one AO-BVH beside each of our two readings of it.
         patent_red[cam] = {"sbvh": 1 - patent["SBVH"][key] / base,
                            "osah": 1 - patent["OSAH"][key] / base,
-                           "aobvh": 1 - patent["AO-BVH"][key] / base}
+                           "aobvh": 1 - patent["AO-BVH"][key] / base,
+                           "aosbvh": 1 - patent["AO-BVH"][key] / base}
     compared = [b for b in builders if b not in ("median",)]
-    fig, axes = plt.subplots(1, len(cameras), figsize=(6.5 * len(cameras), 4.6), squeeze=False)
+    fig, axes = plt.subplots(1, len(cameras), figsize=(6.5 * len(cameras), 5.2), squeeze=False)
     width = 0.27
     for ax, cam in zip(axes[0], cameras):
         x = np.arange(len(compared))
@@ -49,20 +59,28 @@ def main(out_dir):
             if (cam, base) not in ops:
                 continue
             red = [100 * (1 - ops[(cam, b)] / ops[(cam, base)]) for b in compared]
-            ax.bar(x + (k - 1) * width, red, width, color=colour, label="ours vs %s" % NAMES[base])
+            # The seed spread of a sampled builder, as the reduction it spans.
+            err = [[0.0] * len(compared), [0.0] * len(compared)]
+            for i, b in enumerate(compared):
+                if spread[(cam, b)]:
+                    lo, hi = spread[(cam, b)]
+                    err[0][i] = red[i] - 100 * (1 - hi / ops[(cam, base)])
+                    err[1][i] = 100 * (1 - lo / ops[(cam, base)]) - red[i]
+            ax.bar(x + (k - 1) * width, red, width, color=colour, label="ours vs %s" % NAMES[base],
+                   yerr=err, capsize=2, error_kw={"linewidth": 0.8})
         if cam in patent_red:
             red = [100 * patent_red[cam].get(b, np.nan) for b in compared]
             ax.bar(x + width, red, width, fill=False, edgecolor="black", hatch="//",
                    label="patent vs its BVH")
         ax.axhline(0, color="black", linewidth=0.8)
         ax.set_xticks(x)
-        ax.set_xticklabels([NAMES.get(b, b) for b in compared])
+        ax.set_xticklabels([NAMES.get(b, b) for b in compared], rotation=20, ha="right", fontsize=8)
         ax.set_ylabel("reduction of TRV+IST ops/ray (%)")
         ax.set_title("camera %s" % cam)
         ax.grid(axis="y", alpha=0.3)
-        ax.legend(fontsize=8)
-    fig.suptitle("Table 1 on %s: reduction of TRV+IST operations per ray (higher is better)"
-                 % table["scene"])
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.22), ncol=3)
+    fig.suptitle("Table 1 on %s: reduction of TRV+IST operations per ray (higher is better; "
+                 "bars: 95%% seed interval)" % table["scene"])
     save(fig, os.path.join(out_dir, "table1_reductions.png"))
 
     # Heatmaps: one shared colour scale (99th percentile over all) so that the
@@ -102,6 +120,7 @@ def formats(out_dir, names):
     for name in names:
         with open(os.path.join(out_dir, name, "table1.json")) as f:
             tables.append(json.load(f))
+    NAMES.update({r["builder"]: r["display_name"] for t in tables for r in t["rows"]})
     cameras = list(dict.fromkeys(r["camera"] for r in tables[0]["rows"]))
     builders = [b for b in dict.fromkeys(r["builder"] for r in tables[0]["rows"])
                 if b not in ("median", "sah")]

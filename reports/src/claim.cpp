@@ -71,23 +71,6 @@ std::vector<std::string> condition_builders(const ClaimOptions& o, const std::st
   return out;
 }
 
-Interval interval_of(const std::vector<double>& x) {
-  Interval r;
-  std::vector<double> v;
-  for (double d : x)
-    if (std::isfinite(d)) v.push_back(d);
-  r.n = v.size();
-  if (v.empty()) return r;
-  r.mean = std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
-  if (v.size() < 2) return r;
-  double ss = 0;
-  for (double d : v) ss += (d - r.mean) * (d - r.mean);
-  const double half = t_quantile_975(v.size() - 1) * std::sqrt(ss / double(v.size() - 1) / double(v.size()));
-  r.lo = r.mean - half;
-  r.hi = r.mean + half;
-  return r;
-}
-
 std::string interval_text(const Interval& i) {
   char b[64];
   if (!std::isfinite(i.lo)) {
@@ -104,11 +87,17 @@ std::string interval_text(const Interval& i) {
 namespace {
 
 std::vector<Relation> relations(const ClaimOptions& o) {
-  std::vector<Relation> r = {{"aobvh<sah", "aobvh", "sah", "AO-BVH < SAH BVH"},
-                             {"aobvh<sbvh", "aobvh", "sbvh", "AO-BVH < SBVH"},
-                             {"aobvh<osah", "aobvh", "osah", "AO-BVH < OSAH"},
+  std::vector<Relation> r = {{"aobvh<sah", "aobvh", "sah", "AO-BVH (object) < SAH BVH"},
+                             {"aobvh<sbvh", "aobvh", "sbvh", "AO-BVH (object) < SBVH"},
+                             {"aobvh<osah", "aobvh", "osah", "AO-BVH (object) < OSAH"},
                              {"all<median", "", "median", "SAH, SBVH, OSAH, AO-BVH < median BVH"}};
   const std::set<std::string> extra(o.extra_builders.begin(), o.extra_builders.end());
+  // The patent's AO-BVH read as splitting space (aosbvh): its relations where it is
+  // built (the default condition, with the other extra trees).
+  if (extra.count("aosbvh"))
+    for (const char* other : {"sah", "sbvh", "osah"})
+      r.push_back({std::string("aosbvh<") + other, "aosbvh", other,
+                   "AO-BVH (spatial) < " + std::string(std::string(other) == "sah" ? "SAH BVH" : builder_info(other).display_name)});
   for (const std::string& ours : {std::string("rdh"), std::string("rdh-sbvh")}) {
     if (!extra.count(ours)) continue;
     for (const std::string& other : {std::string("sah"), std::string("sbvh"), std::string("aobvh"),
@@ -220,19 +209,6 @@ std::string verdict(const Interval& i) {
 
 
 }  // namespace
-
-double t_quantile_975(size_t df) {
-  static const double kTable[] = {0,      12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365,
-                                  2.306,  2.262,  2.228, 2.201, 2.179, 2.160, 2.145, 2.131,
-                                  2.120,  2.110,  2.101, 2.093, 2.086, 2.080, 2.074, 2.069,
-                                  2.064,  2.060,  2.056, 2.052, 2.048, 2.045, 2.042};
-  if (df == 0) return NAN;
-  if (df < std::size(kTable)) return kTable[df];
-  // Beyond the table t is close to linear in 1/df (within 0.001 here).
-  const double inv = 1.0 / double(df);
-  if (df <= 60) return 2.000 + (2.042 - 2.000) * (inv - 1.0 / 60) / (1.0 / 30 - 1.0 / 60);
-  return 1.960 + (2.000 - 1.960) * 60.0 * inv;
-}
 
 double spearman(const std::vector<double>& x, const std::vector<double>& y) {
   const size_t n = std::min(x.size(), y.size());

@@ -3,6 +3,7 @@
 // the relations, the map's cells with their intervals, the cost-model correlations
 // and the figures of every builder. Internal to the reports library.
 #include <rtsim/reports/claim.h>
+#include <rtsim/reports/interval.h>
 
 #include <cmath>
 #include <cstdint>
@@ -47,12 +48,6 @@ struct Figures {
   double v[kMetricCount][kMixCount];
 };
 
-// Mean and 95% t interval of a sample.
-struct Interval {
-  size_t n = 0;
-  double mean = NAN, lo = NAN, hi = NAN;
-};
-
 // One cell of the map: a relation in one (scene, camera, condition), metric, mix.
 struct Cell {
   std::string relation, scene, camera, condition, metric, mix;
@@ -89,7 +84,6 @@ struct ClaimRun {
   std::string revision;
 };
 
-Interval interval_of(const std::vector<double>& x);
 std::string interval_text(const Interval& i);  // "+1.2% [+0.8, +1.6]"
 std::string picture_name(std::string relation);  // claim_aobvh-lt-sah.png
 std::vector<std::string> claim_scenes(const ClaimOptions& o);

@@ -59,6 +59,27 @@ Table1Counts counts_of(const CounterTotals& t) {
   return c;
 }
 
+// The mean of the seeds' counts per ray (the ray counts are the same in each).
+Table1Counts mean_counts(const std::vector<Table1Counts>& seeds) {
+  Table1Counts m = seeds.front();
+  const double n = double(seeds.size());
+  m.ops_per_ray = m.trv_per_ray = m.ist_per_ray = m.node_fetches_per_ray = m.box_tests_per_ray = 0;
+  for (const Table1Counts& c : seeds) {
+    m.ops_per_ray += c.ops_per_ray / n;
+    m.trv_per_ray += c.trv_per_ray / n;
+    m.ist_per_ray += c.ist_per_ray / n;
+    m.node_fetches_per_ray += c.node_fetches_per_ray / n;
+    m.box_tests_per_ray += c.box_tests_per_ray / n;
+  }
+  return m;
+}
+
+Interval ops_interval(const std::vector<Table1Counts>& seeds) {
+  std::vector<double> ops;
+  for (const Table1Counts& c : seeds) ops.push_back(c.ops_per_ray);
+  return interval_of(ops);
+}
+
 // Trees that depend on the camera (OSAH's, RDH's from one camera) are built per
 // camera; the others once per scene.
 bool camera_dependent(const std::string& builder, BuildParams build) {
@@ -129,10 +150,9 @@ void run_cycle_level(Table1& table, const std::map<std::string, std::filesystem:
     // The invariant of the model: the cycle level counts exactly what the functional level counts.
     const double trv = stat_value(stats, {"ops", "trv"}), ist = stat_value(stats, {"ops", "ist"});
     const double rays = stat_value(stats, {"rays", "total"});
-    row.counts_match_cycle_level =
-        uint64_t(rays) == row.combined.rays &&
-        std::llround(trv) == std::llround(row.combined.trv_per_ray * row.combined.rays) &&
-        std::llround(ist) == std::llround(row.combined.ist_per_ray * row.combined.rays);
+    row.counts_match_cycle_level = uint64_t(rays) == row.combined.rays &&
+                                   uint64_t(std::llround(trv)) == row.first_trv_ops &&
+                                   uint64_t(std::llround(ist)) == row.first_ist_ops;
   }
 }
 
@@ -147,44 +167,80 @@ std::string display(const std::string& builder) { return builder_info(builder).d
 
 double reduction(double value, double baseline) { return baseline > 0 ? 1.0 - value / baseline : 0.0; }
 
+// A row's ops/ray as an interval: its seed spread, or the point itself.
+struct OpsRange {
+  double mean, lo, hi;
+};
+OpsRange ops_range(const Table1Row& r) {
+  const double m = r.combined.ops_per_ray;
+  if (r.ops_combined.n < 2 || !std::isfinite(r.ops_combined.lo)) return {m, m, m};
+  return {m, r.ops_combined.lo, r.ops_combined.hi};
+}
+
 void add_verdicts(Table1& table) {
-  for (const std::string& camera : table.options.cameras) {
-    const Table1Row* ao = table.find(camera, "aobvh");
-    const Table1Row* osah = table.find(camera, "osah");
-    const Table1Row* sbvh = table.find(camera, "sbvh");
-    for (const char* baseline_name : {"median", "sah"}) {
-      const Table1Row* base = table.find(camera, baseline_name);
-      if (!ao || !osah || !sbvh || !base) continue;
-      const double b = base->combined.ops_per_ray;
-      std::vector<std::string> broken;
-      if (!(ao->combined.ops_per_ray < osah->combined.ops_per_ray))
-        broken.push_back("AO-BVH (" + format_number(ao->combined.ops_per_ray) + ") is not below OSAH (" +
-                         format_number(osah->combined.ops_per_ray) + ")");
-      if (!(ao->combined.ops_per_ray < sbvh->combined.ops_per_ray))
-        broken.push_back("AO-BVH (" + format_number(ao->combined.ops_per_ray) + ") is not below SBVH (" +
-                         format_number(sbvh->combined.ops_per_ray) + ")");
-      for (const Table1Row* r : {sbvh, osah, ao})
-        if (!(r->combined.ops_per_ray < b))
-          broken.push_back(display(r->builder) + " (" + format_number(r->combined.ops_per_ray) +
-                           ") is not below the " + display(baseline_name) + " (" + format_number(b) + ")");
-      std::string sentence = camera + ", against the " + display(baseline_name) + " (" +
-                             format_number(b) + " ops/ray): ";
-      sentence += "SBVH " + percent(reduction(sbvh->combined.ops_per_ray, b)) + ", OSAH " +
-                  percent(reduction(osah->combined.ops_per_ray, b)) + ", AO-BVH " +
-                  percent(reduction(ao->combined.ops_per_ray, b)) + " ops/ray; ";
-      // The patent's ordering: AO-BVH below OSAH and SBVH, all three below the BVH.
-      if (broken.empty()) sentence += "the patent's ordering HOLDS (AO-BVH < OSAH, SBVH < BVH).";
-      else {
-        sentence += "the patent's ordering does NOT hold: ";
-        for (size_t i = 0; i < broken.size(); ++i) sentence += (i ? "; " : "") + broken[i];
-        sentence += ".";
+  for (const std::string& camera : table.options.cameras)
+    for (const char* reading : {"aobvh", "aosbvh"})
+      for (const char* baseline_name : {"median", "sah"}) {
+        const std::vector<Table1Relation> relations = patent_relations(table, camera, reading, baseline_name);
+        if (relations.empty()) continue;
+        std::vector<std::string> broken, unresolved;
+        for (const Table1Relation& r : relations) {
+          const std::string text = display(r.a) + " (" + format_number(table.find(camera, r.a)->combined.ops_per_ray) +
+                                   ") < " + display(r.b) + " (" +
+                                   format_number(table.find(camera, r.b)->combined.ops_per_ray) + ")";
+          if (r.state == Table1Relation::State::Broken) broken.push_back(text);
+          if (r.state == Table1Relation::State::Unresolved) unresolved.push_back(text);
+        }
+        const double b = table.find(camera, baseline_name)->combined.ops_per_ray;
+        auto red = [&](const char* builder) { return percent(reduction(table.find(camera, builder)->combined.ops_per_ray, b)); };
+        std::string sentence = camera + ", " + display(reading) + " against the " + display(baseline_name) + " (" +
+                               format_number(b) + " ops/ray): SBVH " + red("sbvh") + ", OSAH " + red("osah") +
+                               ", AO-BVH " + red(reading) + " ops/ray; ";
+        if (broken.empty() && unresolved.empty()) {
+          sentence += "the patent's ordering HOLDS (AO-BVH < OSAH, AO-BVH < SBVH, all three < BVH).";
+        } else {
+          if (!broken.empty()) {
+            sentence += "the patent's ordering does NOT hold: not ";
+            for (size_t i = 0; i < broken.size(); ++i) sentence += (i ? "; not " : "") + broken[i];
+          } else {
+            sentence += "the patent's ordering is not broken, but not resolved either";
+          }
+          if (!unresolved.empty()) {
+            sentence += broken.empty() ? ": " : "; within the seed spread: ";
+            for (size_t i = 0; i < unresolved.size(); ++i) sentence += (i ? "; " : "") + unresolved[i];
+          }
+          sentence += ".";
+        }
+        table.verdicts.push_back(sentence);
       }
-      table.verdicts.push_back(sentence);
-    }
-  }
 }
 
 }  // namespace
+
+std::vector<Table1Relation> patent_relations(const Table1& table, const std::string& camera,
+                                             const std::string& reading, const std::string& baseline) {
+  const Table1Row* ao = table.find(camera, reading);
+  const Table1Row* osah = table.find(camera, "osah");
+  const Table1Row* sbvh = table.find(camera, "sbvh");
+  const Table1Row* base = table.find(camera, baseline);
+  if (!ao || !osah || !sbvh || !base) return {};
+  std::vector<Table1Relation> out;
+  auto relation = [&](const Table1Row& a, const Table1Row& b) {
+    const OpsRange x = ops_range(a), y = ops_range(b);
+    Table1Relation r;
+    r.a = a.builder;
+    r.b = b.builder;
+    const bool points = x.lo == x.hi && y.lo == y.hi;
+    r.state = x.hi < y.lo                ? Table1Relation::State::Holds
+              : x.lo > y.hi || points     ? Table1Relation::State::Broken
+                                          : Table1Relation::State::Unresolved;
+    out.push_back(r);
+  };
+  relation(*ao, *osah);
+  relation(*ao, *sbvh);
+  for (const Table1Row* r : {sbvh, osah, ao}) relation(*r, *base);
+  return out;
+}
 
 namespace {
 Table1 run_table1_checked(const Table1Options& options);
@@ -238,77 +294,93 @@ Table1 run_table1_checked(const Table1Options& options) {
   table.ao_length = plan.ao_length;
   table.options.ao_samples = int(table.ao_samples);  // the cycle-level runs get the resolved value
 
-  // Trees: every builder once, OSAH once per camera; saved so that the cycle-level
-  // runs replay exactly the same tree.
-  struct Tree {
-    Bvh bvh;
-    BuildReport report;
-    double sah_cost = 0;
-  };
-  std::map<std::string, Tree> trees;
+  // Trees: every builder once, the camera-dependent ones (OSAH, RDH) once per camera,
+  // the sampled ones once per seed. The first seed's tree is saved, so that the
+  // cycle-level runs replay exactly that tree; the others are traced and dropped.
   std::map<std::string, std::filesystem::path> tree_files;
   std::filesystem::create_directories(options.out_dir / "trees");
   std::filesystem::create_directories(options.out_dir / "data");
-  {
-    std::vector<std::pair<std::string, std::string>> to_build;  // (builder, camera)
-    for (const std::string& b : options.builders) {
-      if (camera_dependent(b, options.build))
-        for (const std::string& c : options.cameras) to_build.push_back({b, c});
-      else
-        to_build.push_back({b, options.cameras.front()});
-    }
-    Progress progress("table1: building trees", to_build.size(), "trees");
-    for (const auto& [builder, camera] : to_build) {
-      BuildParams params = options.build;
-      params.builder = builder;
-      params.camera = camera;
-      apply_node_format(params, node_format(options.node_format));
-      if (options.osah_resolution_from_frame) {
-        params.osah_width = options.width;
-        params.osah_height = options.height;
-      }
-      Tree tree;
-      tree.bvh = build_bvh(scene, params, &tree.report);
-      tree.sah_cost = sah_cost(tree.bvh, params.t1, params.t2);
-      const std::string key = tree_key(builder, camera, options.build);
-      tree_files[key] = options.out_dir / "trees" / (key + ".bvh");
-      save_bvh(tree_files[key], tree.bvh, scene, params);
-      trees.emplace(key, std::move(tree));
-      progress.advance();
-    }
+  const BuilderParameter& seed_parameter = *find_builder_parameter("seed");
+  auto seeds_of = [&](const std::string& builder) {
+    return parameter_used_by(seed_parameter, builder) ? std::max<uint32_t>(1, options.build_seeds) : 1u;
+  };
+  // (builder, camera the tree is built for, cameras it is traced from)
+  struct TreeJob {
+    std::string builder, camera;
+    std::vector<std::string> traced;
+  };
+  std::vector<TreeJob> tree_jobs;
+  size_t builds = 0;
+  for (const std::string& b : options.builders) {
+    if (camera_dependent(b, options.build))
+      for (const std::string& c : options.cameras) tree_jobs.push_back({b, c, {c}});
+    else
+      tree_jobs.push_back({b, options.cameras.front(), options.cameras});
+    builds += seeds_of(b) * (camera_dependent(b, options.build) ? options.cameras.size() : 1);
   }
-
-  // Functional level: exact counts and the per-pixel ops for the heatmaps.
+  struct Traced {
+    Table1Row row;
+    std::vector<Table1Counts> combined, primary, ao;  // one per seed
+  };
+  std::map<std::pair<std::string, std::string>, Traced> traced;  // (camera, builder)
   {
-    Progress progress("table1: tracing", options.cameras.size() * options.builders.size(), "frames");
-    for (const std::string& camera_name : options.cameras) {
-      const Camera& camera = scene.camera(camera_name);
-      for (const std::string& builder : options.builders) {
-        const Tree& tree = trees.at(tree_key(builder, camera_name, options.build));
+    Progress progress("table1: building and tracing trees", builds, "trees");
+    for (const TreeJob& job : tree_jobs) {
+      for (uint32_t k = 0; k < seeds_of(job.builder); ++k) {
+        BuildParams params = options.build;
+        params.builder = job.builder;
+        params.camera = job.camera;
+        params.seed = options.build.seed + k;
+        apply_node_format(params, node_format(options.node_format));
+        BuildReport report;
+        const Bvh bvh = build_bvh(scene, params, &report);
         MemoryLayoutConfig layout;
         layout.node_format = options.node_format;
-        const MemoryImage image(scene, tree.bvh, layout);
-        const TraversalContext context(scene, tree.bvh, image);
-        const FrameRun run = run_frame(context, camera, settings);
-        Table1Row row;
-        row.camera = camera_name;
-        row.builder = builder;
-        row.combined = counts_of(run.total);
-        row.primary = counts_of(run.per_type[ray_type_index(RayType::Primary)]);
-        row.ao = counts_of(run.per_type[ray_type_index(RayType::Ao)]);
-        row.build_seconds = tree.report.build_seconds;
-        row.estimate_seconds = tree.report.estimate_seconds;
-        row.sah_cost = tree.sah_cost;
-        row.nodes = tree.bvh.nodes.size();
-        row.node_bytes_per_triangle =
-            double(image.footprint().node_bytes) / double(std::max<size_t>(1, scene.triangle_count()));
-        table.rows.push_back(row);
-        write_floats(options.out_dir / "data" / ("ops_" + camera_name + "_" + builder + ".f32"),
-                     ops_per_pixel(run));
+        const MemoryImage image(scene, bvh, layout);
+        const TraversalContext context(scene, bvh, image);
+        if (k == 0) {
+          const std::string key = tree_key(job.builder, job.camera, options.build);
+          tree_files[key] = options.out_dir / "trees" / (key + ".bvh");
+          save_bvh(tree_files[key], bvh, scene, params);
+        }
+        for (const std::string& camera_name : job.traced) {
+          const FrameRun run = run_frame(context, scene.camera(camera_name), settings);
+          Traced& t = traced[{camera_name, job.builder}];
+          t.combined.push_back(counts_of(run.total));
+          t.primary.push_back(counts_of(run.per_type[ray_type_index(RayType::Primary)]));
+          t.ao.push_back(counts_of(run.per_type[ray_type_index(RayType::Ao)]));
+          if (k != 0) continue;
+          Table1Row& row = t.row;
+          row.camera = camera_name;
+          row.builder = job.builder;
+          row.first_trv_ops = run.total.trv_ops;
+          row.first_ist_ops = run.total.ist_ops;
+          row.build_seconds = report.build_seconds;
+          row.estimate_seconds = report.estimate_seconds;
+          row.sah_cost = sah_cost(bvh, params.t1, params.t2);
+          row.nodes = bvh.nodes.size();
+          row.node_bytes_per_triangle =
+              double(image.footprint().node_bytes) / double(std::max<size_t>(1, scene.triangle_count()));
+          write_floats(options.out_dir / "data" / ("ops_" + camera_name + "_" + job.builder + ".f32"),
+                       ops_per_pixel(run));
+        }
         progress.advance();
       }
     }
   }
+  for (const std::string& camera_name : options.cameras)
+    for (const std::string& builder : options.builders) {
+      Traced& t = traced.at({camera_name, builder});
+      Table1Row row = t.row;
+      row.seeds = uint32_t(t.combined.size());
+      row.combined = mean_counts(t.combined);
+      row.primary = mean_counts(t.primary);
+      row.ao = mean_counts(t.ao);
+      row.ops_combined = ops_interval(t.combined);
+      row.ops_primary = ops_interval(t.primary);
+      row.ops_ao = ops_interval(t.ao);
+      table.rows.push_back(row);
+    }
   if (options.cycle_level) run_cycle_level(table, tree_files);
   add_verdicts(table);
 
@@ -328,21 +400,27 @@ Table1 run_table1_checked(const Table1Options& options) {
                   format.width > 2 ? " (the builders' binary trees collapsed to this width with "
                                      "their own cost model; embree built wide by Embree)"
                                    : "");
-  char rule[1536];
+  char rule[2560];
   std::snprintf(rule, sizeof rule,
                 "%s; IST op = one ray-triangle test "
                 "(watertight); ops/ray = (TRV + IST ops) / rays. Rays: %ux%u primary rays (1 per "
                 "pixel, closest hit) per camera, plus %u AO rays per primary hit (cosine-weighted, "
                 "any hit, length %.4g = %.3g x scene diagonal). Node fetch = one node record read by "
                 "TRV before any cache. Max leaf size %u, T1 = %g, T2 = %g, %u SAH bins, AO-BVH K = %u "
-                "rays/primitive with weight floor %g, OSAH w = %g. DRAM bytes and cycles: cycle-level "
+                "rays per estimate shared by up to %u triangles, weight floor %g; OSAH (the authors' rules) "
+                "w = %g, visibility from %ux%u primary rays and %u AO rays per hit. Sampled builders "
+                "(their rays drawn from the builder seed) are built with %u seeds from %llu on: their "
+                "ops/ray are the means with a 95%% Student-t interval (n = %u); their DRAM bytes, cycles "
+                "and heatmaps are the first seed's tree's. DRAM bytes and cycles: cycle-level "
                 "model, hardware preset '%s', %u frames of the same rays: DRAM B/ray shown as the first "
                 "frame's (cold caches) / the last's (steady state), cycles of the last. %.1f s in all.",
                 node_rule, options.width, options.height, table.ao_samples, table.ao_length,
                 scene.ao.cutoff_relative, std::min(options.build.max_leaf_size, format.max_leaf_triangles), options.build.t1,
-                options.build.t2, options.build.bins, options.build.ao_rays,
-                options.build.ao_weight_floor, options.build.osah_w, options.hardware.c_str(),
-                options.frames, seconds_since(total_start));
+                options.build.t2, options.build.bins, options.build.ao_rays, options.build.ao_share,
+                options.build.ao_weight_floor, options.build.osah_w, options.build.osah_width,
+                options.build.osah_height, options.build.osah_ao_rays, options.build_seeds,
+                static_cast<unsigned long long>(options.build.seed), options.build_seeds,
+                options.hardware.c_str(), options.frames, seconds_since(total_start));
   table.counting_rule = rule;
   return table;
 }

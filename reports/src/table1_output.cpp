@@ -6,8 +6,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <tuple>
 
 namespace rtsim {
 
@@ -48,6 +50,14 @@ std::string wrap(const std::string& text, const std::string& indent, size_t widt
 
 std::string num(double value, int digits = 4) { return value < 0 ? "-" : format_number(value, digits); }
 
+// ops/ray, with the seed spread of a sampled builder: "24.85±0.31".
+std::string ops_text(double mean, const Interval& spread) {
+  if (spread.n < 2 || !std::isfinite(spread.half_width())) return num(mean);
+  char half[32];
+  std::snprintf(half, sizeof half, "%.2f", spread.half_width());
+  return num(mean) + "±" + half;
+}
+
 // The registry's name, marked when the tree is not one of the patent's.
 std::string display_name(const std::string& builder) {
   const BuilderInfo& info = builder_info(builder);
@@ -69,7 +79,7 @@ TextTable narrow_camera_table(const Table1& table, const std::string& camera) {
   const Table1Row* sah = table.find(camera, "sah");
   for (const Table1Row& r : table.rows) {
     if (r.camera != camera) continue;
-    t.add_row({display_name(r.builder), num(r.combined.ops_per_ray),
+    t.add_row({display_name(r.builder), ops_text(r.combined.ops_per_ray, r.ops_combined),
                median ? pct(r.combined.ops_per_ray, median->combined.ops_per_ray) : "-",
                sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
                num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
@@ -91,12 +101,12 @@ TextTable camera_table(const Table1& table, const std::string& camera) {
   const Table1Row* sah = table.find(camera, "sah");
   for (const Table1Row& r : table.rows) {
     if (r.camera != camera) continue;
-    t.add_row({display_name(r.builder), num(r.combined.ops_per_ray),
+    t.add_row({display_name(r.builder), ops_text(r.combined.ops_per_ray, r.ops_combined),
                median ? pct(r.combined.ops_per_ray, median->combined.ops_per_ray) : "-",
                sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
                num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
-               num(r.combined.box_tests_per_ray), num(r.primary.ops_per_ray),
-               num(r.ao.ops_per_ray), num(r.combined.node_fetches_per_ray),
+               num(r.combined.box_tests_per_ray), ops_text(r.primary.ops_per_ray, r.ops_primary),
+               ops_text(r.ao.ops_per_ray, r.ops_ao), num(r.combined.node_fetches_per_ray),
                median ? pct(r.combined.node_fetches_per_ray, median->combined.node_fetches_per_ray) : "-",
                sah ? pct(r.combined.node_fetches_per_ray, sah->combined.node_fetches_per_ray) : "-",
                num(r.node_bytes_per_triangle, 3), dram_cold_warm(r),
@@ -118,6 +128,11 @@ TextTable patent_table() {
     t.add_row({"viewpoint " + std::to_string(v + 1), cell(0), cell(1), cell(2), cell(3)});
   }
   return t;
+}
+
+nlohmann::json interval_json(const Interval& i) {
+  if (i.n < 2 || !std::isfinite(i.lo)) return nullptr;
+  return {{"seeds", i.n}, {"mean", i.mean}, {"lo95", i.lo}, {"hi95", i.hi}};
 }
 
 nlohmann::json counts_json(const Table1Counts& c) {
@@ -170,7 +185,8 @@ void write_table1(const Table1& table) {
   TextTable csv({"scene", "camera", "builder", "ray_type", "rays", "ops_per_ray", "trv_ops_per_ray",
                  "ist_ops_per_ray", "box_tests_per_ray", "node_fetches_per_ray", "dram_bytes_per_ray",
                  "cold_dram_bytes_per_ray", "cycles", "pj_per_ray", "rays_per_joule",
-                 "build_seconds", "estimate_seconds", "sah_cost"});
+                 "build_seconds", "estimate_seconds", "sah_cost", "seeds", "ops_per_ray_lo95",
+                 "ops_per_ray_hi95"});
   nlohmann::json json;
   json["scene"] = table.scene_name;
   json["triangles"] = table.triangles;
@@ -187,6 +203,12 @@ void write_table1(const Table1& table) {
   for (const Table1Row& r : table.rows) {
     nlohmann::json row = {{"camera", r.camera},
                           {"builder", r.builder},
+                          {"display_name", display_name(r.builder)},
+                          {"seeds", r.seeds},
+                          {"ops_per_ray_spread",
+                           {{"combined", interval_json(r.ops_combined)},
+                            {"primary", interval_json(r.ops_primary)},
+                            {"ao", interval_json(r.ops_ao)}}},
                           {"cycles", r.cycles < 0 ? nlohmann::json(nullptr) : nlohmann::json(r.cycles)},
                           {"rays_per_joule", r.rays_per_joule < 0 ? nlohmann::json(nullptr)
                                                                   : nlohmann::json(r.rays_per_joule)},
@@ -205,9 +227,11 @@ void write_table1(const Table1& table) {
                           {"primary", counts_json(r.primary)},
                           {"ao", counts_json(r.ao)}};
     json["rows"].push_back(row);
-    for (const auto& [type, c] : {std::pair<const char*, const Table1Counts*>{"combined", &r.combined},
-                                  {"primary", &r.primary},
-                                  {"ao", &r.ao}})
+    for (const auto& [type, c, spread] :
+         {std::tuple<const char*, const Table1Counts*, const Interval*>{"combined", &r.combined, &r.ops_combined},
+          {"primary", &r.primary, &r.ops_primary},
+          {"ao", &r.ao, &r.ops_ao}}) {
+      const bool has_spread = spread->n > 1 && std::isfinite(spread->lo);
       csv.add_row({table.scene_name, r.camera, r.builder, type, std::to_string(c->rays),
                    format_number(c->ops_per_ray, 6), format_number(c->trv_per_ray, 6),
                    format_number(c->ist_per_ray, 6), format_number(c->box_tests_per_ray, 6),
@@ -219,7 +243,10 @@ void write_table1(const Table1& table) {
                    c->pj_per_ray < 0 ? "" : format_number(c->pj_per_ray, 6),
                    c != &r.combined || r.rays_per_joule < 0 ? "" : format_number(r.rays_per_joule, 6),
                    format_number(r.build_seconds, 4),
-                   format_number(r.estimate_seconds, 4), format_number(r.sah_cost, 6)});
+                   format_number(r.estimate_seconds, 4), format_number(r.sah_cost, 6),
+                   std::to_string(r.seeds), has_spread ? format_number(spread->lo, 6) : "",
+                   has_spread ? format_number(spread->hi, 6) : ""});
+    }
   }
   write_file_atomic(dir / "table1.csv", csv.csv());
   write_file_atomic(dir / "table1.json", json.dump(2) + "\n");

@@ -5,6 +5,7 @@
 #include "integration/cli_runner.h"
 #include "integration/test_campaign_fake.h"
 
+#include <rtsim/builder/build.h>
 #include <rtsim/reports/child_process.h>
 #include <rtsim/workloads/files.h>
 
@@ -534,6 +535,36 @@ TEST(OneCommandLine, Table1HonoursOsahResolution) {
   ASSERT_EQ(tree.exit_code, 0) << tree.output;
   const auto j = nlohmann::json::parse(tree.output);
   EXPECT_EQ(j["trees"][0]["parameters"]["osah_width"], 7) << tree.output;
+  // Without the flag OSAH samples its visibility as build and trace do (256x256),
+  // not at the frame's resolution: one OSAH tree everywhere.
+  ASSERT_EQ(run_in(dir, "table1 --scene cornell --res 16x16 --no-cycle --builders osah --build-seeds 1 --out-dir u")
+                .exit_code,
+            0);
+  const CliResult plain = run_in(dir, "build --scene cornell --load u/trees/osah-view1.bvh --json --no-epo", 60, true);
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  const auto p = nlohmann::json::parse(plain.output)["trees"][0]["parameters"];
+  EXPECT_EQ(p["osah_width"], rtsim::BuildParams{}.osah_width) << plain.output;
+  EXPECT_EQ(p["osah_height"], rtsim::BuildParams{}.osah_height) << plain.output;
+}
+
+// A sampled builder's costs over several seeds; a builder that draws no random
+// rays has no spread to report.
+TEST(OneCommandLine, BuildReportsTheSeedSpreadOfSampledBuilders) {
+  const fs::path dir = fresh_folder("spread");
+  const CliResult ao = run_in(dir, "build --scene cornell --builder aobvh --seed-spread 3 --no-epo --json", 60, true);
+  ASSERT_EQ(ao.exit_code, 0) << ao.output;
+  const auto tree = nlohmann::json::parse(ao.output)["trees"][0];
+  ASSERT_TRUE(tree["seed_spread"].is_object()) << ao.output;
+  EXPECT_EQ(tree["seed_spread"]["seeds"], 3);
+  const auto& sah = tree["seed_spread"]["sah_cost"];
+  EXPECT_LE(sah["min"].get<double>(), tree["sah_cost"].get<double>());
+  EXPECT_GE(sah["max"].get<double>(), tree["sah_cost"].get<double>());
+  EXPECT_LE(sah["lo95"].get<double>(), sah["mean"].get<double>());
+  EXPECT_LE(sah["mean"].get<double>(), sah["hi95"].get<double>());
+  EXPECT_LT(sah["min"].get<double>(), sah["max"].get<double>()) << "three seeds gave one tree";
+  const CliResult plain = run_in(dir, "build --scene cornell --builder sah --seed-spread 3 --no-epo --json", 60, true);
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  EXPECT_FALSE(nlohmann::json::parse(plain.output)["trees"][0].contains("seed_spread"));
 }
 
 // Before: the BSP loader's dropped sky and textures/common faces were counted

@@ -2,6 +2,7 @@
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
 #include <rtsim/workloads/procedural.h>
+#include <rtsim/workloads/scene_cache.h>
 #include <rtsim/workloads/scene_registry.h>
 
 #include <rtsim/workloads/config_reader.h>
@@ -35,17 +36,20 @@ std::filesystem::path scene_cache_dir() {
 
 std::string default_scene_name() { return "interior"; }
 
-Scene load_scene(const std::string& name_or_path) {
-  if (is_procedural_scene(name_or_path)) return make_procedural_scene(name_or_path);
+namespace {
+// A descriptor's input files, and a hash over their names and contents (below).
+std::vector<std::filesystem::path> descriptor_source_files(const std::filesystem::path& descriptor);
+std::string files_hash(const std::vector<std::filesystem::path>& files);
+
+// The descriptor load_scene reads for a name that is not a built-in scene.
+std::filesystem::path descriptor_to_load(const std::string& name_or_path) {
   const std::filesystem::path cached = scene_cache_dir() / name_or_path / "scene.toml";
-  if (name_or_path.find('/') == std::string::npos && path_exists(cached))
-    return load_scene_descriptor(cached);
+  if (name_or_path.find('/') == std::string::npos && path_exists(cached)) return cached;
   const std::filesystem::path path(name_or_path);
   if (path_exists(path)) {
-    if (is_folder(path) && path_exists(path / "scene.toml"))
-      return load_scene_descriptor(path / "scene.toml");
+    if (is_folder(path) && path_exists(path / "scene.toml")) return path / "scene.toml";
     const std::string ext = path.extension().string();
-    if (ext == ".toml" || ext == ".json") return load_scene_descriptor(path);
+    if (ext == ".toml" || ext == ".json") return path;
     throw InputError(path.string(),
                      "not a scene descriptor (.toml/.json); write one that names this mesh "
                      "(see docs/scene-descriptor.md)");
@@ -55,6 +59,34 @@ Scene load_scene(const std::string& name_or_path) {
   throw InputError("scene '" + name_or_path + "'",
                    "unknown: not a built-in scene, not fetched into " + scene_cache_dir().string() +
                        " (try `rtsim scenes fetch " + name_or_path + "`), not a file. Known: " + known);
+}
+}  // namespace
+
+Scene load_scene(const std::string& name_or_path) {
+  if (is_procedural_scene(name_or_path)) return make_procedural_scene(name_or_path);
+  const std::filesystem::path descriptor = descriptor_to_load(name_or_path);
+  if (!scene_cache_enabled()) return load_scene_descriptor(descriptor);
+  // The image of these very input files, if one was written and is whole.
+  const std::string key = files_hash(descriptor_source_files(descriptor));
+  const std::filesystem::path image = scene_image_path(key);
+  if (is_file(image)) {
+    if (std::optional<Scene> scene = scene_from_image(read_input_file(image, kMaxDataFileBytes), key)) {
+      scene->source = descriptor.string();  // where it is now, not where it was parsed
+      return std::move(*scene);
+    }
+    std::fprintf(stderr, "rtsim: the scene image %s is damaged; parsing the scene again\n", image.string().c_str());
+  }
+  Scene scene = load_scene_descriptor(descriptor);
+  // Best effort: a cache that cannot be written costs the next load its parse, nothing else.
+  try {
+    std::filesystem::create_directories(image.parent_path());
+    write_file_atomic(image, scene_image(scene, key));
+  } catch (const std::exception& e) {
+    static bool told = false;
+    if (!told) std::fprintf(stderr, "rtsim: warning: the scene image cannot be written (%s); scenes are parsed every time\n", e.what());
+    told = true;
+  }
+  return scene;
 }
 
 }  // namespace rtsim
@@ -97,11 +129,7 @@ void add_folder_files(const std::filesystem::path& folder, std::vector<std::file
   out.insert(out.end(), files.begin(), files.end());
 }
 
-}  // namespace
-
-std::vector<std::filesystem::path> scene_source_files(const std::string& name_or_path) {
-  const std::filesystem::path descriptor = descriptor_of(name_or_path);
-  if (descriptor.empty()) return {};
+std::vector<std::filesystem::path> descriptor_source_files(const std::filesystem::path& descriptor) {
   std::vector<std::filesystem::path> files = {descriptor};
   const nlohmann::json doc = parse_config_file(descriptor);
   if (!doc.is_object() || !doc.contains("mesh") || !doc["mesh"].is_array()) return files;
@@ -130,8 +158,7 @@ std::vector<std::filesystem::path> scene_source_files(const std::string& name_or
   return files;
 }
 
-std::string scene_files_hash(const std::string& name_or_path) {
-  const std::vector<std::filesystem::path> files = scene_source_files(name_or_path);
+std::string files_hash(const std::vector<std::filesystem::path>& files) {
   if (files.empty()) return "";
   const std::filesystem::path base = files.front().parent_path();
   uint64_t h = 0x5343454E4546494Cull;
@@ -145,5 +172,15 @@ std::string scene_files_hash(const std::string& name_or_path) {
   std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(h));
   return text;
 }
+
+}  // namespace
+
+std::vector<std::filesystem::path> scene_source_files(const std::string& name_or_path) {
+  const std::filesystem::path descriptor = descriptor_of(name_or_path);
+  if (descriptor.empty()) return {};
+  return descriptor_source_files(descriptor);
+}
+
+std::string scene_files_hash(const std::string& name_or_path) { return files_hash(scene_source_files(name_or_path)); }
 
 }  // namespace rtsim

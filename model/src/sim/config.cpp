@@ -173,6 +173,9 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
   DramConfig& d = c.dram;
   std::vector<ParameterInfo> dram = {
       text("dram.part", d.part, dram_part_names(), "DRAM part the timings start from"),
+      text("dram.model", d.model, {"rtsim", "dramsim3"},
+           "cycle level: rtsim (ours) or dramsim3 (DRAMsim3 configured from these keys; needs an "
+           "rtsim configured with -DRTSIM_DRAMSIM3=DIR)"),
       u32("dram.channels", d.channels, 1, 64, "channels",
           "independent channels (any count: the address map's channel field is a mixed-radix digit)"),
       u32("dram.ranks", d.ranks, 1, 16, "ranks", "ranks per channel (power of two)"),
@@ -236,6 +239,9 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
           "energy of one write burst (set by dram.part)"),
       f64("dram.refresh_pj", d.refresh_pj, 0, 1e9, "pJ",
           "energy of one all-bank refresh of a rank (set by dram.part)"),
+      f64("dram.background_mw", d.background_mw, 0, 1e6, "mW",
+          "standby power of one channel with its banks precharged (IDD2N x VDD over its devices; "
+          "set by dram.part), drawn for the whole run: energy.dram_background"),
       text("dram.address_mapping", d.address_mapping, {},
            "fields row, rank, bank, column, channel and optionally bankgroup from most to least "
            "significant, ':'-separated; without bankgroup the group is the bank's top bits"),
@@ -337,8 +343,16 @@ void apply_dram_part(DramConfig& d, const std::string& part) {
   //   With I/O GDDR6 is quoted at about 7.5 pJ/bit, 6.8 times this core figure.
   // - lpddr5: no public LPDDR5 current set was found; the LPDDR4-3200 die's figures
   //   stand in (per x16 channel), which likely overstates LPDDR5.
-  auto energy = [&d](double act, double rd, double wr, double ref) {
+  // Background: precharge standby, IDD2N x VDD of the channel's devices, from the same
+  // current sets (a floor: with a row open the device draws IDD3N, 3-15% more):
+  // - lpddr4-3200: per die IDD2N 2.0 mA at VDD1 1.8 V, 27 mA at VDD2 1.1 V, 0.75 mA at
+  //   VDDQ 1.1 V = 34.1 mW; two dies = 68.3 mW.
+  // - ddr4-2400: 38.25 mA at 1.2 V per x8 chip, eight chips = 367 mW.
+  // - gddr6: 60 mA at 1.35 V = 81 mW per x16 channel.
+  // - lpddr5: one LPDDR4 die per x16 channel, 34.1 mW (no LPDDR5 currents found).
+  auto energy = [&d](double act, double rd, double wr, double ref, double background_mw) {
     d.activate_pj = act, d.read_burst_pj = rd, d.write_burst_pj = wr, d.refresh_pj = ref;
+    d.background_mw = background_mw;
   };
   auto shape = [&d](uint32_t burst_cycles, uint32_t burst_bytes, uint32_t groups,
                     uint32_t banks, uint32_t row_bytes) {
@@ -350,25 +364,25 @@ void apply_dram_part(DramConfig& d, const std::string& part) {
     spacing(16, 16, 64, 8, 8, 16, 16);
     recovery(29, 12, 1, 6246, 448);
     shape(8, 64, 1, 8, 4096);
-    energy(2400, 2700, 1980, 44000);
+    energy(2400, 2700, 1980, 44000, 68.3);
   } else if (part == "ddr4-2400") {
     timing(833, 17, 12, 17, 17, 17, 39);
     spacing(4, 6, 26, 4, 6, 3, 9);
     recovery(18, 9, 1, 9360, 420);
     shape(4, 64, 4, 16, 8192);
-    energy(8100, 4480, 3990, 184000);
+    energy(8100, 4480, 3990, 184000, 367);
   } else if (part == "gddr6") {
     timing(570, 24, 6, 27, 16, 27, 53);
     spacing(8, 8, 29, 2, 4, 9, 11);
     recovery(27, 4, 1, 3333, 211);
     shape(2, 32, 4, 16, 2048);
-    energy(670, 290, 260, 36000);
+    energy(670, 290, 260, 36000, 81);
   } else if (part == "lpddr5") {
     timing(1250, 17, 9, 15, 15, 15, 34);
     spacing(4, 4, 16, 2, 4, 5, 10);
     recovery(28, 8, 2, 3125, 168);
     shape(2, 32, 4, 16, 2048);
-    energy(1200, 1350, 990, 22000);
+    energy(1200, 1350, 990, 22000, 34.1);
   } else {
     std::string all;
     for (auto& n : dram_part_names()) all += (all.empty() ? "" : " | ") + n;

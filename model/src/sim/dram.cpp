@@ -349,6 +349,7 @@ void DramModel::precharge(Channel& ch, uint32_t rank, uint32_t bank, uint64_t t,
   Bank& k = bank_of(ch, rank, bank);
   const uint64_t row = uint64_t(k.open_row);
   k.open_row = -1;
+  k.opened_for = -1;
   k.auto_close_after_ps = UINT64_MAX;
   k.act_ready_ps = t + rp_;
   if (command_bus) take_command_slot(ch, t);
@@ -449,9 +450,25 @@ DramModel::Choice DramModel::decide_until(Channel& ch, bool requests, uint64_t r
     }
     for (size_t i = 0; i < ch.queue.size(); ++i) {
       const Pending& p = ch.queue[i];
-      if (p.request.write != writes) continue;
       const uint32_t r = p.where.rank, bank = p.where.bank;
       const size_t b = size_t(r) * banks + bank;
+      if (p.request.write != writes) {
+        // A row activated for a request of the other direction is finished first: its
+        // column command goes (the bus turns for it) rather than the row being closed
+        // unused by the direction now served, which would cost the activate again.
+        const Bank& k = ch.banks[b];
+        if (k.opened_for != int8_t(p.request.write) || k.open_row != int64_t(p.where.row) ||
+            ch.column_mark[b] == stamp)
+          continue;
+        ch.column_mark[b] = stamp;
+        Choice c;
+        c.age = i, c.rank = r, c.bank = bank;
+        c.time_ps = earliest_column(ch, r, bank, p.request.write, p.ready_ps);
+        if (c.time_ps >= ch.ranks[r].refresh_due_ps) continue;
+        c.priority = 1, c.action = Action::Column;
+        consider(best, c);
+        continue;
+      }
       const uint64_t due = ch.ranks[r].refresh_due_ps;  // nothing new for the rank from then
       Choice c;
       c.age = i, c.rank = r, c.bank = bank;
@@ -465,6 +482,7 @@ DramModel::Choice DramModel::decide_until(Channel& ch, bool requests, uint64_t r
         if (ch.row_mark[b] == stamp) continue;  // row commands serve the bank's oldest
         ch.row_mark[b] = stamp;
         if (ch.active_hit_mark[b] == stamp) continue;  // hits first
+        if (ch.banks[b].opened_for == int8_t(!writes)) continue;  // committed to the other direction
         if (ch.banks[b].open_row >= 0) {
           c.time_ps = earliest_precharge(ch, r, bank, p.ready_ps);
           c.action = Action::Precharge, c.conflict = true;
@@ -535,6 +553,31 @@ void DramModel::count_request(bool write, RowOutcome outcome, uint64_t latency) 
   else ++counters_.row_conflicts;
 }
 
+void DramModel::set_reference_commands(uint64_t row_hits, uint64_t activates, uint64_t precharges,
+                                       uint64_t refreshes, uint64_t bus_busy_ps) {
+  // The reference tells hits from the rest but not closed banks from conflicts:
+  // every non-hit is counted as a miss (closed).
+  const uint64_t requests = counters_.reads + counters_.writes;
+  counters_.row_hits = std::min(row_hits, requests);
+  counters_.row_closed = requests - counters_.row_hits;
+  counters_.row_conflicts = 0;
+  counters_.activates = activates;
+  counters_.precharges = precharges;
+  counters_.refreshes = refreshes;
+  counters_.bus_busy_ps = bus_busy_ps;
+}
+
+void DramModel::set_reference_write_latencies(
+    const std::vector<std::pair<uint64_t, uint64_t>>& latency_count) {
+  std::fill(write_histogram_ns_.begin(), write_histogram_ns_.end(), 0);
+  counters_.write_latency_sum_ps = counters_.write_latency_max_ps = 0;
+  for (const auto& [latency, count] : latency_count) {
+    counters_.write_latency_sum_ps += latency * count;
+    counters_.write_latency_max_ps = std::max(counters_.write_latency_max_ps, latency);
+    write_histogram_ns_[std::min<uint64_t>(latency / 1000, kHistogramBuckets)] += count;
+  }
+}
+
 void DramModel::execute(Channel& ch, const Choice& c, std::vector<DramCompletion>& issued) {
   Bank& k = bank_of(ch, c.rank, c.bank);
   switch (c.action) {
@@ -543,6 +586,7 @@ void DramModel::execute(Channel& ch, const Choice& c, std::vector<DramCompletion
       ch.queue.erase(ch.queue.begin() + long(c.age));
       (p.request.write ? ch.writes_queued : ch.reads_queued)--;
       const uint64_t done = column(ch, c.rank, c.bank, p.request.write, c.time_ps);
+      k.opened_for = -1;
       count_request(p.request.write, p.outcome,
                     done - std::min(done, p.request.arrival_ps));
       issued.push_back({p.request.tag, done, p.outcome, p.request.write});
@@ -561,6 +605,7 @@ void DramModel::execute(Channel& ch, const Choice& c, std::vector<DramCompletion
       p.outcome = k.conflict_pending ? RowOutcome::Conflict : RowOutcome::Closed;
       k.conflict_pending = false;
       activate(ch, c.rank, c.bank, p.where.row, c.time_ps);
+      k.opened_for = int8_t(p.request.write);
       break;
     }
     case Action::Precharge:
@@ -597,6 +642,7 @@ bool DramModel::idle() const {
 
 void DramModel::enqueue(const DramRequest& request, uint64_t now_ps) {
   const DramAddress where = map_.decode(request.address);
+  if (request_observer_) request_observer_({request.arrival_ps, request.address, request.write, where});
   Channel& ch = channels_[where.channel];
   const uint64_t ready = edge(now_ps);
   // Decisions before this request could take part: idle-time refreshes and timeouts,
@@ -642,6 +688,7 @@ void DramModel::settle(uint64_t now_ps) {
 uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps, RowOutcome* outcome_out) {
   lt_ = true;
   const DramAddress w = map_.decode(address);
+  if (request_observer_) request_observer_({now_ps, address, write, w});
   Channel& ch = channels_[w.channel];
   // Requests come nearly in time order, but not quite: one that waited upstream (for
   // an MSHR, say) arrives after later ones were placed. It is placed at its own time
@@ -706,7 +753,8 @@ uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps, Row
   return done;
 }
 
-void DramModel::count_access(uint64_t, bool write) {
+void DramModel::count_access(uint64_t address, bool write) {
+  if (request_observer_) request_observer_({0, address, write, map_.decode(address)});
   if (write) {
     ++counters_.writes;
     counters_.bytes_written += access_bytes_;

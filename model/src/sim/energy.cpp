@@ -70,6 +70,14 @@ void report_energy(StatsRegistry& s, const HardwareConfig& config, const EnergyC
   s.set_real("energy.rays_per_joule", total > 0 ? double(rays) / (total * 1e-12) : 0, "rays/J",
              "rays / dynamic energy");
   s.set_real("energy.dram_share", total > 0 ? dram_pj / total : 0, "ratio", "DRAM energy / total");
+  s.set_real("energy.dram_background.pj", c.dram_background_pj, "pJ",
+             "DRAM standby energy over the run (dram.background_mw x channels x simulated time), "
+             "not in total_pj");
+  s.set_real("energy.dram_background.pj_per_ray", rays ? c.dram_background_pj / double(rays) : 0,
+             "pJ/ray", "DRAM standby energy / rays");
+  s.set_real("energy.pj_per_ray_with_background",
+             rays ? (total + c.dram_background_pj) / double(rays) : 0, "pJ/ray",
+             "dynamic energy and the DRAM's standby energy / rays");
   for (RayType t : kAllRayTypes) {
     const CounterTotals& c_t = c.per_type[size_t(t)];
     if (c_t.rays == 0) continue;

@@ -1,8 +1,10 @@
 #include <rtsim/model/sim/stat_names.h>
 #include <rtsim/model/sim/accounting.h>
 #include <rtsim/model/sim/cycle/cycle_system.h>
+#include <rtsim/model/sim/dram_reference.h>
 #include <rtsim/model/sim/energy.h>
 #include <rtsim/model/sim/memory_system.h>
+#include <rtsim/model/sim/memory_trace.h>
 #include <rtsim/model/sim/ray_engine.h>
 #include <rtsim/model/sim/simulator.h>
 #include <rtsim/workloads/error.h>
@@ -15,6 +17,7 @@
 #include <ctime>
 #include <cmath>
 #include <stdexcept>
+#include <type_traits>
 
 namespace rtsim::sim {
 
@@ -246,7 +249,10 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
   filled.report(s, stat::kDramBytesByType, "bytes read from DRAM");
   s.set_real("dram.bytes_per_ray", rays ? double(f.dram->counters().bytes) / double(rays) : 0,
              "bytes/ray", "DRAM bytes read / rays");
-  report_energy(s, config, energy_counts(f, per_type, filled, config.dram));
+  EnergyCounts energy = energy_counts(f, per_type, filled, config.dram);
+  // mW x ps = 1e-15 J = 1e-3 pJ.
+  energy.dram_background_pj = config.dram.background_mw * config.dram.channels * double(sim_ps) * 1e-3;
+  report_energy(s, config, energy);
 }
 
 void report_layout(StatsRegistry& s, const MemoryImage& image, uint64_t triangles) {
@@ -404,9 +410,39 @@ void engine_figures(RayEngine& engine, bool timed, const HardwareConfig& c, uint
   f.ray_ps_by_type = engine.ray_ps_by_type();
 }
 
-void run_functional(const HardwareConfig& config, const Workload& work, const Progress& progress,
-                    const std::function<void()>& stop_clock, SimulationResult& result) {
+// Connects the request's traces, if any, to the level's DRAM model and caches.
+void attach_traces(const SimulationRequest& request, DramModel& dram,
+                   const std::vector<CacheModel*>& l1_node, const std::vector<CacheModel*>& l1_triangle,
+                   const std::vector<CacheModel*>& l2) {
+  if (DramTraceWriter* t = request.dram_trace)
+    dram.set_request_observer([t](const DramRequestRecord& r) { t->write(r); });
+  if (CacheTraceWriter* t = request.cache_trace) {
+    const std::vector<CacheModel*>& caches =
+        t->cache() == "l1_node" ? l1_node : t->cache() == "l1_triangle" ? l1_triangle : l2;
+    t->header(caches.front()->config(), uint32_t(caches.size()));
+    for (size_t i = 0; i < caches.size(); ++i)
+      caches[i]->set_access_observer([t, i](const LineAccess& a, CacheModel::Outcome o) {
+        t->write(uint32_t(i), a, o);
+      });
+  }
+}
+
+template <typename Owner>
+std::vector<CacheModel*> models_of(const std::vector<std::unique_ptr<Owner>>& caches) {
+  std::vector<CacheModel*> out;
+  for (auto& c : caches) {
+    if constexpr (std::is_same_v<Owner, CacheModel>) out.push_back(c.get());
+    else out.push_back(&c->model);
+  }
+  return out;
+}
+
+void run_functional(const SimulationRequest& request, const HardwareConfig& config, const Workload& work,
+                    const Progress& progress, const std::function<void()>& stop_clock,
+                    SimulationResult& result) {
   FunctionalMemory memory(config);
+  attach_traces(request, memory.dram, models_of(memory.l1_node), models_of(memory.l1_triangle),
+                models_of(memory.l2));
   RayEngine engine(config, work, false);
   engine.run(
       memory, [](uint64_t) {},
@@ -449,8 +485,8 @@ void run_functional(const HardwareConfig& config, const Workload& work, const Pr
   report_machine(s, config, m, f, result.per_type, result.simulated_ps, false);
 }
 
-void run_lt(const HardwareConfig& config, const Workload& work, const Progress& progress,
-            const std::function<void()>& stop_clock, SimulationResult& result) {
+void run_lt(const SimulationRequest& request, const HardwareConfig& config, const Workload& work,
+            const Progress& progress, const std::function<void()>& stop_clock, SimulationResult& result) {
   LtSystem lt("lt", config, work, progress);
   if (work.timeline) {
     RayEngine& e = lt.engine;
@@ -468,6 +504,8 @@ void run_lt(const HardwareConfig& config, const Workload& work, const Progress& 
                  pointers(e.shading_accounting()), caches(lt.l1_node), caches(lt.l1_triangle), caches(lt.l2),
                  lt.noc_model, lt.dram->model);
   }
+  attach_traces(request, lt.dram->model, models_of(lt.l1_node), models_of(lt.l1_triangle),
+                models_of(lt.l2));
   sc_core::sc_start();
   stop_clock();
   RayEngine& engine = lt.engine;
@@ -487,8 +525,9 @@ void run_lt(const HardwareConfig& config, const Workload& work, const Progress& 
   report_machine(result.stats, config, lt.shape, f, result.per_type, result.simulated_ps, true);
 }
 
-void run_cycle(const HardwareConfig& config, const Workload& work, const Progress& progress,
-               const std::function<void()>& stop_clock, SimulationResult& result) {
+void run_cycle(const SimulationRequest& request, const HardwareConfig& config, const Workload& work,
+               const Progress& progress, const std::function<void()>& stop_clock,
+               SimulationResult& result) {
   CycleSystem system("accelerator", config, work, progress);
   if (work.timeline) {
     std::vector<UnitAccounting*> trv, ist, shading;
@@ -503,6 +542,8 @@ void run_cycle(const HardwareConfig& config, const Workload& work, const Progres
     draw_machine(*work.timeline, config, system.shape, trv, ist, shading, caches(system.l1_node),
                  caches(system.l1_triangle), caches(system.l2), system.noc_model, system.dram->model);
   }
+  attach_traces(request, system.dram->model, models_of(system.l1_node), models_of(system.l1_triangle),
+                models_of(system.l2));
   sc_core::sc_start();
   stop_clock();
   if (!system.finished)
@@ -514,7 +555,7 @@ void run_cycle(const HardwareConfig& config, const Workload& work, const Progres
   result.frame_history = system.frame_history;
   result.simulated_ps = system.end_ps - system.frame_start_ps;
   result.frame_start_ps = system.frame_start_ps;
-  system.dram->model.settle(system.end_ps);  // idle-time refreshes into the counts
+  system.dram->settle(system.end_ps);  // idle-time refreshes (or the reference's counts)
   MachineFigures f;
   const auto add = [](std::array<uint64_t, kRayTypeCount>& sum, const std::array<uint64_t, kRayTypeCount>& part) {
     for (size_t t = 0; t < kRayTypeCount; ++t) sum[t] += part[t];
@@ -561,6 +602,14 @@ SimulationResult simulate(const SimulationRequest& request) {
   if (request.frames < 1 || request.frames > 1000) throw InputError("--frames", "must be 1..1000");
   const HardwareConfig& config = request.config;
   validate(config);
+  if (config.dram.model == "dramsim3") {
+    if (request.fidelity != Fidelity::Cycle)
+      throw InputError("dram.model", "dramsim3 serves the cycle level only (--fidelity cycle)");
+    if (!dramsim3_linked())
+      throw InputError("dram.model",
+                       "dramsim3: this rtsim was built without DRAMsim3 (configure with -DRTSIM_DRAMSIM3=DIR)");
+    dramsim3_ini(config.dram, config.l2.line_bytes);  // throws when DRAMsim3 cannot express it
+  }
   if (request.fidelity != Fidelity::Functional) {
     if (systemc_used())
       throw std::runtime_error("a SystemC fidelity level runs once per process (one elaboration)");
@@ -607,9 +656,9 @@ SimulationResult simulate(const SimulationRequest& request) {
     result.cpu_seconds = cpu_now() - cpu_start;
   };
   switch (request.fidelity) {
-    case Fidelity::Functional: run_functional(config, work, progress, stop_clock, result); break;
-    case Fidelity::Lt: run_lt(config, work, progress, stop_clock, result); break;
-    case Fidelity::Cycle: run_cycle(config, work, progress, stop_clock, result); break;
+    case Fidelity::Functional: run_functional(request, config, work, progress, stop_clock, result); break;
+    case Fidelity::Lt: run_lt(request, config, work, progress, stop_clock, result); break;
+    case Fidelity::Cycle: run_cycle(request, config, work, progress, stop_clock, result); break;
   }
   StatsRegistry& s = result.stats;
   const double cycle_ps = config.clock_period_ps();

@@ -1,6 +1,10 @@
 #include <rtsim/model/sim/cycle/cycle_cache.h>
 #include <rtsim/model/sim/timeline.h>
 
+#include <unistd.h>
+
+#include <filesystem>
+
 namespace rtsim::sim {
 
 using tlm::tlm_generic_payload;
@@ -198,6 +202,20 @@ CycleDram::CycleDram(sc_core::sc_module_name name, const DramConfig& config, uin
     : sc_module(name), target("target"), model(config, access_bytes),
       queue_(scheduler, [this] { on_event(); }) {
   target.register_nb_transport_fw(this, &CycleDram::nb_transport_fw);
+  if (config.model == "dramsim3")
+    reference_ = make_dramsim3(config, access_bytes,
+                               (std::filesystem::temp_directory_path() /
+                                ("rtsim-dramsim3-" + std::to_string(::getpid()))).string());
+}
+
+bool CycleDram::can_accept(tlm_generic_payload& p) const {
+  return reference_ ? reference_->can_accept(p.get_address(), p.is_write())
+                    : model.can_accept(p.get_address());
+}
+
+void CycleDram::settle(uint64_t end_ps) {
+  if (reference_) reference_->finish(end_ps, model);
+  else model.settle(end_ps);
 }
 
 uint32_t CycleDram::slot_for(int id, tlm_generic_payload* p) {
@@ -214,9 +232,15 @@ uint32_t CycleDram::slot_for(int id, tlm_generic_payload* p) {
 void CycleDram::admit(uint32_t r, uint64_t now) {
   tlm_generic_payload* p = in_flight_[r].p;
   // The latency counts from the sender's first try, so a held request's wait is in it.
-  model.enqueue({p->get_address(), std::min(now, PayloadPool::extension(*p).first_try_ps), r,
-                 p->is_write()},
-                now);
+  const DramRequest request{p->get_address(), std::min(now, PayloadPool::extension(*p).first_try_ps), r,
+                            p->is_write()};
+  if (reference_) {
+    if (arrival_ps_.size() <= r) arrival_ps_.resize(r + 1);
+    arrival_ps_[r] = request.arrival_ps;
+    reference_->enqueue(request, now);
+  } else {
+    model.enqueue(request, now);
+  }
   if (decide_at_ > now) {
     decide_at_ = now;
     queue_.push(now, Item{Item::Decide, 0});
@@ -227,7 +251,7 @@ tlm::tlm_sync_enum CycleDram::nb_transport_fw(int id, tlm_generic_payload& p, tl
                                               sc_core::sc_time&) {
   if (phase != tlm::BEGIN_REQ) return tlm::TLM_ACCEPTED;
   const uint32_t r = slot_for(id, &p);
-  if (held_.empty() && model.can_accept(p.get_address())) {
+  if (held_.empty() && can_accept(p)) {
     admit(r, now_ps());
     phase = tlm::END_REQ;
     return tlm::TLM_UPDATED;
@@ -246,7 +270,8 @@ void CycleDram::on_event() {
       free_slots_.push_back(item.request);
       tlm::tlm_phase phase = tlm::BEGIN_RESP;
       sc_core::sc_time zero = sc_core::SC_ZERO_TIME;
-      PayloadPool::extension(*f.p).served = served_by_dram(f.outcome);
+      // A reference model (DRAMsim3) does not say how the row stood: plain "DRAM".
+      PayloadPool::extension(*f.p).served = reference_ ? ServedBy::Dram : served_by_dram(f.outcome);
       f.p->set_response_status(tlm::TLM_OK_RESPONSE);
       target[f.id]->nb_transport_bw(*f.p, phase, zero);
     } else {
@@ -254,13 +279,19 @@ void CycleDram::on_event() {
     }
   });
   issued_.clear();
-  model.advance(now, issued_);
+  if (reference_) {
+    reference_->advance(now, issued_);
+    for (const DramCompletion& c : issued_)
+      model.count_reference_request(c.write, c.done_ps - arrival_ps_[c.tag]);
+  } else {
+    model.advance(now, issued_);
+  }
   for (const DramCompletion& c : issued_) {
     in_flight_[c.tag].outcome = c.outcome;
     queue_.push(c.done_ps, Item{Item::Respond, uint32_t(c.tag)});
   }
   // Issues freed queue entries: held requests enter in order, each sender told by END_REQ.
-  while (!held_.empty() && model.can_accept(in_flight_[held_.front()].p->get_address())) {
+  while (!held_.empty() && can_accept(*in_flight_[held_.front()].p)) {
     const uint32_t r = held_.front();
     held_.pop_front();
     admit(r, now);
@@ -268,7 +299,7 @@ void CycleDram::on_event() {
     sc_core::sc_time zero = sc_core::SC_ZERO_TIME;
     target[in_flight_[r].id]->nb_transport_bw(*in_flight_[r].p, phase, zero);
   }
-  const uint64_t next = model.next_decision_ps();
+  const uint64_t next = reference_ ? reference_->next_decision_ps() : model.next_decision_ps();
   if (next != UINT64_MAX && next < decide_at_) {
     decide_at_ = std::max(next, now + 1);
     queue_.push(decide_at_, Item{Item::Decide, 0});

@@ -5,6 +5,7 @@
 // DRAM bytes per ray and cycles from the cycle-level model.
 #include <rtsim/builder/build.h>
 #include <rtsim/model/core/ray.h>
+#include <rtsim/reports/interval.h>
 
 #include <array>
 #include <filesystem>
@@ -16,8 +17,14 @@ namespace rtsim {
 struct Table1Options {
   std::string scene = "interior";
   std::vector<std::string> cameras = {"view1", "view2"};
-  // The patent's four (with the median reading of its BVH) and ours, rdh, marked as ours.
-  std::vector<std::string> builders = {"median", "sah", "sbvh", "osah", "aobvh", "rdh"};
+  // The patent's four, its BVH and its AO-BVH each in both readings (median and SAH;
+  // object and spatial splits), and ours, rdh, marked as ours.
+  std::vector<std::string> builders = {"median", "sah", "sbvh", "osah", "aobvh", "aosbvh", "rdh"};
+  // The builders that cast random rays (they read the builder seed: osah's AO rays,
+  // aobvh's, rdh's samples) are built with this many seeds, build.seed, build.seed +
+  // 1, ...: their counts are the means over those trees, with a 95% interval. The
+  // cycle-level run and the heatmaps use the first seed's tree.
+  uint32_t build_seeds = 5;
   uint32_t width = 256, height = 256;
   int ao_samples = -1;            // < 0: the scene's AO settings
   uint64_t seed = 1;
@@ -32,9 +39,6 @@ struct Table1Options {
   BuildParams build;              // one parameter set for every builder and scene
   // Node record format the trees are built (collapsed) for and traced with.
   std::string node_format = "bvh2-64";
-  // OSAH's visibility rays: build.osah_width x osah_height as given, or (true, the
-  // default) the frame's resolution.
-  bool osah_resolution_from_frame = true;
 };
 
 // Per ray type (primary, AO) and combined.
@@ -48,8 +52,12 @@ struct Table1Counts {
 
 struct Table1Row {
   std::string camera, builder;
+  // Counts per ray (means over the seeds for a sampled builder), and their spread.
   Table1Counts combined;
   Table1Counts primary, ao;
+  uint32_t seeds = 1;                   // trees the counts are the mean of
+  Interval ops_combined, ops_primary, ops_ao;  // ops/ray over the seeds (n = seeds)
+  uint64_t first_trv_ops = 0, first_ist_ops = 0;  // the first seed's tree: what the cycle level runs
   double cycles = -1;                  // the last (steady-state) frame
   double rays_per_joule = -1;          // cycle level, dynamic energy
   double cold_dram_bytes_per_ray = -1;  // the first frame, cold caches (frames > 1)
@@ -72,6 +80,19 @@ struct Table1 {
   std::string counting_rule;
   const Table1Row* find(const std::string& camera, const std::string& builder) const;
 };
+
+// One relation of the patent's ordering, a < b in ops/ray: held or broken where the
+// two rows' 95% seed intervals (a point for an unsampled builder) do not overlap,
+// unresolved where they do.
+struct Table1Relation {
+  std::string a, b;
+  enum class State { Holds, Broken, Unresolved } state = State::Holds;
+};
+// The ordering for one reading of the AO-BVH (aobvh: object splits, aosbvh: spatial)
+// against one reading of its BVH (median or sah) on a camera: AO-BVH < OSAH, AO-BVH <
+// SBVH, then SBVH, OSAH and AO-BVH < the BVH. Empty if a row is missing.
+std::vector<Table1Relation> patent_relations(const Table1& table, const std::string& camera,
+                                             const std::string& reading, const std::string& baseline);
 
 // Builds the trees, traces the frames and (optionally) runs the cycle-level model.
 // Writes the per-pixel ops of every (camera, builder) under out_dir/data for the plots.

@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -99,6 +100,11 @@ class CacheModel {
   const TrafficMatrix& filled() const { return filled_; }        // bytes read from the next level
   // Frames: counts start again; tags, MSHRs and port state stay.
   void reset_counters();
+  // Sees every access when it is counted (a request refused for want of an MSHR when
+  // it is finally taken), with its outcome: what a cache trace records.
+  void set_access_observer(std::function<void(const LineAccess&, Outcome)> observer) {
+    observer_ = std::move(observer);
+  }
   void report(StatsRegistry& stats, const std::string& prefix) const;
 
  private:
@@ -119,6 +125,7 @@ class CacheModel {
     RayType writer = RayType::Primary;  // ... of this ray type
   };
   std::unordered_map<uint64_t, Mshr> mshr_;  // cycle: missing lines
+  std::function<void(const LineAccess&, Outcome)> observer_;
 };
 
 // Inline: every line access of the functional and lt levels passes here.
@@ -132,6 +139,7 @@ inline void CacheModel::count(const LineAccess& a, Outcome outcome) {
     case Outcome::Merged: ++counters_.mshr_merges; break;
     case Outcome::Blocked: break;
   }
+  if (observer_) observer_(a, outcome);
 }
 
 inline CacheModel::Result CacheModel::access(const LineAccess& a, uint64_t now_ps) {

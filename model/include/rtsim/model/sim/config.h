@@ -46,6 +46,7 @@ inline bool operator!=(const CacheConfig& a, const CacheConfig& b) { return !(a 
 // below are the lpddr4-3200 part (apply_dram_part lists every part's sources).
 struct DramConfig {
   std::string part = "lpddr4-3200";  // preset the timings below start from
+  std::string model = "rtsim";       // rtsim | dramsim3 (cycle level; dram_reference.h)
   uint32_t channels = 2;
   uint32_t ranks = 1;
   uint32_t bank_groups = 1;        // per rank; 1 for parts without bank groups (LPDDR4)
@@ -84,6 +85,7 @@ struct DramConfig {
   double read_burst_pj = 2700;    // one burst of burst_bytes read
   double write_burst_pj = 2000;   // one burst written
   double refresh_pj = 44000;      // one all-bank REF of a rank
+  double background_mw = 68.3;    // standby power of one channel, banks precharged (IDD2N)
   uint32_t banks_per_group() const { return banks / bank_groups; }
 };
 

@@ -81,6 +81,14 @@ struct DramCompletion {
   bool write = false;
 };
 
+// One request as it reaches the DRAM, for request traces (memory_trace.h).
+struct DramRequestRecord {
+  uint64_t time_ps = 0;  // when the requester first tried to send it (functional level: 0)
+  uint64_t address = 0;
+  bool write = false;
+  DramAddress where;  // the address map's decode of it
+};
+
 enum class DramCommandKind : uint8_t { Activate, Precharge, Read, Write, Refresh };
 const char* dram_command_name(DramCommandKind kind);  // "ACT", "PRE", "RD", "WR", "REF"
 
@@ -135,6 +143,12 @@ class DramModel {
   void set_command_observer(std::function<void(const DramCommand&)> observer) {
     observer_ = std::move(observer);
   }
+  // Sees every request that reaches the model (enqueue, lt_access, count_access), in
+  // the order they reach it.
+  void set_request_observer(std::function<void(const DramRequestRecord&)> observer) {
+    request_observer_ = std::move(observer);
+  }
+  const DramAddressMap& address_map() const { return map_; }
 
   uint64_t latency_ps(RowOutcome outcome) const;  // isolated read from a DRAM clock edge
   uint64_t transfer_ps() const { return transfer_ps_; }  // tBURST of one access
@@ -154,6 +168,16 @@ class DramModel {
     uint64_t write_latency_sum_ps = 0, write_latency_max_ps = 0;
   };
   const Counters& counters() const { return counters_; }
+  // A reference model (dram_reference.h) served the requests: its requests and
+  // commands go into these counters so that report() and energy read them as ours.
+  void count_reference_request(bool write, uint64_t latency_ps) {
+    count_request(write, RowOutcome::Closed, latency_ps);
+  }
+  void set_reference_commands(uint64_t row_hits, uint64_t activates, uint64_t precharges,
+                              uint64_t refreshes, uint64_t bus_busy_ps);
+  // Writes: the reference answers them at once (posted) and measures their wait to the
+  // write command itself; latencies (ps) with their counts replace ours.
+  void set_reference_write_latencies(const std::vector<std::pair<uint64_t, uint64_t>>& latency_count);
   // Clears counters and latency histograms; bank, row, refresh and queue state stay
   // (statistics of the last of several frames).
   void reset_counters();
@@ -174,6 +198,9 @@ class DramModel {
     uint64_t act_ready_ps = 0;    // precharge + tRP
     uint64_t last_use_ps = 0;     // last activate or column command (timeout policy)
     bool conflict_pending = false;  // precharged for a request needing another row
+    // Activated for a request of this direction (0 read, 1 write) whose column command
+    // has not issued yet; -1 once one has (or the row closed).
+    int8_t opened_for = -1;
     // lt, closed policy: the column command after which the row auto-precharges unless
     // the bank's next request hits it and arrived by then (UINT64_MAX: none pending).
     uint64_t auto_close_after_ps = UINT64_MAX;
@@ -299,6 +326,7 @@ class DramModel {
   std::vector<Channel> channels_;
   std::vector<DramCompletion> pending_completions_;  // issued while catching up in enqueue
   std::function<void(const DramCommand&)> observer_;
+  std::function<void(const DramRequestRecord&)> request_observer_;
   Counters counters_;
   std::vector<uint64_t> read_histogram_ns_, write_histogram_ns_;  // last bucket: above
 };

@@ -2,8 +2,10 @@
 // Energy of a run from its event counts: every cache access, every byte through
 // the crossbar, every DRAM command, every TRV pass and IST test costs the energy
 // its parameter (energy.*, with the sources in model/src/sim/config.cpp) says.
-// Dynamic energy only: static (leakage, DRAM background) power is not modelled.
-//   energy.<component>.pj, energy.total_pj, energy.pj_per_ray, energy.rays_per_joule
+// Dynamic energy, and apart from it the DRAM's background (standby) energy; leakage
+// of the accelerator is not modelled.
+//   energy.<component>.pj, energy.total_pj, energy.pj_per_ray, energy.rays_per_joule (dynamic)
+//   energy.dram_background.pj, energy.pj_per_ray_with_background
 //   energy.per_type.<ray type>.pj_per_ray: a component's energy shared out by the
 //   bytes (caches, crossbar, DRAM) or ops (TRV, IST) each ray type caused there.
 #include <rtsim/model/core/functional_tracer.h>
@@ -28,6 +30,7 @@ struct EnergyCounts {
   TrafficMatrix l1_node_bytes, l1_triangle_bytes, l2_bytes, dram_bytes;
   uint64_t noc_bytes = 0;
   uint64_t dram_activates = 0, dram_read_bursts = 0, dram_write_bursts = 0, dram_refreshes = 0;
+  double dram_background_pj = 0;  // dram.background_mw x channels x simulated time
   std::array<CounterTotals, kRayTypeCount> per_type{};  // box tests and triangle tests by type
 };
 

@@ -26,6 +26,9 @@
 
 namespace rtsim::sim {
 
+class DramTraceWriter;
+class CacheTraceWriter;
+
 struct SimulationRequest {
   const Scene* scene = nullptr;
   const Bvh* bvh = nullptr;
@@ -40,6 +43,10 @@ struct SimulationRequest {
   // Optional: the ray whose every request is traced (--trace-ray; ray_probe.h).
   std::optional<RayTarget> trace_ray;
   Timeline* timeline = nullptr;       // optional, lt and cycle: the run drawn (timeline.h); closed by the caller
+  // Optional (memory_trace.h): every request reaching the DRAM, and every access
+  // entering the cache the writer names (all its instances), over every frame.
+  DramTraceWriter* dram_trace = nullptr;
+  CacheTraceWriter* cache_trace = nullptr;
 };
 
 // The memory layout and traversal settings a hardware configuration implies

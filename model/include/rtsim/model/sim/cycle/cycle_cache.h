@@ -11,6 +11,7 @@
 // request (a full DRAM queue: BEGIN_REQ without END_REQ) the queue waits for
 // its END_REQ, and that waiting is counted (downstream_stall).
 #include <rtsim/model/sim/cache_model.h>
+#include <rtsim/model/sim/dram_reference.h>
 #include <rtsim/model/sim/memory_system.h>
 #include <rtsim/model/sim/cycle/unit_scheduler.h>
 
@@ -96,7 +97,9 @@ class CycleDram : public sc_core::sc_module {
   tlm_utils::multi_passthrough_target_socket<CycleDram> target;
   CycleDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t access_bytes,
             UnitScheduler& scheduler);
-  DramModel model;
+  DramModel model;  // serves the requests, or (dram.model = dramsim3) counts the reference's
+  // The end of the run: idle-time refreshes into the counts, or the reference's counts.
+  void settle(uint64_t end_ps);
 
  private:
   tlm::tlm_sync_enum nb_transport_fw(int id, tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
@@ -119,6 +122,9 @@ class CycleDram : public sc_core::sc_module {
   std::deque<uint32_t> held_;  // arrived, channel queue full: not yet END_REQ
   uint64_t decide_at_ = UINT64_MAX;
   std::vector<DramCompletion> issued_;
+  std::unique_ptr<DramReference> reference_;  // dram.model = dramsim3
+  std::vector<uint64_t> arrival_ps_;          // reference: per slot, for its latency
+  bool can_accept(tlm::tlm_generic_payload& p) const;
 };
 
 }  // namespace rtsim::sim
