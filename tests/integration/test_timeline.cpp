@@ -48,6 +48,7 @@ uint64_t ps(const json& us) { return uint64_t(std::llround(us.get<double>() * 1e
 struct Span {
   std::string name;
   uint64_t start, end;
+  double start_us, end_us;  // as a viewer reads them: ts, and ts + dur added in doubles
 };
 
 // Rows (thread names) and their spans, checking the format on the way.
@@ -69,7 +70,8 @@ std::map<std::string, std::vector<Span>> rows_of(const json& trace) {
     EXPECT_TRUE(e.at("name").is_string());
     EXPECT_GE(e.at("ts").get<double>(), 0.0);
     EXPECT_GT(e.at("dur").get<double>(), 0.0) << e.dump();
-    spans[row].push_back({e.at("name"), ps(e.at("ts")), ps(e.at("ts")) + ps(e.at("dur"))});
+    spans[row].push_back({e.at("name"), ps(e.at("ts")), ps(e.at("ts")) + ps(e.at("dur")), e.at("ts").get<double>(),
+                          e.at("ts").get<double>() + e.at("dur").get<double>()});
   }
   std::map<std::string, std::vector<Span>> out;
   for (auto& [row, list] : spans) {
@@ -77,8 +79,12 @@ std::map<std::string, std::vector<Span>> rows_of(const json& trace) {
     EXPECT_TRUE(processes.count(row.first)) << "a group without a name: " << row.first;
     // Viewers nest the spans of a row: they must not overlap.
     std::sort(list.begin(), list.end(), [](const Span& a, const Span& b) { return a.start < b.start; });
-    for (size_t i = 1; i < list.size(); ++i)
+    for (size_t i = 1; i < list.size(); ++i) {
       EXPECT_LE(list[i - 1].end, list[i].start) << names[row] << " at " << list[i].start << " ps";
+      // Nor as doubles: a span whose ts + dur rounds past the next one's ts makes
+      // speedscope nest every later span of the row inside it.
+      EXPECT_LE(list[i - 1].end_us, list[i].start_us) << names[row] << " at " << list[i].start << " ps";
+    }
     EXPECT_FALSE(out.count(names[row])) << "two rows named " << names[row];
     out[names[row]] = list;
   }

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 #include <unistd.h>
@@ -18,9 +20,31 @@ namespace {
 constexpr size_t kMaxLanes = 64;
 
 // Picoseconds as microseconds, exactly: "12.345678".
-void write_us(std::FILE* out, uint64_t ps) {
-  std::fprintf(out, "%llu.%06llu", static_cast<unsigned long long>(ps / 1000000),
-               static_cast<unsigned long long>(ps % 1000000));
+// Picoseconds as exact decimal microseconds ("7.335244").
+int format_us(char* buf, size_t size, uint64_t ps) {
+  return std::snprintf(buf, size, "%llu.%06llu", static_cast<unsigned long long>(ps / 1000000),
+                       static_cast<unsigned long long>(ps % 1000000));
+}
+
+// The span's start and duration. A viewer reads both as doubles and adds them: the
+// sum of the two decimals can round past the next span's start (7.335244 + 0.000733
+// = 7.335977000000001 > 7.335977), and speedscope then nests every later span of
+// the row inside that one. So where the exact decimal duration would, the duration
+// written is the largest double whose sum with the start stays at the end: within
+// 1e-9 ps of the exact one, which a reader rounding to picoseconds gets back.
+void write_start_and_dur(std::FILE* out, uint64_t start_ps, uint64_t end_ps) {
+  char start[32], end[32], dur[32];
+  format_us(start, sizeof start, start_ps);
+  format_us(end, sizeof end, end_ps);
+  format_us(dur, sizeof dur, end_ps - start_ps);
+  const double s = std::strtod(start, nullptr), e = std::strtod(end, nullptr);
+  double d = std::strtod(dur, nullptr);
+  if (s + d > e) {
+    d = e - s;
+    while (d > 0 && s + d > e) d = std::nextafter(d, 0.0);
+    std::snprintf(dur, sizeof dur, "%.17g", d);
+  }
+  std::fprintf(out, "%s,\"dur\":%s", start, dur);
 }
 }  // namespace
 
@@ -93,9 +117,7 @@ void Timeline::write_event(uint32_t group, uint32_t row, const char* name, uint6
                            uint64_t end_ps, const std::string& args) {
   std::fprintf(out_, "%s{\"name\":\"%s\",\"ph\":\"X\",\"pid\":%u,\"tid\":%u,\"ts\":", events_ ? ",\n" : "",
                name, group + 1, row);
-  write_us(out_, start_ps);
-  std::fputs(",\"dur\":", out_);
-  write_us(out_, end_ps - start_ps);
+  write_start_and_dur(out_, start_ps, end_ps);
   if (!args.empty()) std::fprintf(out_, ",\"args\":{%s}", args.c_str());
   std::fputc('}', out_);
   ++events_;
