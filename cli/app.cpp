@@ -91,6 +91,7 @@ void add_rtsim_commands(CLI::App& app) {
   add_table1_command(app);
   add_accuracy_command(app);
   add_claim_command(app);
+  add_stats_command(app);
   add_dram_replay_command(app);
   make_numbers_strict(app);
 }

@@ -30,9 +30,24 @@ struct CampaignArgs {
   std::string dir;
   std::string database;
   std::string binary;
-  std::string tree_cache;
-  bool no_tree_cache = false;
+  std::string tree_cache, results_cache;
+  bool no_tree_cache = false, no_results_cache = false;
 };
+
+void add_results_cache(CLI::App* cmd, CampaignArgs& a) {
+  cmd->add_option("--results-cache", a.results_cache,
+                  "folder of finished runs shared by job key across campaigns (default: "
+                  "<scene cache>/results when the jobs run this rtsim)");
+  cmd->add_flag("--no-results-cache", a.no_results_cache, "run every missing job, even one another campaign ran");
+}
+
+// As the tree cache: on by default only for this rtsim's own jobs.
+fs::path results_cache_of(const CampaignArgs& a) {
+  if (a.no_results_cache) return {};
+  if (!a.results_cache.empty()) return fs::absolute(a.results_cache);
+  if (!a.binary.empty()) return {};
+  return scene_cache_dir() / "results";
+}
 
 void add_tree_cache(CLI::App* cmd, CampaignArgs& a) {
   cmd->add_option("--tree-cache", a.tree_cache,
@@ -105,6 +120,7 @@ void add_campaign_command(CLI::App& root) {
     add_common(cmd, *a);
     cmd->add_option("-j,--jobs", *parallel, "jobs at once")->check(CLI::Range(1, 1024));
     add_tree_cache(cmd, *a);
+    add_results_cache(cmd, *a);
     cmd->add_flag("--retry-failed", *retry_failed, "rerun jobs recorded as failed");
     cmd->add_flag("--force", *force, "rerun every job, even finished ones");
     cmd->add_option("--timeout", *timeout, "seconds per job before it is killed (0: none)")
@@ -124,11 +140,14 @@ void add_campaign_command(CLI::App& root) {
       o.timeout_seconds = *timeout;
       o.progress = Progress::enabled();
       o.tree_cache = usable_tree_cache(tree_cache_of(*a), "--tree-cache");
+      o.results_cache = usable_tree_cache(results_cache_of(*a), "--results-cache", "results cache",
+                                        "every missing job runs");
       const RunSummary s = run_campaign(c, paths, o);
       ResultsStore store(paths.database, ResultsStore::Access::ReadOnly);
       const CampaignStatus st = campaign_status(c, paths, store);
       if (*json_out) {
         nlohmann::json j = {{"campaign", c.name},        {"jobs", s.total},       {"ran", s.ran},
+                            {"reused", s.reused},
                             {"ran_ok", s.ok},            {"ran_failed", s.failed}, {"seconds", s.wall_seconds},
                             {"ok", st.ok},               {"failed", st.failed},   {"missing", st.missing},
                             {"skipped_failed", s.skipped_failed}, {"interrupted", s.interrupted},
@@ -137,10 +156,11 @@ void add_campaign_command(CLI::App& root) {
           j["failures"].push_back({{"label", label}, {"reason", error.substr(0, error.find('\n'))}});
         std::cout << j.dump(2) << "\n";
       } else {
-        std::printf("campaign %s: %zu jobs; ran %zu (%zu ok, %zu failed) in %.1f s; "
+        std::printf("campaign %s: %zu jobs; ran %zu (%zu ok, %zu failed) in %.1f s%s; "
                     "%zu ok, %zu failed, %zu missing; results in %s\n",
-                    c.name.c_str(), s.total, s.ran, s.ok, s.failed, s.wall_seconds, st.ok,
-                    st.failed, st.missing, paths.database.string().c_str());
+                    c.name.c_str(), s.total, s.ran, s.ok, s.failed, s.wall_seconds,
+                    s.reused ? (", " + std::to_string(s.reused) + " reused from the results cache").c_str() : "",
+                    st.ok, st.failed, st.missing, paths.database.string().c_str());
         for (const auto& [label, error] : st.failures)
           std::printf("  failed %s: %s\n", label.c_str(), error.substr(0, error.find('\n')).c_str());
         if (s.skipped_failed)

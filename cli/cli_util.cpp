@@ -124,7 +124,8 @@ void check_output_folder(const fs::path& path, const std::string& flag) {
   folder.keep();
 }
 
-fs::path usable_tree_cache(const fs::path& cache, const std::string& flag) {
+fs::path usable_tree_cache(const fs::path& cache, const std::string& flag, const std::string& what,
+                           const std::string& without) {
   if (cache.empty()) return cache;
   const std::string name = typed_flag(flag) + " " + cache.string();
   if (path_exists(cache) && !is_folder(cache)) throw InputError(name, "exists and is not a folder");
@@ -139,8 +140,8 @@ fs::path usable_tree_cache(const fs::path& cache, const std::string& flag) {
   fs::create_directories(cache, ec);
   const std::string why = ec ? ec.message() : probe_writable(cache);
   if (why.empty()) return cache;
-  std::fprintf(stderr, "rtsim: warning: %s: the tree cache cannot be written (%s); every job builds its own "
-                       "tree in its folder\n", name.c_str(), why.c_str());
+  std::fprintf(stderr, "rtsim: warning: %s: the %s cannot be written (%s); %s\n", name.c_str(), what.c_str(),
+               why.c_str(), without.c_str());
   return {};
 }
 

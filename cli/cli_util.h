@@ -92,7 +92,10 @@ void check_output_folder(const std::filesystem::path& path, const std::string& f
 // a path that is a file (or under one) is refused, naming `flag`; a folder that
 // cannot be created or written gives a warning and no cache (every job builds its
 // own tree in its folder). Empty in, empty out.
-std::filesystem::path usable_tree_cache(const std::filesystem::path& cache, const std::string& flag);
+// The results cache is checked the same way (`what` it is, and what happens `without` it).
+std::filesystem::path usable_tree_cache(const std::filesystem::path& cache, const std::string& flag,
+                                        const std::string& what = "tree cache",
+                                        const std::string& without = "every job builds its own tree in its folder");
 
 // An output file: not a folder, and its folder (the first one that exists on the
 // way up; the rest is created when the file is written) can be written.

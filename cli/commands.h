@@ -23,6 +23,7 @@ void add_table1_command(CLI::App& root);
 void add_accuracy_command(CLI::App& root);
 void add_report_command(CLI::App& root);
 void add_claim_command(CLI::App& root);
+void add_stats_command(CLI::App& root);
 void add_dram_replay_command(CLI::App& root);
 
 // The whole command line: every subcommand above, then make_numbers_strict.

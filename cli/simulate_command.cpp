@@ -14,6 +14,7 @@
 #include <rtsim/model/sim/simulator.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
+#include <rtsim/workloads/numbers.h>
 #include <rtsim/workloads/progress.h>
 #include <rtsim/workloads/scene_registry.h>
 
@@ -33,6 +34,8 @@ namespace {
 struct SimulateOptions {
   std::string scene, builder = "sah", camera, fidelity = "functional", config = "mobile", out_dir;
   std::string resolution = kDefaultResolution, rays_in, bvh_in, node_format;
+  std::string timeline, timeline_window, trace_ray;
+  uint64_t timeline_max_events = sim::Timeline::kDefaultMaxEvents;
   int ao = -1;
   double ao_cutoff = -1;  // AO ray length x scene diagonal; < 0: the scene's
   uint32_t spp = 1, bounces = 2, frames = 1;
@@ -44,6 +47,45 @@ struct SimulateOptions {
   const CLI::Option* builder_flag = nullptr;
   std::vector<const CLI::Option*> ray_making_flags;  // meaningless with --rays-in
 };
+
+// "FROM..TO" (or "FROM.." to the end) in cycles, FROM < TO; InputError naming the flag.
+std::pair<uint64_t, uint64_t> parse_cycle_window(const std::string& text) {
+  const std::string flag = "--timeline-window";
+  const size_t dots = text.find("..");
+  if (dots == std::string::npos)
+    throw InputError(flag, "expected FROM..TO cycles (or FROM.. to the end), got '" + text + "'");
+  const uint64_t from = read_unsigned(text.substr(0, dots), 0, UINT64_MAX / 2, flag + " FROM");
+  if (dots + 2 == text.size()) return {from, UINT64_MAX};
+  const uint64_t to = read_unsigned(text.substr(dots + 2), 0, UINT64_MAX / 2, flag + " TO");
+  if (to <= from)
+    throw InputError(flag, "TO must be after FROM, got " + std::to_string(from) + ".." + std::to_string(to));
+  return {from, to};
+}
+
+// The machine's cycles split per unit kind (stats machine.<kind>.<bucket>_cycles.mean,
+// accounting.h), one row a kind, in percent of the run's cycles.
+void print_accounting(const sim::StatsRegistry& s) {
+  const double total = s.number("time.cycles");
+  if (!(total > 0)) return;
+  std::printf("  cycles (%% of %.0f, mean over units):", total);
+  for (sim::CycleBucket b : sim::kAllCycleBuckets) {
+    std::string name = sim::cycle_bucket_name(b);
+    if (name.rfind("waiting_", 0) == 0) name = name.substr(8);
+    std::printf(" %7s", name.c_str());
+  }
+  std::printf("\n");
+  for (sim::UnitKind kind : {sim::UnitKind::Trv, sim::UnitKind::Ist, sim::UnitKind::Shading}) {
+    const std::string p = std::string("machine.") + sim::unit_kind_name(kind) + ".";
+    if (!s.contains(p + "busy_cycles.mean")) continue;
+    std::printf("  %-33s", sim::unit_kind_name(kind));
+    for (sim::CycleBucket b : sim::kAllCycleBuckets) {
+      const std::string key = p + sim::cycle_bucket_name(b) + "_cycles.mean";
+      if (s.contains(key)) std::printf(" %7.1f", 100.0 * s.number(key) / total);
+      else std::printf(" %7s", "-");
+    }
+    std::printf("\n");
+  }
+}
 
 void run_simulate(const SimulateOptions& o) {
   sim::SimulationRequest request;
@@ -57,9 +99,36 @@ void run_simulate(const SimulateOptions& o) {
   request.settings.max_depth = o.bounces;
   check_frame_flags(request.settings);
   if (!o.rays_in.empty()) refuse_with_rays_in(o.ray_making_flags);
+  if (!o.trace_ray.empty()) {
+    request.trace_ray = sim::parse_ray_target(o.trace_ray, request.settings.width, request.settings.height);
+    if (o.json && o.out_dir.empty())
+      throw InputError("--trace-ray", "with --json the ray's trace goes to ray_trace.json: give --out-dir");
+  }
+  std::pair<uint64_t, uint64_t> window{0, UINT64_MAX};
+  if (!o.timeline_window.empty()) {
+    if (o.timeline.empty()) throw InputError("--timeline-window", "needs --timeline FILE");
+    window = parse_cycle_window(o.timeline_window);
+  }
+  if (!o.timeline.empty() && request.fidelity == sim::Fidelity::Functional)
+    throw InputError("--timeline", "the functional level has no time to draw; use --fidelity lt or cycle");
+  if (o.timeline_max_events < 1) throw InputError("--timeline-max-events", "must be at least 1");
   // The output folder and trace files first: a wrong one must not cost a whole simulation.
   OutputFolder out_dir;
-  out_dir.prepare(o.out_dir, "--out-dir");
+  if (!o.out_dir.empty()) out_dir.prepare(o.out_dir, "--out-dir");
+  std::unique_ptr<sim::Timeline> timeline;
+  if (!o.timeline.empty()) {
+    check_output_file(o.timeline, "--timeline");
+    sim::TimelineOptions t;
+    t.file = o.timeline;
+    const double cycle_ps = request.config.clock_period_ps();
+    t.from_ps = uint64_t(double(window.first) * cycle_ps);
+    t.to_ps = window.second == UINT64_MAX ? UINT64_MAX : uint64_t(double(window.second) * cycle_ps);
+    t.max_events = o.timeline_max_events;
+    t.cycle_ps = cycle_ps;
+    t.level = o.fidelity;
+    timeline = std::make_unique<sim::Timeline>(t);
+    request.timeline = timeline.get();
+  }
   std::unique_ptr<sim::DramTraceWriter> dram_trace;
   std::unique_ptr<sim::CacheTraceWriter> cache_trace;
   const sim::DramTraceFormat dram_format = sim::parse_dram_trace_format(o.dram_trace_format);
@@ -162,12 +231,24 @@ void run_simulate(const SimulateOptions& o) {
     out["effects"][ray_type_name(t)] = {{"on", result.plan.on(t)},
                                         {"why", result.plan.reason[ray_type_index(t)]}};
 
+  if (timeline) {
+    timeline->close();
+    if (timeline->capped())
+      std::fprintf(stderr,
+                   "rtsim simulate: --timeline: the cap of %llu spans was reached at cycle %llu; the spans after "
+                   "it are left out (narrow --timeline-window or raise --timeline-max-events)\n",
+                   static_cast<unsigned long long>(o.timeline_max_events),
+                   static_cast<unsigned long long>(double(timeline->capped_at_ps()) / request.config.clock_period_ps()));
+  }
   const std::filesystem::path dir(o.out_dir);
-  write_file_atomic(dir / "config.json", out.dump(2) + "\n");
   const std::string stats = result.stats.to_json();
-  write_file_atomic(dir / "stats.json", stats);
-  write_file_atomic(dir / "host.json", sim::host_json(result));
-  out_dir.keep();
+  if (!o.out_dir.empty()) {
+    write_file_atomic(dir / "config.json", out.dump(2) + "\n");
+    write_file_atomic(dir / "stats.json", stats);
+    write_file_atomic(dir / "host.json", sim::host_json(result));
+    if (!result.ray_trace.is_null()) write_file_atomic(dir / "ray_trace.json", result.ray_trace.dump(1) + "\n");
+    out_dir.keep();
+  }
 
   if (o.json) {
     std::cout << stats;
@@ -184,9 +265,14 @@ void run_simulate(const SimulateOptions& o) {
   std::printf("  %llu cores, L2 slice balance %.3f, %.0f pJ/ray (dynamic)\n",
               static_cast<unsigned long long>(s.number("machine.cores")), s.number("l2.slice_balance"),
               s.number("energy.pj_per_ray"));
-  std::printf("  host %.3f s, %.0f simulated rays per CPU second; results in %s\n",
-              result.host_seconds, result.cpu_seconds > 0 ? double(result.rays) / result.cpu_seconds : 0.0,
-              dir.string().c_str());
+  print_accounting(s);
+  std::printf("  host %.3f s, %.0f simulated rays per CPU second%s%s\n", result.host_seconds,
+              result.cpu_seconds > 0 ? double(result.rays) / result.cpu_seconds : 0.0,
+              o.out_dir.empty() ? "" : "; results in ", dir.string().c_str());
+  if (timeline)
+    std::printf("  timeline: %s, %llu spans\n", o.timeline.c_str(),
+                static_cast<unsigned long long>(timeline->events()));
+  if (!result.ray_trace.is_null()) std::printf("\n%s", sim::ray_trace_text(result.ray_trace).c_str());
 }
 
 }  // namespace
@@ -203,7 +289,8 @@ void add_simulate_command(CLI::App& root) {
   cmd->add_option("--config", opts->config, "hardware preset (mobile | desktop | mobile-gpu | desktop-gpu) or TOML file")
       ->capture_default_str();
   auto* out_dir = cmd->add_option("--out-dir", opts->out_dir,
-                                  "output folder for config.json, stats.json and host.json (required)");
+                                  "output folder for config.json, stats.json, host.json (and ray_trace.json);\n"
+                                  "required unless --json prints the stats");
   auto* out_old = add_deprecated_option(cmd, "--out", "--out-dir", opts->out_dir);
   out_dir->excludes(out_old);
   cmd->add_option("--res", opts->resolution, "image size WxH")->capture_default_str();
@@ -236,6 +323,22 @@ void add_simulate_command(CLI::App& root) {
                   "a campaign's build.KEY axes arrive this way")
       ->type_name("KEY=VALUE");
   cmd->add_option("--bvh", opts->bvh_in, "replay this saved tree (rtsim build --out) instead of building one");
+  cmd->add_flag("--json", opts->json, "print stats.json to stdout (with no --out-dir: and write no files)");
+  cmd->add_option("--timeline", opts->timeline,
+                  "write the run's timeline (lt, cycle) to FILE in the Chrome/Perfetto trace-event format:\n"
+                  "a track per unit, cache, crossbar port and DRAM channel (docs/timeline.md)")
+      ->type_name("FILE");
+  cmd->add_option("--timeline-window", opts->timeline_window,
+                  "only the spans within cycles FROM..TO (or FROM.. to the end), counted from the run's start")
+      ->type_name("FROM..TO");
+  cmd->add_option("--timeline-max-events", opts->timeline_max_events,
+                  "at most this many spans; past it the timeline stops, and says at which cycle")
+      ->capture_default_str();
+  cmd->add_option("--trace-ray", opts->trace_ray,
+                  "print every request of one ray: X,Y[,TYPE[,INDEX]] (TYPE primary, ao, shadow, reflection,\n"
+                  "refraction; INDEX: the sample of a primary ray, the INDEX-th ray of TYPE the pixel spawns);\n"
+                  "also written to ray_trace.json in --out-dir")
+      ->type_name("X,Y[,TYPE[,INDEX]]");
   cmd->add_option("--dram-trace-out", opts->dram_trace_out,
                   "write every request reaching DRAM to FILE (docs/dram.md, \"Checked against\")");
   cmd->add_option("--dram-trace-format", opts->dram_trace_format,
@@ -244,9 +347,9 @@ void add_simulate_command(CLI::App& root) {
   cmd->add_option("--cache-trace-out", opts->cache_trace_out,
                   "write every access entering the --cache-trace cache, with its outcome, to FILE");
   cmd->add_option("--cache-trace", opts->cache_trace, "l1_node | l1_triangle | l2")->capture_default_str();
-  cmd->add_flag("--json", opts->json, "print stats.json to stdout");
   cmd->callback([opts] {
-    if (opts->out_dir.empty()) throw InputError("simulate", "--out-dir DIR is required");
+    if (opts->out_dir.empty() && !opts->json)
+      throw InputError("simulate", "--out-dir DIR is required (or --json to print the stats only)");
     run_simulate(*opts);
   });
 }

@@ -10,6 +10,7 @@
 #include <rtsim/model/core/ray_file.h>
 #include <rtsim/model/core/validate.h>
 #include <rtsim/model/sim/memory_system.h>
+#include <rtsim/model/sim/ray_probe.h>
 #include <rtsim/model/sim/simulator.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
@@ -23,6 +24,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 namespace rtsim::cli {
 
@@ -32,7 +34,7 @@ struct TraceOptions {
   std::string scene, builder = "sah", camera, resolution = kDefaultResolution, out_dir, rays_in, rays_out,
       bvh_in;
   // "" = the hardware configuration's memory.node_format; else a format's name.
-  std::string node_format, node_layout, config = "mobile";
+  std::string node_format, node_layout, config = "mobile", trace_ray;
   int ao = -1;
   uint32_t spp = 1, threads = 0, bounces = 2, stack_limit = 128;
   uint64_t shuffle_faces = 0;
@@ -88,6 +90,29 @@ double hit_rate(const std::vector<std::unique_ptr<sim::CacheModel>>& level) {
   return cache_json(level)["hit_rate"].get<double>();
 }
 
+// One ray's requests through the same one-unit hierarchy, with the caches as the
+// trace left them when that ray came: the rays before it are replayed first.
+nlohmann::json trace_one_ray(const sim::RayTarget& target, const TraversalContext& context, const Camera& camera,
+                             const EffectSettings& settings, const FrameRun& run, const std::vector<Ray>& replayed,
+                             const sim::HardwareConfig& one_unit, const MemoryImage& image, uint32_t threads) {
+  const Ray ray = sim::find_target_ray(target, context, &camera, settings, run.plan, replayed);
+  sim::RayProbe probe(ray);
+  size_t index = 0;
+  while (index < run.rays.size() && !probe.is(run.rays[index])) ++index;
+  if (index == run.rays.size()) throw std::logic_error("--trace-ray: the frame did not trace the ray it spawns");
+  sim::FunctionalMemory memory(one_unit);
+  sim::FunctionalMemorySink before(memory);
+  std::vector<TraceResult> results;
+  trace_rays(context, std::vector<Ray>(run.rays.begin(), run.rays.begin() + ptrdiff_t(index)), results, &before,
+             threads);
+  sim::FunctionalMemorySink probing(memory, &probe);
+  RayTraversal traversal(context);
+  probe.begin(0);
+  trace_ray(traversal, ray, &probing);
+  probe.end(0, traversal.counters());
+  return sim::ray_trace_json(probe, target, image, context, one_unit.clock_period_ps(), 0, false);
+}
+
 void run_trace(const TraceOptions& o) {
   EffectSettings settings;
   parse_resolution(o.resolution, settings.width, settings.height);
@@ -113,6 +138,8 @@ void run_trace(const TraceOptions& o) {
   settings.max_depth = o.bounces;
   check_frame_flags(settings);
   if (!o.rays_in.empty()) refuse_with_rays_in(o.ray_making_flags);
+  std::optional<sim::RayTarget> target;
+  if (!o.trace_ray.empty()) target = sim::parse_ray_target(o.trace_ray, settings.width, settings.height);
   // Output paths first: a wrong one must not cost a build and a trace.
   OutputFolder pictures;
   if (!o.out_dir.empty()) pictures.prepare(o.out_dir, "--out-dir");
@@ -139,10 +166,12 @@ void run_trace(const TraceOptions& o) {
   sim::FunctionalMemory memory(one_unit);
   sim::FunctionalMemorySink caches(memory);
   FrameRun run;
+  std::vector<Ray> replayed;  // the ray file's rays (--trace-ray looks among them)
   if (!o.rays_in.empty()) {
     RaySet set = read_ray_file(o.rays_in);
     if (set.scene_hash != 0 && set.scene_hash != scene.content_hash())
       throw InputError(o.rays_in, "scene hash: the rays were made for another scene");
+    if (target) replayed = set.rays;
     run = run_rays(context, std::move(set.rays), settings.width, settings.height, &caches, o.threads);
   } else {
     run = run_frame(context, camera, settings, &caches, o.threads);
@@ -180,6 +209,8 @@ void run_trace(const TraceOptions& o) {
                  {"dram_bytes", dram_bytes},
                  {"dram_bytes_per_ray", run.total.per_ray(dram_bytes)}};
   j["memory_bytes"] = image.footprint().total_bytes();
+  if (target)
+    j["ray_trace"] = trace_one_ray(*target, context, camera, settings, run, replayed, one_unit, image, o.threads);
 
   if (!o.out_dir.empty()) {
     const std::filesystem::path dir(o.out_dir);
@@ -262,6 +293,7 @@ void run_trace(const TraceOptions& o) {
                   (unsigned long long)v["endpoint_ties_allowed"].get<uint64_t>());
       for (const auto& e : v["examples"]) std::printf("  %s\n", e.get<std::string>().c_str());
     }
+    if (target) std::printf("\n%s", sim::ray_trace_text(j["ray_trace"]).c_str());
   }
   if (disagreements > 0)
     throw ExitStatus(1, "validation: the exact referee found the core wrong on " +
@@ -312,6 +344,10 @@ void add_trace_command(CLI::App& root) {
   cmd->add_option("--rays-in", options->rays_in, "replay the rays of this ray file instead of a camera");
   cmd->add_option("--bvh", options->bvh_in, "trace this saved tree (rtsim build --out) instead of building one");
   cmd->add_flag("--json", options->json, "print JSON");
+  cmd->add_option("--trace-ray", options->trace_ray,
+                  "print every request of one ray through the one-unit hierarchy: X,Y[,TYPE[,INDEX]]\n"
+                  "(as simulate --trace-ray; with --json under \"ray_trace\")")
+      ->type_name("X,Y[,TYPE[,INDEX]]");
   cmd->add_flag("--validate", options->validate,
                 "check every ray against Embree, an exact referee deciding\n"
                 "disagreements; exit 1 if the core is wrong on any ray");

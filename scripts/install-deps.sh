@@ -8,7 +8,7 @@ packages=(
   libsystemc-dev libembree-dev libglm-dev libgtest-dev libgmock-dev libbenchmark-dev
   libassimp-dev libtbb-dev libsqlite3-dev sqlite3 libcli11-dev libtomlplusplus-dev
   nlohmann-json3-dev libstb-dev libzip-dev zlib1g-dev libpugixml-dev
-  python3 python3-matplotlib
+  python3 python3-matplotlib python3-pandas
   clang libclang-rt-14-dev
 )
 

@@ -4,6 +4,7 @@
 
 #include <rtsim/builder/build.h>
 #include <rtsim/builder/builder_registry.h>
+#include <rtsim/builder/bvh_file.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/workloads/config_reader.h>
 #include <rtsim/workloads/procedural.h>
@@ -548,6 +549,50 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
           parameter_used_by(*find_builder_parameter("ao_cutoff_relative"), job.builder)) {
         job.build_settings["ao_cutoff_relative"] = job.ao_cutoff;
         build["ao_cutoff_relative"] = job.ao_cutoff;
+      }
+      // A value equal to the default is the plain run: an override at the preset's
+      // value, a node format that is the preset's, a builder parameter at the
+      // builder's default. The job is the same (its key does not change), and now it
+      // says so: reports count it as the plain run and find it in every sweep.
+      const json& preset_hardware = hardware_for(job, {}, where);
+      const auto preset_value = [&](const std::string& dotted) -> const json* {
+        const json* node = &preset_hardware;
+        for (size_t start = 0;;) {
+          const size_t dot = dotted.find('.', start);
+          const std::string part = dotted.substr(start, dot == std::string::npos ? dot : dot - start);
+          if (!node->is_object() || !node->contains(part)) return nullptr;
+          node = &node->at(part);
+          if (dot == std::string::npos) return node;
+          start = dot + 1;
+        }
+      };
+      for (auto it = typed_overrides.begin(); it != typed_overrides.end();) {
+        const json* at_preset = preset_value(it->first);
+        if (!at_preset || *at_preset != it->second) {
+          ++it;
+          continue;
+        }
+        if (it->first == "memory.node_format") resolved.erase("node_format");
+        job.overrides.erase(it->first);
+        overrides.erase(it->first);
+        it = typed_overrides.erase(it);
+      }
+      for (auto it = job.build_settings.begin(); it != job.build_settings.end();) {
+        // The builder's seed defaults to the workload's and its camera to the
+        // workload's: those are not constants to compare with.
+        if (it->first == "seed" || it->first == "camera") {
+          ++it;
+          continue;
+        }
+        BuildParams plain, set;
+        plain.builder = set.builder = job.builder;
+        set_build_parameter(set, it->first, it->second);
+        if (build_params_json(plain) == build_params_json(set)) {
+          build.erase(it->first);
+          it = job.build_settings.erase(it);
+        } else {
+          ++it;
+        }
       }
       // A format set as an override builds the tree for it too, as the axis does.
       if (job.node_format.empty() && job.overrides.count("memory.node_format"))

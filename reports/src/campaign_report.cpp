@@ -1,6 +1,10 @@
 // The campaign report: data for the plot script, then Markdown and HTML around it.
 #include <rtsim/reports/campaign_report.h>
 
+#include <rtsim/builder/builder_registry.h>
+#include <rtsim/builder/bvh_file.h>
+#include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/stat_names.h>
 #include <rtsim/reports/plot_script.h>
 #include <rtsim/reports/results_store.h>
 #include <rtsim/reports/text_table.h>
@@ -51,10 +55,112 @@ std::string html_escape(const std::string& s) {
   return out;
 }
 
+// A swept axis of the campaign: a hardware key (an override, cores included), a
+// builder parameter (build.KEY) or the node format, with its unit.
+struct Coordinate {
+  std::string key, unit;
+  enum Kind { Hardware, Build, NodeFormat } kind;
+};
+
+std::string hardware_unit(const std::string& key) {
+  sim::HardwareConfig config;
+  std::string unit;
+  sim::for_each_parameter(config, [&](sim::ParameterInfo& p) {
+    if (p.key == key) unit = p.unit;
+  });
+  return unit;
+}
+
+const json* at_path(const json& object, const std::string& dotted) {
+  const json* node = &object;
+  for (size_t start = 0;;) {
+    const size_t dot = dotted.find('.', start);
+    const std::string part = dotted.substr(start, dot == std::string::npos ? dot : dot - start);
+    if (!node->is_object() || !node->contains(part)) return nullptr;
+    node = &node->at(part);
+    if (dot == std::string::npos) return node;
+    start = dot + 1;
+  }
+}
+
+// A value as the campaign wrote it, as a number where it is one ("524288" -> 524288).
+json typed(const json& text) {
+  if (!text.is_string()) return text;
+  const json number = json::parse(text.get<std::string>(), nullptr, false);
+  return number.is_number() ? number : text;
+}
+
+// Every axis the campaign sweeps besides scene, builder, preset and fidelity.
+std::vector<Coordinate> swept_coordinates(const std::vector<json>& jobs) {
+  std::map<std::string, Coordinate> found;
+  for (const json& job : jobs) {
+    const json set = job.value("set", json::object()), build = job.value("build", json::object());
+    for (const auto& [k, v] : set.items())
+      found.emplace(k, Coordinate{k, hardware_unit(k), Coordinate::Hardware});
+    for (const auto& [k, v] : build.items()) {
+      const BuilderParameter* p = find_builder_parameter(k);
+      found.emplace("build." + k, Coordinate{"build." + k, p ? p->unit : "", Coordinate::Build});
+    }
+    if (job.contains("node_format")) found.emplace("node_format", Coordinate{"node_format", "", Coordinate::NodeFormat});
+  }
+  // The node format set as an override is the node format axis.
+  if (found.count("memory.node_format")) {
+    found.erase("memory.node_format");
+    found.emplace("node_format", Coordinate{"node_format", "", Coordinate::NodeFormat});
+  }
+  std::vector<Coordinate> out;
+  for (auto& [k, c] : found) out.push_back(c);
+  return out;
+}
+
+// A run's value of each coordinate, its default where the job left it: the preset's
+// (the run's hardware) or the builder's.
+json coordinate_values(const std::vector<Coordinate>& coordinates, const json& job, const json& hardware,
+                       const std::string& builder) {
+  json out = json::object();
+  for (const Coordinate& c : coordinates) {
+    json value;
+    if (c.kind == Coordinate::Hardware) {
+      if (const json* v = at_path(hardware, c.key)) value = *v;
+    } else if (c.kind == Coordinate::NodeFormat) {
+      if (const json* v = at_path(hardware, "memory.node_format")) value = *v;
+    } else {
+      const std::string key = c.key.substr(6);
+      const json set = job.value("build", json::object());
+      if (set.contains(key)) {
+        value = typed(set.at(key));
+      } else {
+        BuildParams plain;
+        plain.builder = builder;
+        value = json::parse(build_params_json(plain)).value(key, json());
+        if (key == "seed") value = typed(job.value("seed", json()));  // the workload's
+      }
+    }
+    out[c.key] = value;
+  }
+  return out;
+}
+
 struct Table {
   std::vector<std::string> header;
   std::vector<std::vector<std::string>> rows;
 };
+
+// Leaves out the columns every row has the same value in (one builder, one preset):
+// returns them as "header value" pairs for the text above the table.
+std::vector<std::string> drop_constant_columns(Table& t, size_t first_droppable, size_t last_droppable) {
+  std::vector<std::string> constant;
+  if (t.rows.size() < 2) return constant;
+  for (size_t c = std::min(last_droppable, t.header.size() - 1) + 1; c-- > first_droppable;) {
+    bool same = true;
+    for (const auto& row : t.rows) same = same && row[c] == t.rows.front()[c];
+    if (!same) continue;
+    constant.insert(constant.begin(), t.header[c] + " " + t.rows.front()[c]);
+    t.header.erase(t.header.begin() + ptrdiff_t(c));
+    for (auto& row : t.rows) row.erase(row.begin() + ptrdiff_t(c));
+  }
+  return constant;
+}
 
 std::string html_table(const Table& t) {
   std::string out = "<table>\n<tr>";
@@ -96,7 +202,12 @@ CampaignReportFiles write_campaign_report(const CampaignReportOptions& options) 
   // Data for the plot script, one entry per run.
   json runs = json::array();
   std::set<std::string> revisions;
-  for (const json& row : rows) {
+  std::vector<json> jobs;
+  for (const json& row : rows) jobs.push_back(json::parse(row.value("job_json", std::string("{}")), nullptr, false));
+  const std::vector<Coordinate> coordinates = swept_coordinates(jobs);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const json& row = rows[i];
+    const json& job = jobs[i].is_object() ? jobs[i] : json::object();
     json run;
     for (const char* k : {"campaign", "job_key", "label", "group_name", "status", "error", "scene",
                           "builder", "camera", "preset", "fidelity", "git_revision"})
@@ -105,6 +216,10 @@ CampaignReportFiles write_campaign_report(const CampaignReportOptions& options) 
     run["overrides"] = json::parse(row.value("overrides", std::string("{}")));
     const json config = json::parse(row.value("config_json", std::string("null")));
     run["hardware"] = config.is_object() ? config.value("hardware", json::object()) : json::object();
+    run["coordinates"] = coordinate_values(coordinates, job, run["hardware"], row.value("builder", std::string()));
+    // The plain run: every coordinate at its default (the campaign drops values equal to it).
+    run["plain"] = !job.contains("node_format") && job.value("set", json::object()).empty() &&
+                   job.value("build", json::object()).empty();
     json headline = json::object();
     for (const auto& [name, unit] : ResultsStore::headline_columns()) headline[name] = row[name];
     headline["host_seconds"] = row["host_seconds"];
@@ -119,36 +234,49 @@ CampaignReportFiles write_campaign_report(const CampaignReportOptions& options) 
   std::string title = "Campaign report: ";
   for (size_t i = 0; i < campaigns.size(); ++i) title += (i ? ", " : "") + campaigns[i];
 
+  json axes = json::array();
+  for (const Coordinate& c : coordinates) {
+    std::set<json> values;
+    for (const json& r : runs) values.insert(r["coordinates"][c.key]);
+    axes.push_back({{"key", c.key}, {"unit", c.unit}, {"values", std::vector<json>(values.begin(), values.end())}});
+  }
   CampaignReportFiles files;
   files.data = options.out_dir / "report-data.json";
-  write_file_atomic(files.data, json{{"title", title}, {"runs", runs}}.dump(1) + "\n");
+  write_file_atomic(files.data, json{{"title", title},
+                                     {"names", sim::vocabulary_json()},
+                                     {"coordinates", axes},
+                                     {"runs", runs}}
+                                        .dump(1) +
+                                    "\n");
 
   // The headline table: grouped by scene, fidelity and overrides, then preset, then
   // builders in order of DRAM bytes per ray, so neighbouring rows differ in one thing.
   std::vector<const json*> ok, failed;
   for (const json& r : runs) (r["status"] == "ok" ? ok : failed).push_back(&r);
+  // Coordinates compare as values (numbers as numbers: 262144 before 1048576).
   std::sort(ok.begin(), ok.end(), [](const json* a, const json* b) {
     auto key = [](const json* r) {
       return std::make_tuple((*r)["scene"].get<std::string>(), (*r)["fidelity"].get<std::string>(),
-                             (*r)["overrides"].dump(), (*r)["preset"].get<std::string>(),
+                             (*r)["coordinates"], (*r)["preset"].get<std::string>(),
                              number_or_nan((*r)["headline"]["dram_bytes_per_ray"]),
                              (*r)["builder"].get<std::string>());
     };
     return key(a) < key(b);
   });
   Table results;
-  results.header = {"scene",       "fidelity",        "preset",          "overrides",
+  results.header = {"scene",       "fidelity",        "preset",          "swept",
                     "builder",     "cycles",          "ops/ray",         "TRV ops/ray",
                     "IST ops/ray", "node fetches/ray", "DRAM bytes/ray", "L1 node hit",
                     "L1 tri hit",  "L2 hit",          "pJ/ray",          "rays/J",
                     "host s",      "rays/host s"};
   for (const json* r : ok) {
     const json& h = (*r)["headline"];
-    std::string overrides;
-    for (auto it = (*r)["overrides"].begin(); it != (*r)["overrides"].end(); ++it)
-      overrides += (overrides.empty() ? "" : " ") + it.key() + "=" + it.value().get<std::string>();
+    std::string swept;
+    for (auto it = (*r)["coordinates"].begin(); it != (*r)["coordinates"].end(); ++it)
+      swept += (swept.empty() ? "" : " ") + it.key() + "=" +
+               (it.value().is_string() ? it.value().get<std::string>() : it.value().dump());
     results.rows.push_back({(*r)["scene"], (*r)["fidelity"], (*r)["preset"],
-                            overrides.empty() ? "-" : overrides, (*r)["builder"], cell(h["cycles"], 6),
+                            swept.empty() ? "-" : swept, (*r)["builder"], cell(h["cycles"], 6),
                             cell(h["ops_per_ray"]), cell(h["trv_ops_per_ray"]),
                             cell(h["ist_ops_per_ray"]), cell(h["node_fetches_per_ray"]),
                             cell(h["dram_bytes_per_ray"]), cell(h["l1_node_hit_rate"], 3),
@@ -177,17 +305,31 @@ CampaignReportFiles write_campaign_report(const CampaignReportOptions& options) 
     for (const json& f : figures) files.figures.push_back(options.out_dir / f["file"].get<std::string>());
   }
 
+  // What every row shares goes above the table, not in a column of equal cells.
+  const std::vector<std::string> shared = drop_constant_columns(results, 0, 4);
+  std::set<std::string> builders;
+  for (const json* r : ok) builders.insert((*r)["builder"].get<std::string>());
   std::string revision_text;
   for (const std::string& r : revisions) revision_text += (revision_text.empty() ? "" : ", ") + r;
+  std::string shared_text;
+  for (const std::string& c : shared) shared_text += (shared_text.empty() ? "" : ", ") + c;
   const std::string summary = std::to_string(runs.size()) + " runs (" + std::to_string(ok.size()) +
                               " ok, " + std::to_string(failed.size()) + " failed) from " +
                               options.database.filename().string() + ", rtsim revision " +
-                              revision_text + ".";
-  const std::string reading =
-      "Figures: builders are sorted by DRAM bytes per ray (mean over presets) and each "
-      "preset has its own bar, so the difference between builders reads left to right and "
-      "the difference between presets within each group. The table is grouped the same way; "
-      "every row's full config.json and stats.json are in the database.";
+                              revision_text + "." + (shared_text.empty() ? "" : " Every run: " + shared_text + ".");
+  std::string reading =
+      builders.size() > 1
+          ? "Figures: builders are sorted by DRAM bytes per ray (mean over presets) and each "
+            "preset has its own bar, so the difference between builders reads left to right and "
+            "the difference between presets within each group. "
+          : "";
+  if (!coordinates.empty())
+    reading += "Each swept axis has its own figure: cycles, DRAM bytes, energy per ray and TRV "
+               "utilisation against the axis's value" +
+               std::string(builders.size() > 1 ? ", one column of panels per builder" : "") +
+               "; a run at the default value (no override, or one equal to the preset's) is the "
+               "plain run and a point of every sweep. ";
+  reading += "Every row's full config.json and stats.json are in the database.";
 
   std::ostringstream md;
   md << "# " << title << "\n\n" << summary << "\n\n" << reading << "\n\n";

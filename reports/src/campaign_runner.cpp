@@ -347,6 +347,50 @@ fs::path cached_tree(const fs::path& cache, const Campaign& campaign, const Camp
   return cache / (content_hash_hex(identity.dump()) + ".bvh");
 }
 
+fs::path cached_result(const fs::path& cache, const std::string& job_key, const std::string& binary_hash) {
+  return cache / (job_key + "-" + binary_hash + ".json");
+}
+
+namespace {
+
+// The job's result from the results cache, as this campaign's record (its name,
+// label and group; the run's numbers as they were); false when there is none that
+// is ok and this job's.
+bool reuse_cached_result(const Campaign& campaign, const CampaignJob& job, const fs::path& cache,
+                         const std::string& binary_hash, RunRecord& out) {
+  if (cache.empty()) return false;
+  const fs::path file = cached_result(cache, job.key, binary_hash);
+  if (!is_file(file)) return false;
+  try {
+    RunRecord r = RunRecord::from_json(json::parse(read_text(file)), file.string());
+    if (r.status != "ok" || r.job_key != job.key) return false;
+    r.campaign = campaign.name;
+    r.label = job.label;
+    r.group = job.group;
+    r.job = job.resolved;
+    out = std::move(r);
+    return true;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rtsim campaign: results cache: %s cannot be read (%s); the job runs\n",
+                 file.string().c_str(), e.what());
+    return false;
+  }
+}
+
+// Every ok run goes into the results cache, atomically (a killed runner leaves the
+// previous file or none). A cache that cannot be written costs only the reuse.
+void store_cached_result(const fs::path& cache, const std::string& binary_hash, const RunRecord& r) {
+  if (cache.empty() || r.status != "ok") return;
+  try {
+    fs::create_directories(cache);
+    write_file_atomic(cached_result(cache, r.job_key, binary_hash), r.to_json().dump(1) + "\n");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rtsim campaign: results cache: cannot keep %s: %s\n", r.job_key.c_str(), e.what());
+  }
+}
+
+}  // namespace
+
 RunRecord run_one_job(const Campaign& campaign, const CampaignJob& job, const CampaignPaths& paths,
                       const fs::path& binary, double timeout_seconds, bool force,
                       const fs::path& tree_cache) {
@@ -429,6 +473,8 @@ RunSummary run_campaign(const Campaign& campaign, const CampaignPaths& paths,
 
   const auto recorded = store.summaries(campaign.name);
   std::set<std::string> only(options.only_keys.begin(), options.only_keys.end());
+  const fs::path binary = options.binary.empty() ? self_executable() : options.binary;
+  const std::string binary_hash = options.results_cache.empty() ? std::string() : file_hash_hex(binary);
   std::vector<const CampaignJob*> todo;
   for (const CampaignJob& job : campaign.jobs) {
     if (!only.empty() && !only.count(job.key)) continue;
@@ -437,10 +483,18 @@ RunSummary run_campaign(const Campaign& campaign, const CampaignPaths& paths,
       if (it->second.status == "ok") { ++summary.already_ok; continue; }
       if (!options.retry_failed) { ++summary.skipped_failed; continue; }
     }
+    // Run before under another campaign (or another folder): its result is this job's.
+    RunRecord reused;
+    if (!options.force && reuse_cached_result(campaign, job, options.results_cache, binary_hash, reused)) {
+      // As a run records itself: the result file first, then the transaction.
+      write_result_file(paths, reused);
+      store.record(reused);
+      ++summary.reused;
+      continue;
+    }
     todo.push_back(&job);
   }
 
-  const fs::path binary = options.binary.empty() ? self_executable() : options.binary;
   const int parallel = std::max(1, options.parallel);
   // The runner's children: quiet progress bars, same cache folder.
   setenv("RTSIM_NO_PROGRESS", "1", 1);
@@ -495,6 +549,7 @@ RunSummary run_campaign(const Campaign& campaign, const CampaignPaths& paths,
       // by the next run's collect, never by running the job again.
       write_result_file(paths, r);
       store.record(r);
+      store_cached_result(options.results_cache, binary_hash, r);
       ++summary.ran;
       finished_seconds += seconds;
       if (r.status == "ok") {

@@ -4,6 +4,7 @@
 #include "claim_internal.h"
 
 #include <rtsim/builder/builder_registry.h>
+#include <rtsim/builder/bvh_file.h>
 #include <rtsim/reports/campaign.h>
 #include <rtsim/reports/campaign_runner.h>
 #include <rtsim/reports/results_store.h>
@@ -12,6 +13,7 @@
 #include <rtsim/workloads/files.h>
 #include <rtsim/workloads/procedural.h>
 #include <rtsim/workloads/scene_registry.h>
+#include <rtsim/model/sim/stat_names.h>
 
 #include <nlohmann/json.hpp>
 
@@ -156,10 +158,24 @@ Condition job_condition(const CampaignJob& job, const ClaimOptions& o) {
     auto it = job.build_settings.find(key);
     return it == job.build_settings.end() ? std::string() : it->second;
   };
+  // A builder parameter at the builder's default is not in the job (the campaign
+  // drops it: the same tree, the plain run); its level is the one that sets the default.
+  auto level_of = [&](const ClaimFactor& f, const char* key) {
+    const std::string set = setting(key);
+    if (!set.empty()) return set;
+    BuildParams plain;
+    plain.builder = job.builder;
+    for (const std::string& level : f.levels) {
+      BuildParams at = plain;
+      set_build_parameter(at, key, level);
+      if (build_params_json(at) == build_params_json(plain)) return level;
+    }
+    return std::string();
+  };
   Condition c;
   for (const ClaimFactor& f : o.factors) {
-    if (f.name == "leaf") c[f.name] = setting("max_leaf_size");
-    else if (f.name == "t2") c[f.name] = setting("t2");
+    if (f.name == "leaf") c[f.name] = level_of(f, "max_leaf_size");
+    else if (f.name == "t2") c[f.name] = level_of(f, "t2");
     else if (f.name == "format") c[f.name] = job.node_format;
     else if (f.name == "cutoff") c[f.name] = job.ao_cutoff;
   }
@@ -189,7 +205,7 @@ Figures figures_of(const json& stats) {
       f.v[1][m] = get(p + "node_fetches") / rays;
       // Every kind the ray type read (nodes, prim refs, triangles, stack).
       double bytes = 0;
-      const std::string prefix = "dram.bytes_by_type." + mix + ".";
+      const std::string prefix = std::string(sim::stat::kDramBytesByType) + "." + mix + ".";
       for (auto it = s.lower_bound(prefix); it != s.end() && it->first.compare(0, prefix.size(), prefix) == 0; ++it)
         if (std::isfinite(it->second)) bytes += it->second;
       f.v[2][m] = rays > 0 ? bytes / rays : NAN;

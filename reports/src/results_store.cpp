@@ -4,6 +4,7 @@
 #include <rtsim/reports/campaign.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
+#include <rtsim/model/sim/stat_names.h>
 
 #include <sqlite3.h>
 
@@ -133,7 +134,7 @@ std::map<std::pair<std::string, std::string>, double> dram_bytes_per_ray_split(c
   const double rays = headline_stats(stats, json()).rays;
   std::map<std::pair<std::string, std::string>, double> out;
   // dram.bytes_by_type.<ray type>.<kind>: bytes attributed to a ray type and a data kind.
-  const std::string prefix = "dram.bytes_by_type.";
+  const std::string prefix = std::string(sim::stat::kDramBytesByType) + ".";
   for (auto it = s.lower_bound(prefix); it != s.end() && it->first.rfind(prefix, 0) == 0; ++it) {
     const std::string rest = it->first.substr(prefix.size());
     const size_t dot = rest.find('.');

@@ -4,6 +4,7 @@
 #include <rtsim/builder/metrics.h>
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/stat_names.h>
 #include <rtsim/reports/child_process.h>
 #include <rtsim/reports/results_store.h>
 #include <rtsim/reports/simulation_job.h>
@@ -92,7 +93,7 @@ std::string tree_key(const std::string& builder, const std::string& camera, cons
 // Every kind of data the ray type read from DRAM (nodes, prim refs, triangles, stack).
 double dram_bytes_of_type(const nlohmann::json& stats, const char* type) {
   double sum = 0;
-  const std::string prefix = std::string("dram.bytes_by_type.") + type + ".";
+  const std::string prefix = std::string(sim::stat::kDramBytesByType) + "." + type + ".";
   for (const auto& [key, value] : flatten_stats(stats))
     if (key.compare(0, prefix.size(), prefix) == 0 && value > 0) sum += value;
   return sum;
@@ -410,16 +411,18 @@ Table1 run_table1_checked(const Table1Options& options) {
                 "w = %g, visibility from %ux%u primary rays and %u AO rays per hit. Sampled builders "
                 "(their rays drawn from the builder seed) are built with %u seeds from %llu on: their "
                 "ops/ray are the means with a 95%% Student-t interval (n = %u); their DRAM bytes, cycles "
-                "and heatmaps are the first seed's tree's. DRAM bytes and cycles: cycle-level "
-                "model, hardware preset '%s', %u frames of the same rays: DRAM B/ray shown as the first "
-                "frame's (cold caches) / the last's (steady state), cycles of the last. %.1f s in all.",
+                "and heatmaps are the first seed's tree's. %s%s %.1f s in all.",
                 node_rule, options.width, options.height, table.ao_samples, table.ao_length,
                 scene.ao.cutoff_relative, std::min(options.build.max_leaf_size, format.max_leaf_triangles), options.build.t1,
                 options.build.t2, options.build.bins, options.build.ao_rays, options.build.ao_share,
                 options.build.ao_weight_floor, options.build.osah_w, options.build.osah_width,
                 options.build.osah_height, options.build.osah_ao_rays, options.build_seeds,
                 static_cast<unsigned long long>(options.build.seed), options.build_seeds,
-                options.hardware.c_str(), options.frames, seconds_since(total_start));
+                table1_cycle_runs_text(options).c_str(),
+                options.cycle_level && options.frames > 1
+                    ? " DRAM B/ray shown as the first frame's (cold caches) / the last's (steady state)."
+                    : "",
+                seconds_since(total_start));
   table.counting_rule = rule;
   return table;
 }

@@ -1,4 +1,5 @@
 #include <rtsim/builder/builder_registry.h>
+#include <rtsim/model/sim/config.h>
 #include <rtsim/reports/plot_script.h>
 #include <rtsim/reports/table1.h>
 #include <rtsim/reports/text_table.h>
@@ -14,6 +15,12 @@
 namespace rtsim {
 
 namespace {
+
+bool is_preset(const std::string& hardware) {
+  for (const std::string& p : sim::preset_names())
+    if (p == hardware) return true;
+  return false;
+}
 
 std::string pct(double value, double baseline) {
   if (baseline <= 0) return "-";
@@ -70,50 +77,90 @@ std::string dram_cold_warm(const Table1Row& r) {
   return num(r.cold_dram_bytes_per_ray) + "/" + num(r.combined.dram_bytes_per_ray);
 }
 
+// A table whose columns can be left out: built row by row in full, then only the
+// kept columns go into the TextTable.
+struct Columns {
+  std::vector<std::string> header;
+  std::vector<bool> keep;
+  std::vector<std::vector<std::string>> rows;
+  void column(std::string name, bool kept = true) {
+    header.push_back(std::move(name));
+    keep.push_back(kept);
+  }
+  TextTable table() const {
+    auto pick = [&](const std::vector<std::string>& cells) {
+      std::vector<std::string> out;
+      for (size_t i = 0; i < cells.size(); ++i)
+        if (keep[i]) out.push_back(cells[i]);
+      return out;
+    };
+    TextTable t(pick(header));
+    for (const auto& r : rows) t.add_row(pick(r));
+    return t;
+  }
+};
+
+// A column "vs BASE" means something only if BASE is in the table with another
+// builder to hold against it: not for a table of BASE alone, nor without BASE.
+bool compares_against(const Table1& table, const std::string& camera, const std::string& base) {
+  bool has_base = false, has_other = false;
+  for (const Table1Row& r : table.rows)
+    if (r.camera == camera) (r.builder == base ? has_base : has_other) = true;
+  return has_base && has_other;
+}
+
 // The terminal's table per camera, within 120 columns: the Table 1 columns and
 // the headline counts (camera_table has everything, for --wide and the files).
 TextTable narrow_camera_table(const Table1& table, const std::string& camera) {
-  TextTable t({"builder", "ops/ray", "vs median", "vs SAH", "TRV/ray", "IST/ray", "fetch/ray",
-               "DRAM B/ray cold/warm", "cycles", "build s"});
+  const bool vs_median = compares_against(table, camera, "median"), vs_sah = compares_against(table, camera, "sah");
+  const bool cycle = table.options.cycle_level;
+  Columns c;
+  c.column("builder"), c.column("ops/ray"), c.column("vs median", vs_median), c.column("vs SAH", vs_sah);
+  c.column("TRV/ray"), c.column("IST/ray"), c.column("fetch/ray");
+  c.column("DRAM B/ray cold/warm", cycle), c.column("cycles", cycle), c.column("build s");
   const Table1Row* median = table.find(camera, "median");
   const Table1Row* sah = table.find(camera, "sah");
   for (const Table1Row& r : table.rows) {
     if (r.camera != camera) continue;
-    t.add_row({display_name(r.builder), ops_text(r.combined.ops_per_ray, r.ops_combined),
-               median ? pct(r.combined.ops_per_ray, median->combined.ops_per_ray) : "-",
-               sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
-               num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
-               num(r.combined.node_fetches_per_ray),
-               dram_cold_warm(r),
-               num(r.cycles, 6),
-               num(r.build_seconds + r.estimate_seconds, 3)});
+    c.rows.push_back({display_name(r.builder), ops_text(r.combined.ops_per_ray, r.ops_combined),
+                      median ? pct(r.combined.ops_per_ray, median->combined.ops_per_ray) : "-",
+                      sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
+                      num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
+                      num(r.combined.node_fetches_per_ray),
+                      dram_cold_warm(r),
+                      num(r.cycles, 6),
+                      num(r.build_seconds + r.estimate_seconds, 3)});
   }
-  return t;
+  return c.table();
 }
 
 // One table per camera: the Table 1 columns first, then what the patent does not show.
 TextTable camera_table(const Table1& table, const std::string& camera) {
-  TextTable t({"builder", "ops/ray", "red. vs median", "red. vs SAH", "TRV/ray", "IST/ray",
-               "box tests/ray", "primary ops/ray", "AO ops/ray", "node fetches/ray",
-               "fetch red. vs median", "fetch red. vs SAH", "node B/tri", "DRAM B/ray cold/warm",
-               "cycles", "pJ/ray", "rays/J", "build s"});
+  const bool vs_median = compares_against(table, camera, "median"), vs_sah = compares_against(table, camera, "sah");
+  const bool cycle = table.options.cycle_level;
+  Columns c;
+  c.column("builder"), c.column("ops/ray"), c.column("red. vs median", vs_median), c.column("red. vs SAH", vs_sah);
+  c.column("TRV/ray"), c.column("IST/ray"), c.column("box tests/ray"), c.column("primary ops/ray");
+  c.column("AO ops/ray"), c.column("node fetches/ray"), c.column("fetch red. vs median", vs_median);
+  c.column("fetch red. vs SAH", vs_sah), c.column("node B/tri"), c.column("DRAM B/ray cold/warm", cycle);
+  c.column("cycles", cycle), c.column("pJ/ray", cycle), c.column("rays/J", cycle), c.column("build s");
   const Table1Row* median = table.find(camera, "median");
   const Table1Row* sah = table.find(camera, "sah");
   for (const Table1Row& r : table.rows) {
     if (r.camera != camera) continue;
-    t.add_row({display_name(r.builder), ops_text(r.combined.ops_per_ray, r.ops_combined),
-               median ? pct(r.combined.ops_per_ray, median->combined.ops_per_ray) : "-",
-               sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
-               num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
-               num(r.combined.box_tests_per_ray), ops_text(r.primary.ops_per_ray, r.ops_primary),
-               ops_text(r.ao.ops_per_ray, r.ops_ao), num(r.combined.node_fetches_per_ray),
-               median ? pct(r.combined.node_fetches_per_ray, median->combined.node_fetches_per_ray) : "-",
-               sah ? pct(r.combined.node_fetches_per_ray, sah->combined.node_fetches_per_ray) : "-",
-               num(r.node_bytes_per_triangle, 3), dram_cold_warm(r),
-               num(r.cycles, 6), num(r.combined.pj_per_ray, 5), num(r.rays_per_joule, 4),
-               num(r.build_seconds + r.estimate_seconds, 3)});
+    c.rows.push_back({display_name(r.builder), ops_text(r.combined.ops_per_ray, r.ops_combined),
+                      median ? pct(r.combined.ops_per_ray, median->combined.ops_per_ray) : "-",
+                      sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
+                      num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
+                      num(r.combined.box_tests_per_ray), ops_text(r.primary.ops_per_ray, r.ops_primary),
+                      ops_text(r.ao.ops_per_ray, r.ops_ao), num(r.combined.node_fetches_per_ray),
+                      median ? pct(r.combined.node_fetches_per_ray, median->combined.node_fetches_per_ray) : "-",
+                      sah ? pct(r.combined.node_fetches_per_ray, sah->combined.node_fetches_per_ray) : "-",
+                      num(r.node_bytes_per_triangle, 3), dram_cold_warm(r),
+                      num(r.cycles, 6), num(r.combined.pj_per_ray, 5), num(r.rays_per_joule, 4),
+                      num(r.build_seconds + r.estimate_seconds, 3)});
   }
-  return t;
+  return c.table();
 }
 
 TextTable patent_table() {
@@ -149,17 +196,58 @@ nlohmann::json counts_json(const Table1Counts& c) {
 
 }  // namespace
 
+std::string patent_table1_text(bool markdown) {
+  return markdown ? patent_table().markdown() : patent_table().plain();
+}
+
+std::string table1_cycle_runs_text(const Table1Options& o) {
+  if (!o.cycle_level) return "No cycle-level runs (--no-cycle): no DRAM bytes, cycles or energy.";
+  const bool preset = is_preset(o.hardware);
+  char text[512];
+  std::snprintf(text, sizeof text,
+                "Cycle-level runs (DRAM bytes, cycles, energy): hardware %s '%s' (--config), %u frame%s of the "
+                "same rays%s.",
+                preset ? "preset" : "file", o.hardware.c_str(), o.frames, o.frames == 1 ? "" : "s",
+                o.frames > 1 ? " (the first cold; figures of the last)" : "");
+  return text;
+}
+
+std::vector<std::string> table1_figures(const Table1& table) {
+  std::vector<std::string> out;
+  bool compared = false;
+  for (const std::string& camera : table.options.cameras)
+    for (const char* base : {"median", "sah"}) compared |= compares_against(table, camera, base);
+  if (compared) out.push_back("table1_reductions.png");
+  out.push_back("table1_heatmaps.png");
+  return out;
+}
+
+namespace {
+// Whether any camera's table holds a builder against a baseline (the reductions' legend).
+bool any_comparison(const Table1& table) {
+  for (const std::string& camera : table.options.cameras)
+    for (const char* base : {"median", "sah"})
+      if (compares_against(table, camera, base)) return true;
+  return false;
+}
+}  // namespace
+
 std::string table1_text(const Table1& table, bool wide) {
   std::string out = "Table 1 on scene '" + table.scene_name + "' (" + std::to_string(table.triangles) +
-                    " triangles, node format " + table.options.node_format +
-                    ")\n\nThe patent's Table 1 (TRV+IST ops/ray, reduction against BVH):\n" +
-                    patent_table().plain() + "\n";
+                    " triangles, node format " + table.options.node_format + ")\n" +
+                    wrap(table1_cycle_runs_text(table.options), "") + "\n\n";
+  if (table.options.patent_table_page.empty())
+    out += "The patent's Table 1 (TRV+IST ops/ray, reduction against BVH):\n" + patent_table().plain() + "\n";
+  const std::string legend = any_comparison(table) ? " (reductions: positive = fewer than the baseline)" : "";
   for (const std::string& camera : table.options.cameras)
-    out += "Ours, camera " + camera + " (reductions: positive = fewer than the baseline):\n" +
+    out += "Ours, camera " + camera + legend + ":\n" +
            (wide ? camera_table(table, camera) : narrow_camera_table(table, camera)).plain() + "\n";
-  if (!wide) out += "(primary and AO ops/ray and fetch reductions: table1.md, or --wide)\n\n";
-  out += "Where the patent's ordering holds:\n";
-  for (const std::string& v : table.verdicts) out += wrap("  - " + v, "    ") + "\n";
+  if (!wide) out += "(primary and AO ops/ray" + std::string(any_comparison(table) ? " and fetch reductions" : "") +
+                    ": table1.md, or --wide)\n\n";
+  if (!table.verdicts.empty()) {
+    out += "Where the patent's ordering holds:\n";
+    for (const std::string& v : table.verdicts) out += wrap("  - " + v, "    ") + "\n";
+  }
   for (const Table1Row& r : table.rows)
     if (!r.counts_match_cycle_level)
       out += "  ! " + r.camera + "/" + r.builder +
@@ -171,15 +259,27 @@ std::string table1_text(const Table1& table, bool wide) {
 void write_table1(const Table1& table) {
   const auto& dir = table.options.out_dir;
   std::string md = "# Table 1 on `" + table.scene_name + "` (" + std::to_string(table.triangles) +
-                   " triangles, node format `" + table.options.node_format + "`)\n\n## The patent's Table 1\n\nTRV+IST operations per ray "
-                   "(reduction against BVH):\n\n" + patent_table().markdown() + "\n";
+                   " triangles, node format `" + table.options.node_format + "`)\n\n" +
+                   table1_cycle_runs_text(table.options) + "\n\n";
+  if (table.options.patent_table_page.empty())
+    md += "## The patent's Table 1\n\nTRV+IST operations per ray (reduction against BVH):\n\n" +
+          patent_table().markdown() + "\n";
+  else
+    md += "The patent's Table 1 is on [" + table.options.patent_table_page + "](" + table.options.patent_table_page +
+          ").\n\n";
   for (const std::string& camera : table.options.cameras)
-    md += "## Ours, camera `" + camera + "`\n\nReductions: positive = fewer than the baseline.\n\n" +
+    md += "## Ours, camera `" + camera + "`\n\n" +
+          (any_comparison(table) ? "Reductions: positive = fewer than the baseline.\n\n" : "") +
           camera_table(table, camera).markdown() + "\n";
-  md += "## Where the patent's ordering holds\n\n";
-  for (const std::string& v : table.verdicts) md += "- " + v + "\n";
-  md += "\n## Counting rule and parameters\n\n" + table.counting_rule + "\n\n";
-  md += "![Reductions](table1_reductions.png)\n\n![Ops per pixel](table1_heatmaps.png)\n";
+  if (!table.verdicts.empty()) {
+    md += "## Where the patent's ordering holds\n\n";
+    for (const std::string& v : table.verdicts) md += "- " + v + "\n";
+    md += "\n";
+  }
+  md += "## Counting rule and parameters\n\n" + table.counting_rule + "\n\n";
+  const std::vector<std::string> figures = table1_figures(table);
+  for (const std::string& f : figures)
+    md += "![" + std::string(f == "table1_reductions.png" ? "Reductions" : "Ops per pixel") + "](" + f + ")\n\n";
   write_file_atomic(dir / "table1.md", md);
 
   TextTable csv({"scene", "camera", "builder", "ray_type", "rays", "ops_per_ray", "trv_ops_per_ray",
@@ -197,6 +297,13 @@ void write_table1(const Table1& table) {
   json["hardware"] = table.options.hardware;
   json["node_format"] = table.options.node_format;
   json["frames"] = table.options.frames;
+  json["cycle_level"] = table.options.cycle_level
+                            ? nlohmann::json{{"hardware", table.options.hardware},
+                                             {"kind", is_preset(table.options.hardware) ? "preset" : "file"},
+                                             {"frames", table.options.frames},
+                                             {"text", table1_cycle_runs_text(table.options)}}
+                            : nlohmann::json(nullptr);
+  json["figures"] = table1_figures(table);
   json["verdicts"] = table.verdicts;
   for (const auto& p : patent_table1())
     json["patent"][p.builder] = {{"viewpoint1", p.viewpoint1}, {"viewpoint2", p.viewpoint2}};
@@ -258,8 +365,15 @@ std::string write_table1_formats(const std::vector<Table1>& tables,
                                  const std::filesystem::path& out_dir) {
   if (tables.empty()) return "";
   const Table1& first = tables.front();
-  TextTable t({"camera", "builder", "format", "ops/ray", "vs SAH", "vs SBVH", "TRV/ray", "box tests/ray",
-               "IST/ray", "fetch/ray", "node B/tri", "DRAM B/ray", "cycles"});
+  // "vs SAH" / "vs SBVH" only where that tree is there with others to compare.
+  bool vs_sah = false, vs_sbvh = false;
+  for (const std::string& camera : first.options.cameras)
+    vs_sah |= compares_against(first, camera, "sah"), vs_sbvh |= compares_against(first, camera, "sbvh");
+  const bool cycle = first.options.cycle_level;
+  Columns c;
+  c.column("camera"), c.column("builder"), c.column("format"), c.column("ops/ray"), c.column("vs SAH", vs_sah);
+  c.column("vs SBVH", vs_sbvh), c.column("TRV/ray"), c.column("box tests/ray"), c.column("IST/ray");
+  c.column("fetch/ray"), c.column("node B/tri"), c.column("DRAM B/ray", cycle), c.column("cycles", cycle);
   for (const std::string& camera : first.options.cameras)
     for (const Table1Row& base : first.rows) {
       if (base.camera != camera) continue;
@@ -268,16 +382,17 @@ std::string write_table1_formats(const std::vector<Table1>& tables,
         if (!r) continue;
         const Table1Row* sah = table.find(camera, "sah");
         const Table1Row* sbvh = table.find(camera, "sbvh");
-        t.add_row({camera, display_name(r->builder), table.options.node_format,
-                   num(r->combined.ops_per_ray),
-                   sah ? pct(r->combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
-                   sbvh ? pct(r->combined.ops_per_ray, sbvh->combined.ops_per_ray) : "-",
-                   num(r->combined.trv_per_ray), num(r->combined.box_tests_per_ray),
-                   num(r->combined.ist_per_ray), num(r->combined.node_fetches_per_ray),
-                   num(r->node_bytes_per_triangle, 3), num(r->combined.dram_bytes_per_ray),
-                   num(r->cycles, 6)});
+        c.rows.push_back({camera, display_name(r->builder), table.options.node_format,
+                          num(r->combined.ops_per_ray),
+                          sah ? pct(r->combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
+                          sbvh ? pct(r->combined.ops_per_ray, sbvh->combined.ops_per_ray) : "-",
+                          num(r->combined.trv_per_ray), num(r->combined.box_tests_per_ray),
+                          num(r->combined.ist_per_ray), num(r->combined.node_fetches_per_ray),
+                          num(r->node_bytes_per_triangle, 3), num(r->combined.dram_bytes_per_ray),
+                          num(r->cycles, 6)});
       }
     }
+  const TextTable t = c.table();
   // The finding: AO-BVH's relation to SAH and SBVH per width, and whether it turns.
   std::vector<std::string> findings;
   for (const std::string& camera : first.options.cameras)
@@ -301,20 +416,34 @@ std::string write_table1_formats(const std::vector<Table1>& tables,
       findings.push_back("Camera " + camera + ": AO-BVH against " + display_name(base) + ": " + figures +
                          " fewer ops/ray; " + verdict + ".");
     }
-  std::string md = "# Table 1 on `" + first.scene_name + "` by node format\n\n"
-                   "Reductions: positive = fewer ops/ray than the SAH (or SBVH) tree in the same "
-                   "format. Each format's own folder has its full Table 1 and counting rule.\n\n" +
-                   t.markdown() + "\n## Does AO-BVH's relation to SAH and SBVH change with the width?\n\n";
-  for (const std::string& f : findings) md += "- " + f + "\n";
-  md += "\n![Reductions by format](table1_formats.png)\n";
+  const std::string reductions = vs_sah || vs_sbvh ? "Reductions: positive = fewer ops/ray than the SAH (or SBVH) "
+                                                     "tree in the same format. "
+                                                   : "";
+  std::string md = "# Table 1 on `" + first.scene_name + "` by node format\n\n" +
+                   table1_cycle_runs_text(first.options) + "\n\n## The patent's Table 1\n\n"
+                   "TRV+IST operations per ray (reduction against BVH), shown here once for every format:\n\n" +
+                   patent_table().markdown() + "\n## Ours by node format\n\n" + reductions +
+                   "Each format's own folder has its full Table 1 and counting rule.\n\n" + t.markdown() + "\n";
+  if (!findings.empty()) {
+    md += "## Does AO-BVH's relation to SAH and SBVH change with the width?\n\n";
+    for (const std::string& f : findings) md += "- " + f + "\n";
+    md += "\n";
+  }
+  md += "![By format](table1_formats.png)\n";
   write_file_atomic(out_dir / "formats.md", md);
   write_file_atomic(out_dir / "formats.csv", t.csv());
   std::vector<std::string> args = {out_dir.string(), "--formats"};
   for (const Table1& table : tables) args.push_back(table.options.node_format);
   run_plot_script("table1_plots.py", args);
-  std::string text = "Table 1 on '" + first.scene_name + "' by node format (reductions against SAH and SBVH in "
-                     "the same format):\n" + t.plain() + "\nDoes AO-BVH's relation to SAH and SBVH change with the width?\n";
-  for (const std::string& f : findings) text += wrap("  - " + f, "    ") + "\n";
+  std::string text = "Table 1 on '" + first.scene_name + "' by node format" +
+                     (vs_sah || vs_sbvh ? " (reductions against SAH and SBVH in the same format)" : "") + "\n" +
+                     wrap(table1_cycle_runs_text(first.options), "") +
+                     "\n\nThe patent's Table 1 (TRV+IST ops/ray, reduction against BVH):\n" + patent_table().plain() +
+                     "\nOurs:\n" + t.plain();
+  if (!findings.empty()) {
+    text += "\nDoes AO-BVH's relation to SAH and SBVH change with the width?\n";
+    for (const std::string& f : findings) text += wrap("  - " + f, "    ") + "\n";
+  }
   return text;
 }
 

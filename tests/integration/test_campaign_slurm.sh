@@ -106,7 +106,7 @@ sbatch --wait "$work/slurm-run/slurm/campaign.sbatch"
 "$rtsim" campaign collect "$work/campaign.toml" --out-dir "$work/slurm-run"
 # Idempotent: a second collect changes nothing.
 "$rtsim" campaign collect "$work/campaign.toml" --out-dir "$work/slurm-run" | grep -q " 0 new, 0 replaced"
-"$rtsim" campaign run "$work/campaign.toml" -j 2 --out-dir "$work/local-run"
+"$rtsim" campaign run "$work/campaign.toml" -j 2 --no-results-cache --out-dir "$work/local-run"
 
 columns="campaign, job_key, label, group_name, config_hash, git_revision, status, error, scene,
   builder, camera, preset, fidelity, seed, overrides, rays, cycles, ops_per_ray, trv_ops_per_ray,

@@ -229,3 +229,46 @@ TEST(SimCache, BytesAreAttributedByRayTypeAndKind) {
   EXPECT_EQ(req[size_t(RayType::Primary)][size_t(AccessKind::Node)], 64u);
   EXPECT_EQ(cache.filled().total(), 128u);
 }
+
+// A dirty line that leaves is written back for the ray type that wrote it, not for
+// the one whose miss pushed it out (a primary ray's fill evicting an AO ray's spill
+// is still AO traffic): at a hit, at a write miss, and through an MSHR's fill.
+TEST(SimCache, AWriteBackIsChargedToTheRayTypeThatWroteTheLine) {
+  const auto write = [](uint64_t line, RayType t) {
+    LineAccess a = at(line, t, AccessKind::Stack);
+    a.write = true;
+    return a;
+  };
+  CacheModel cache(small_cache(), "c");
+  cache.access(write(0, RayType::Ao));         // set 0, way 1: written by an AO ray
+  cache.access(at(4, RayType::Shadow));        // set 0, way 2 (clean)
+  cache.access(at(4, RayType::Shadow));        // 4 most recent: 0 is the victim
+  const CacheModel::Result r = cache.access(at(8, RayType::Primary));
+  ASSERT_TRUE(r.writeback.dirty);
+  EXPECT_EQ(r.writeback.line, 0u);
+  EXPECT_EQ(r.writeback.writer, RayType::Ao);
+
+  // The last write decides: a reflection ray overwrites a line a primary ray dirtied.
+  CacheModel later(small_cache(), "c");
+  later.access(write(1, RayType::Primary));
+  later.access(write(1, RayType::Reflection));
+  later.access(at(5));
+  const CacheModel::Result r2 = later.access(at(9));
+  ASSERT_TRUE(r2.writeback.dirty);
+  EXPECT_EQ(r2.writeback.writer, RayType::Reflection);
+
+  // A write that meets a line whose fill is under way makes the filled line its
+  // writer's. Set 2 holds lines 2, 6, 10 (2 ways).
+  CacheModel cycle(small_cache(), "c");
+  EXPECT_EQ(cycle.request(at(2, RayType::Primary)).outcome, CacheModel::Outcome::Miss);
+  EXPECT_EQ(cycle.request(write(2, RayType::Shadow)).outcome, CacheModel::Outcome::Merged);
+  EXPECT_FALSE(cycle.fill(2 * 64).valid);
+  cycle.request(at(6));
+  EXPECT_FALSE(cycle.fill(6 * 64).valid);
+  cycle.request(at(6));  // a hit: line 2 is the set's oldest
+  EXPECT_EQ(cycle.request(at(10)).outcome, CacheModel::Outcome::Miss);
+  const Eviction e = cycle.fill(10 * 64);
+  ASSERT_TRUE(e.dirty);
+  EXPECT_EQ(e.line, 2u * 64);
+  EXPECT_EQ(e.writer, RayType::Shadow);
+}

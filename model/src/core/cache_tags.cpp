@@ -45,14 +45,15 @@ void CacheTags::set_ready(uint64_t address, uint64_t ready_ps) {
 
 bool CacheTags::contains(uint64_t address) const { return find(address >> line_shift_) != npos; }
 
-Eviction CacheTags::insert(uint64_t address, bool dirty) {
+Eviction CacheTags::insert(uint64_t address, bool dirty, RayType writer) {
+  const uint8_t mark = dirty ? uint8_t(1 + uint8_t(writer)) : 0;
   const uint64_t line = address >> line_shift_;
   const size_t first = set_start(line);
   size_t victim = first;
   for (size_t w = first; w < first + geometry_.ways; ++w) {
     if (tags_[w] == line) {  // already present: refresh only
       last_use_[w] = ++clock_;
-      dirty_[w] = dirty_[w] || dirty;
+      dirty_[w] = dirty ? mark : dirty_[w];
       return {};
     }
     // Empty ways (last use 0) are the oldest of all, so they are taken first.
@@ -62,10 +63,11 @@ Eviction CacheTags::insert(uint64_t address, bool dirty) {
   out.valid = last_use_[victim] != 0;
   out.dirty = out.valid && dirty_[victim];
   out.line = out.valid ? tags_[victim] << line_shift_ : 0;
+  if (out.dirty) out.writer = RayType(dirty_[victim] - 1);
   tags_[victim] = line;
   last_use_[victim] = ++clock_;
   ready_ps_[victim] = 0;
-  dirty_[victim] = dirty;
+  dirty_[victim] = mark;
   return out;
 }
 

@@ -39,6 +39,8 @@ void CacheModel::Counters::add(const Counters& o) {
   accesses += o.accesses, hits += o.hits, misses += o.misses, mshr_merges += o.mshr_merges;
   mshr_full_stalls += o.mshr_full_stalls, writes += o.writes, writebacks += o.writebacks;
   port_wait_ps += o.port_wait_ps;
+  for (size_t t = 0; t < kRayTypeCount; ++t)
+    timed_reads[t] += o.timed_reads[t], read_latency_ps[t] += o.read_latency_ps[t];
 }
 
 CacheModel::CacheModel(const CacheConfig& config, const std::string& name, uint64_t cycle_ps)
@@ -52,8 +54,8 @@ CacheModel::CacheModel(const CacheConfig& config, const std::string& name, uint6
       cycle_ps_(cycle_ps) {
 }
 
-Eviction CacheModel::install(uint64_t line, bool dirty) {
-  const Eviction e = tags_.insert(line, dirty);
+Eviction CacheModel::install(uint64_t line, bool dirty, RayType writer) {
+  const Eviction e = tags_.insert(line, dirty, writer);
   if (e.dirty) ++counters_.writebacks;
   return e;
 }
@@ -65,7 +67,7 @@ CacheModel::Result CacheModel::request_missing(const LineAccess& a) {
   auto it = mshr_.find(a.line);
   if (it != mshr_.end()) {
     ++it->second.waiting;
-    if (a.write) it->second.dirty_on_fill = true;
+    if (a.write) it->second.dirty_on_fill = true, it->second.writer = a.ray_type;
     r.outcome = Outcome::Merged;
     count(a, r.outcome);
     return r;
@@ -73,7 +75,7 @@ CacheModel::Result CacheModel::request_missing(const LineAccess& a) {
   if (a.write) {
     // Write-allocate without a fill: the line is there at once, dirty.
     r.outcome = Outcome::Miss;
-    r.writeback = install(a.line, true);
+    r.writeback = install(a.line, true, a.ray_type);
     count(a, r.outcome);
     return r;
   }
@@ -85,7 +87,7 @@ CacheModel::Result CacheModel::request_missing(const LineAccess& a) {
   r.outcome = Outcome::Miss;
   r.fetch = true;
   filled_.add(a.ray_type, a.kind, config_.line_bytes);
-  mshr_.emplace(a.line, Mshr{1, false});
+  mshr_.emplace(a.line, Mshr{1, false, RayType::Primary});
   count(a, r.outcome);
   return r;
 }
@@ -93,8 +95,9 @@ CacheModel::Result CacheModel::request_missing(const LineAccess& a) {
 Eviction CacheModel::fill(uint64_t line) {
   auto it = mshr_.find(line);
   const bool dirty = it != mshr_.end() && it->second.dirty_on_fill;
+  const RayType writer = it != mshr_.end() ? it->second.writer : RayType::Primary;
   if (it != mshr_.end()) mshr_.erase(it);
-  return install(line, dirty);
+  return install(line, dirty, writer);
 }
 
 void CacheModel::reset_counters() {
@@ -128,6 +131,21 @@ void report_counters(StatsRegistry& s, const std::string& prefix, const CacheMod
         "cycles", "summed waiting of requests for a free port (lt and cycle)");
   requested.report(s, prefix + ".bytes_requested", "bytes asked of this cache");
   filled.report(s, prefix + ".bytes_filled", "bytes this cache read from the next level");
+  // Average memory access time, where time is modelled (lt and cycle).
+  uint64_t reads = 0, latency_ps = 0;
+  for (size_t t = 0; t < kRayTypeCount; ++t) reads += c.timed_reads[t], latency_ps += c.read_latency_ps[t];
+  if (reads == 0) return;
+  s.set_real(prefix + ".amat", double(latency_ps) / double(reads) / cycle_ps, "cycles",
+             "average memory access time of this level: mean cycles from a read reaching it to its "
+             "data leaving it (hits: port wait and hit latency; misses and merges: until the fill)");
+  for (RayType type : kAllRayTypes) {
+    const size_t t = size_t(type);
+    if (c.timed_reads[t] == 0) continue;
+    s.set_real(prefix + ".amat_by_type." + ray_type_name(type),
+               double(c.read_latency_ps[t]) / double(c.timed_reads[t]) / cycle_ps, "cycles",
+               std::string("average memory access time of this level for the reads of ") + ray_type_name(type) +
+                   " rays");
+  }
 }
 }  // namespace
 

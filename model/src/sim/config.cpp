@@ -109,7 +109,7 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
       u32("trv.ray_slots", c.trv_ray_slots, 1, 4096, "rays",
           "rays in flight per TRV unit (hide memory latency)"),
       u32("trv.stack_entries", c.trv_stack_entries, 1, 256, "entries",
-          "on-chip short stack per ray; deeper entries spill to memory (kind 'other')"),
+          "on-chip short stack per ray; deeper entries spill to memory (byte kind 'stack')"),
       u32("trv.stack_entry_bytes", c.trv_stack_entry_bytes, 4, 64, "bytes",
           "bytes one spilled stack entry occupies in memory"),
       u32("trv.box_test_latency", c.trv_box_test_latency, 1, 10000, "cycles",

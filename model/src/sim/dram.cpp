@@ -685,7 +685,7 @@ void DramModel::settle(uint64_t now_ps) {
 
 // ---------------------------------------------------------------- loosely timed
 
-uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps) {
+uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps, RowOutcome* outcome_out) {
   lt_ = true;
   const DramAddress w = map_.decode(address);
   if (request_observer_) request_observer_({now_ps, address, write, w});
@@ -749,6 +749,7 @@ uint64_t DramModel::lt_access(uint64_t address, bool write, uint64_t now_ps) {
   const uint64_t done = column(ch, w.rank, w.bank, write, issue);
   if (policy_ == PagePolicy::Closed) k.auto_close_after_ps = issue;  // decided by the next request
   count_request(write, outcome, done - now_ps);
+  if (outcome_out) *outcome_out = outcome;
   return done;
 }
 

@@ -1,5 +1,6 @@
 #include <rtsim/model/sim/energy.h>
 
+#include <iterator>
 #include <string>
 
 namespace rtsim::sim {
@@ -50,17 +51,21 @@ void report_energy(StatsRegistry& s, const HardwareConfig& config, const EnergyC
                          double(c.dram_read_bursts) * d.read_burst_pj +
                          double(c.dram_write_bursts) * d.write_burst_pj +
                          double(c.dram_refreshes) * d.refresh_pj;
+  // In kEnergyComponents' order, under its names.
   const Component parts[] = {
-      {"trv", double(box_tests) * e.box_test_pj * at65, trv_share, "TRV ray-box tests"},
-      {"ist", double(triangle_tests) * e.triangle_test_pj * at65, ist_share, "IST ray-triangle tests"},
-      {"l1_node", c.l1_node_pj * sram, shares(c.l1_node_bytes),
+      {kEnergyComponents[0], double(box_tests) * e.box_test_pj * at65, trv_share, "TRV ray-box tests"},
+      {kEnergyComponents[1], double(triangle_tests) * e.triangle_test_pj * at65, ist_share,
+       "IST ray-triangle tests"},
+      {kEnergyComponents[2], c.l1_node_pj * sram, shares(c.l1_node_bytes),
        "L1 node cache accesses (requests and write-backs)"},
-      {"l1_triangle", c.l1_triangle_pj * sram, shares(c.l1_triangle_bytes),
+      {kEnergyComponents[3], c.l1_triangle_pj * sram, shares(c.l1_triangle_bytes),
        "L1 triangle cache accesses (requests and write-backs)"},
-      {"l2", c.l2_pj * sram, shares(c.l2_bytes), "L2 accesses (requests and write-backs)"},
-      {"noc", double(c.noc_bytes) * e.noc_byte_pj * at65, shares(c.l2_bytes), "bytes through the crossbar"},
-      {"dram", dram_pj, shares(c.dram_bytes), "DRAM activates, read and write bursts, refreshes"},
+      {kEnergyComponents[4], c.l2_pj * sram, shares(c.l2_bytes), "L2 accesses (requests and write-backs)"},
+      {kEnergyComponents[5], double(c.noc_bytes) * e.noc_byte_pj * at65, shares(c.l2_bytes),
+       "bytes through the crossbar"},
+      {kEnergyComponents[6], dram_pj, shares(c.dram_bytes), "DRAM activates, read and write bursts, refreshes"},
   };
+  static_assert(std::size(parts) == kEnergyComponents.size());
   double total = 0;
   std::array<double, kRayTypeCount> by_type{};
   for (const Component& p : parts) {

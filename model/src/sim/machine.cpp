@@ -1,4 +1,5 @@
 #include <rtsim/model/sim/machine.h>
+#include <rtsim/model/sim/timeline.h>
 
 #include <rtsim/model/core/traversal.h>
 #include <rtsim/workloads/host.h>
@@ -97,7 +98,12 @@ uint64_t Crossbar::send(PortSlots* out_port, PortSlots* in_port, uint32_t to, ui
   flits_[direction] += flits;
   (direction == 0 ? slice_in_flits_ : core_in_flits_)[to] += flits;
   if (!timed_) return t;
-  if (flits == 0) return t + latency_ps_;
+  if (flits == 0) {
+    if (timeline_)
+      timeline_->span((direction == 0 ? slice_tracks_ : core_tracks_)[to], direction == 0 ? "request" : "answer",
+                      t, t + latency_ps_, "\"bytes\":" + std::to_string(bytes));
+    return t + latency_ps_;
+  }
   PortSlots& out = *out_port;
   PortSlots& in = *in_port;
   // Each flit in the first cycle from t on in which both ports are free.
@@ -118,6 +124,10 @@ uint64_t Crossbar::send(PortSlots* out_port, PortSlots* in_port, uint32_t to, ui
   const uint64_t wait = sent - unblocked;
   wait_ps_ += wait;
   wait_max_ps_ = std::max(wait_max_ps_, wait);
+  if (timeline_)
+    timeline_->span((direction == 0 ? slice_tracks_ : core_tracks_)[to], direction == 0 ? "request" : "answer", t,
+                    sent + latency_ps_,
+                    "\"bytes\":" + std::to_string(bytes) + ",\"queued_cycles\":" + std::to_string(wait / cycle_ps_));
   return sent + latency_ps_;
 }
 

@@ -1,5 +1,6 @@
 #include <rtsim/model/sim/memory_system.h>
 #include <rtsim/model/sim/sc_time_util.h>
+#include <rtsim/model/sim/timeline.h>
 
 #include <cmath>
 
@@ -35,13 +36,14 @@ uint32_t FunctionalMemory::line_bytes(Requester who) const {
   return (who == Requester::Trv ? l1_node : l1_triangle).front()->config().line_bytes;
 }
 
-void FunctionalMemory::to_l2(uint32_t core, const LineAccess& a) {
+bool FunctionalMemory::to_l2(uint32_t core, const LineAccess& a) {
   const uint32_t s = shape.slice_of(a.line);
   noc.to_slice(core, s, a.write ? a.bytes : 0, 0);
   const CacheModel::Result r = l2[s]->access(a);
   noc.to_core(s, core, a.write ? 0 : l2[s]->config().line_bytes, 0);
   if (r.writeback.dirty) dram.count_access(r.writeback.line, true);
   if (r.fetch) dram.count_access(a.line, false);
+  return !r.fetch;
 }
 
 void FunctionalMemory::reset_counters() {
@@ -54,11 +56,25 @@ void FunctionalMemory::reset_counters() {
 
 void FunctionalMemorySink::on_access(const MemoryAccess& a, RayType type) {
   append_line_accesses(a, type, memory_->line_bytes(requester_of(a.kind)), lines_);
+  if (probe_) accesses_.push_back(a);
 }
 
 void FunctionalMemorySink::on_step_end() {
-  for (const LineAccess& line : lines_) memory_->access(requester_of(line.kind), 0, line, 0);
+  if (!probe_) {
+    for (const LineAccess& line : lines_) memory_->access(requester_of(line.kind), 0, line, 0);
+    lines_.clear();
+    return;
+  }
+  probe_->next_step();
+  uint32_t request = probe_->add(accesses_.data(), accesses_.size(), lines_.data(), lines_.size(),
+                                 memory_->line_bytes(Requester::Trv), memory_->line_bytes(Requester::Ist), 0);
+  for (const LineAccess& line : lines_) {
+    ServedBy served = ServedBy::None;
+    memory_->access_probed(requester_of(line.kind), 0, line, 0, &served);
+    probe_->served(request++, served, 0);
+  }
   lines_.clear();
+  accesses_.clear();
 }
 
 // ---------------------------------------------------------------- loosely timed
@@ -79,11 +95,23 @@ void LtCache::b_transport(int, tlm::tlm_generic_payload& p, sc_time& delay) {
   const LineAccess a{model.line_of(p.get_address()), p.get_data_length(), ext->kind,
                      ext->ray_type, write};
   const uint64_t kernel = now_ps();
-  const uint64_t start = model.reserve_port(kernel + to_ps(delay));
+  const uint64_t arrival = kernel + to_ps(delay);
+  const uint64_t start = model.reserve_port(arrival);
   const CacheModel::Result r = model.access(a, start);
   const uint64_t tag_checked = start + model.hit_latency_ps();
   uint64_t ready = tag_checked;
-  if (r.outcome == CacheModel::Outcome::Merged) ready = std::max(ready, r.ready_ps);
+  if (r.outcome == CacheModel::Outcome::Hit || (r.outcome == CacheModel::Outcome::Miss && !r.fetch))
+    ext->served = write && level_ == 1 ? ServedBy::L1Write : served_hit(level_);
+  if (r.outcome == CacheModel::Outcome::Merged) {
+    ready = std::max(ready, r.ready_ps);
+    ext->served = served_merge(level_);
+    // A read of the L1 above waits for the fill under way: from DRAM, then this slice's fill.
+    if (level_ == 2) {
+      move_read(*ext, kernel, tag_checked, UnitAccounting::AtDram);
+      move_read(*ext, kernel, std::max(tag_checked, ready - std::min(ready, model.fill_latency_ps())),
+                UnitAccounting::AtL2);
+    }
+  }
   if (r.fetch) {
     // The miss needs an MSHR: the earliest to free when all are busy.
     uint64_t send = tag_checked;
@@ -92,6 +120,12 @@ void LtCache::b_transport(int, tlm::tlm_generic_payload& p, sc_time& delay) {
       send = mshr_free_.top();
       mshr_free_.pop();
       model.note_mshr_wait();
+    }
+    if (level_ == 1 && unit_) {  // the unit's read leaves its L1 for the crossbar
+      unit_->change(kernel, send, UnitAccounting::AtNoc, +1);
+      ext->owner = unit_, ext->location = UnitAccounting::AtNoc;
+    } else if (level_ == 2) {
+      move_read(*ext, kernel, send, UnitAccounting::AtDram);
     }
     // Ask the next level for the whole line with the same payload, then restore it.
     const uint64_t address = p.get_address();
@@ -102,15 +136,23 @@ void LtCache::b_transport(int, tlm::tlm_generic_payload& p, sc_time& delay) {
     next->b_transport(p, next_delay);
     p.set_address(address);
     p.set_data_length(length);
-    ready = kernel + to_ps(next_delay) + model.fill_latency_ps();
+    const uint64_t back = kernel + to_ps(next_delay);
+    if (level_ == 2) move_read(*ext, kernel, back, UnitAccounting::AtL2);  // DRAM's data is here
+    ext->owner = nullptr;  // the crossbar ended the read's way at its L1
+    ready = back + model.fill_latency_ps();
     model.set_arrival(a.line, ready);
     mshr_free_.push(ready);
+    if (timeline_)
+      timeline_->span(track_, access_kind_name(a.kind), tag_checked, ready,
+                      std::string("\"type\":\"") + ray_type_name(a.ray_type) + "\",\"served\":\"" +
+                          served_by_name(ext->served) + "\"");
   }
+  if (!write) model.note_read_latency(a.ray_type, ready - arrival);
   if (r.writeback.dirty) {
     // Posted: the dirty line goes down at the tag check; nobody waits for it.
     writeback_.set_address(r.writeback.line);
     writeback_.set_data_length(model.config().line_bytes);
-    writeback_extension_->ray_type = a.ray_type;
+    writeback_extension_->ray_type = r.writeback.writer;
     writeback_.set_response_status(tlm::TLM_INCOMPLETE_RESPONSE);
     sc_time wb_delay = from_ps(tag_checked - kernel);
     next->b_transport(writeback_, wb_delay);
@@ -135,10 +177,14 @@ void LtCrossbar::b_transport(int id, tlm::tlm_generic_payload& p, sc_time& delay
   const bool write = p.is_write();
   const uint64_t now = now_ps();
   const uint64_t there = model_.to_slice(core, slice, write ? p.get_data_length() : 0, now + to_ps(delay));
+  AccessExtension& ext = *p.get_extension<AccessExtension>();
+  move_read(ext, now, there, UnitAccounting::AtL2);
   sc_time slice_delay = from_ps(there - now);
   to_slice[slice]->b_transport(p, slice_delay);
-  const uint64_t back =
-      model_.to_core(slice, core, write ? 0 : p.get_data_length(), now + to_ps(slice_delay));
+  const uint64_t answered = now + to_ps(slice_delay);
+  const uint64_t back = model_.to_core(slice, core, write ? 0 : p.get_data_length(), answered);
+  move_read(ext, now, answered, UnitAccounting::AtNoc);
+  end_read(ext, now, back);
   delay = from_ps(back - now);
 }
 
@@ -149,7 +195,9 @@ LtDram::LtDram(sc_core::sc_module_name name, const DramConfig& config, uint32_t 
 
 void LtDram::b_transport(int, tlm::tlm_generic_payload& p, sc_time& delay) {
   const uint64_t now = now_ps() + to_ps(delay);
-  const uint64_t done = model.lt_access(p.get_address(), p.is_write(), now);
+  RowOutcome outcome = RowOutcome::Hit;
+  const uint64_t done = model.lt_access(p.get_address(), p.is_write(), now, &outcome);
+  p.get_extension<AccessExtension>()->served = served_by_dram(outcome);
   delay += from_ps(done - now);
   p.set_response_status(tlm::TLM_OK_RESPONSE);
 }
@@ -172,6 +220,7 @@ LtSystem::LtSystem(sc_core::sc_module_name name, const HardwareConfig& config,
     const std::string instance = shape.l1_node_name(u);
     l1_node.push_back(std::make_unique<LtCache>(MachineShape::module_name(instance).c_str(),
                                                 config.l1_node_of(shape.core_of_trv(u)), cycle_ps));
+    l1_node.back()->set_level(1, &engine.trv_accounting()[u]);
     trv_ports_.push_back(std::make_unique<tlm_utils::simple_initiator_socket<LtSystem>>(
         MachineShape::module_name(shape.trv_name(u) + "_memory").c_str()));
     trv_ports_.back()->bind(l1_node.back()->target);
@@ -181,6 +230,10 @@ LtSystem::LtSystem(sc_core::sc_module_name name, const HardwareConfig& config,
     const std::string instance = shape.l1_triangle_name(u);
     l1_triangle.push_back(std::make_unique<LtCache>(MachineShape::module_name(instance).c_str(),
                                                     config.l1_triangle_of(shape.core_of_ist(u)), cycle_ps));
+    // No unit's accounting: the lt IST unit holds a leaf only from its data's arrival
+    // (ray_engine.h), so its reads' misses are no wait of its own (the TRV unit waits
+    // on the IST unit meanwhile).
+    l1_triangle.back()->set_level(1);
     ist_ports_.push_back(std::make_unique<tlm_utils::simple_initiator_socket<LtSystem>>(
         MachineShape::module_name(shape.ist_name(u) + "_memory").c_str()));
     ist_ports_.back()->bind(l1_triangle.back()->target);
@@ -210,9 +263,18 @@ uint64_t LtSystem::access(Requester who, uint32_t unit, const LineAccess& a, uin
   payload_.set_response_status(tlm::TLM_INCOMPLETE_RESPONSE);
   extension_->kind = a.kind;
   extension_->ray_type = a.ray_type;
+  extension_->owner = nullptr;
+  extension_->served = ServedBy::None;
   auto& port = who == Requester::Trv ? trv_ports_[unit] : ist_ports_[unit];
   (*port)->b_transport(payload_, delay);
   return now + to_ps(delay);
+}
+
+uint64_t LtSystem::access_probed(Requester who, uint32_t unit, const LineAccess& a, uint64_t issue_ps,
+                                 ServedBy* served) {
+  const uint64_t done = access(who, unit, a, issue_ps);
+  *served = extension_->served;
+  return done;
 }
 
 void LtSystem::reset_counters() {

@@ -1,28 +1,12 @@
 #include <rtsim/model/sim/ray_engine.h>
 #include <rtsim/model/sim/memory_system.h>
+#include <rtsim/model/sim/ray_probe.h>
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
 namespace rtsim::sim {
-
-uint64_t UnitTime::occupied_ps() const {
-  std::vector<std::pair<uint64_t, uint64_t>> s = spans;
-  std::sort(s.begin(), s.end());
-  uint64_t total = 0, cur_start = 0, cur_end = 0;
-  bool open = false;
-  for (auto& [a, b] : s) {
-    if (!open || a > cur_end) {
-      if (open) total += cur_end - cur_start;
-      cur_start = a, cur_end = b, open = true;
-    } else {
-      cur_end = std::max(cur_end, b);
-    }
-  }
-  if (open) total += cur_end - cur_start;
-  return total;
-}
 
 void append_line_accesses_merging(const MemoryAccess& a, RayType type, uint32_t line_bytes,
                                   std::vector<LineAccess>& out) {
@@ -104,9 +88,10 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
       visit_order_(free_slot_order(shape_.trv_units(), config.trv_ray_slots)),
       trv_free_(shape_.trv_units(), 0), ist_free_(shape_.ist_units(), 0),
       shading_free_(shape_.cores, 0), raygen_free_(shape_.cores, 0),
-      trv_time_(shape_.trv_units()), ist_time_(shape_.ist_units()),
+      trv_account_(timed ? shape_.trv_units() : 0), ist_account_(timed ? shape_.ist_units() : 0),
+      shading_account_(timed && workload.spawn_secondary ? shape_.cores : 0),
       trv_passes_(shape_.trv_units(), 0), ist_tests_(shape_.ist_units(), 0),
-      shading_time_(shape_.cores), shaded_(shape_.cores, 0), spawned_count_(shape_.cores, 0),
+      shaded_(shape_.cores, 0), spawned_count_(shape_.cores, 0),
       events_(cycle_ps_, /*heaps=*/shape_.slots() > 512) {
   trv_interval_ps_ = interval_ps(config.trv_nodes_per_cycle, cycle_ps_);
   ist_interval_ps_ = interval_ps(config.ist_tests_per_cycle, cycle_ps_);
@@ -129,9 +114,9 @@ CounterTotals RayEngine::total() const {
 }
 
 void RayEngine::reset_counters() {
-  for (auto& t : trv_time_) t = UnitTime{};
-  for (auto& t : ist_time_) t = UnitTime{};
-  for (auto& t : shading_time_) t = UnitTime{};
+  for (auto* units : {&trv_account_, &ist_account_, &shading_account_})
+    for (UnitAccounting& a : *units) a.restart(frame_start_ps_);
+  trv_passes_by_type_ = ist_tests_by_type_ = ray_ps_by_type_ = {};
   std::fill(trv_passes_.begin(), trv_passes_.end(), 0);
   std::fill(ist_tests_.begin(), ist_tests_.end(), 0);
   per_type_ = {};
@@ -144,7 +129,11 @@ uint64_t RayEngine::issue(Port& port, Slot& slot, const std::vector<MemoryAccess
                           size_t begin, size_t end, uint64_t t) {
   if (begin == end) return t;
   const RayType type = slot.traversal.ray().type;
-  if (end - begin == 1 && !workload_->observer) {
+  if (slot.watched) {
+    if (slot.probed) return issue_probed(port, slot, list, begin, end, t);
+    if (workload_->observer)
+      for (size_t i = begin; i < end; ++i) workload_->observer(slot.traversal.ray(), list[i]);
+  } else if (end - begin == 1) {
     // The common step: one access (a node record). Its lines are distinct, so
     // nothing merges: they go straight to the port.
     const MemoryAccess& a = list[begin];
@@ -175,8 +164,30 @@ uint64_t RayEngine::issue(Port& port, Slot& slot, const std::vector<MemoryAccess
     const uint64_t done = port.access(who, unit, line, t);
     if (!line.write) ready = std::max(ready, done);
   }
+  return ready;
+}
+
+template <class Port>
+uint64_t RayEngine::issue_probed(Port& port, Slot& slot, const std::vector<MemoryAccess>& list,
+                                 size_t begin, size_t end, uint64_t t) {
+  const RayType type = slot.traversal.ray().type;
   if (workload_->observer)
     for (size_t i = begin; i < end; ++i) workload_->observer(slot.traversal.ray(), list[i]);
+  lines_.clear();
+  for (size_t i = begin; i < end; ++i)
+    append_line_accesses(list[i], type, line_bytes_[size_t(requester_of(list[i].kind))], lines_);
+  RayProbe& probe = *workload_->probe;
+  uint32_t request = probe.add(list.data() + begin, end - begin, lines_.data(), lines_.size(),
+                               line_bytes_[size_t(Requester::Trv)], line_bytes_[size_t(Requester::Ist)], t);
+  uint64_t ready = t;
+  for (const LineAccess& line : lines_) {
+    const Requester who = requester_of(line.kind);
+    const uint32_t unit = who == Requester::Trv ? slot.unit : slot.ist;
+    ServedBy served = ServedBy::None;
+    const uint64_t done = port.access_probed(who, unit, line, t, &served);
+    probe.served(request++, served, line.write ? t : done);
+    if (!line.write) ready = std::max(ready, done);
+  }
   return ready;
 }
 
@@ -191,13 +202,22 @@ bool RayEngine::start_next_ray(Slot& slot, uint64_t now_ps, uint64_t* start_ps) 
   raygen_free_[core] = start + raygen_interval_ps_;
   slot.start_ps = start;
   *start_ps = start;
+  RayProbe* probe = workload_->probe;
+  slot.probed = probe && probe->is(slot.traversal.ray());
+  slot.watched = slot.probed || bool(workload_->observer);
+  if (slot.probed) probe->begin(timed_ ? start : 0);
+  if (timed_) trv_account_[slot.unit].change(now_ps, start, UnitAccounting::Resident, +1);
   return true;
 }
 
-void RayEngine::finish(Slot& slot, uint64_t t) {
+void RayEngine::finish(Slot& slot, uint64_t now, uint64_t t) {
   const RayTraversal& trv = slot.traversal;
   per_type_[size_t(trv.ray().type)].add(trv.counters(), trv.hit().hit());
-  if (timed_) trv_time_[slot.unit].add_span(slot.start_ps, t);
+  if (slot.probed) workload_->probe->end(t, trv.counters());
+  if (timed_) {
+    trv_account_[slot.unit].change(now, t, UnitAccounting::Resident, -1);
+    ray_ps_by_type_[size_t(trv.ray().type)] += t - slot.start_ps;
+  }
   slot.active = false;
   ++done_rays_;
   end_ps_ = std::max(end_ps_, t);
@@ -214,9 +234,11 @@ void RayEngine::finish(Slot& slot, uint64_t t) {
   if (timed_) {
     const uint64_t start = std::max(t, shading_free_[core]);
     shading_free_[core] = start + shading_interval_ps_;
-    shading_time_[core].busy_ps += shading_interval_ps_;
     ready = start + shading_latency_ps_;
-    shading_time_[core].add_span(start, ready);
+    UnitAccounting& shading = shading_account_[core];
+    shading.reserve(now, start, shading_free_[core]);
+    shading.change(now, start, UnitAccounting::Resident, +1);
+    shading.change(now, ready, UnitAccounting::Resident, -1);
     end_ps_ = std::max(end_ps_, ready);
   }
   if (spawned_.empty()) return;
@@ -236,15 +258,17 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
   const uint32_t frames = std::max<uint32_t>(1, workload_->frames);
   for (uint32_t frame = 0; frame < frames; ++frame) {
     if (frame > 0) {
-      reset_counters();
-      dispatcher_.restart();
       frame_start_ps_ = end_ps_;
+      reset_counters();  // the accounting starts again at the new frame's start
+      dispatcher_.restart();
     }
     if (timed_) run_timed(port, sync, progress);
     else if (auto* functional = dynamic_cast<FunctionalMemory*>(&port)) run_rounds(*functional, progress);
     else run_rounds(port, progress);
     frame_end(frame + 1 == frames);
   }
+  for (auto* units : {&trv_account_, &ist_account_, &shading_account_})
+    for (UnitAccounting& a : *units) a.finish(end_ps_);
   progress(done_rays_);
 }
 
@@ -262,15 +286,17 @@ void RayEngine::run_rounds(Port& port, const std::function<void(uint64_t)>& prog
       const bool node_step = trv.action() == TraversalAction::FetchNode;
       const uint32_t passes = node_step ? config_.trv_passes(trv.step_box_tests()) : 0;
       if (!trv.done()) {
+        if (slot.probed) workload_->probe->next_step();
         const std::vector<MemoryAccess>& reads = trv.step_reads();
         issue(port, slot, reads, 0, reads.size(), 0);
         trv.process();
-        if (node_step) trv_passes_[slot.unit] += passes;
-        else ist_tests_[slot.ist] += trv.last_step_tests();
+        const size_t type = size_t(trv.ray().type);
+        if (node_step) trv_passes_[slot.unit] += passes, trv_passes_by_type_[type] += passes;
+        else ist_tests_[slot.ist] += trv.last_step_tests(), ist_tests_by_type_[type] += trv.last_step_tests();
         const std::vector<MemoryAccess>& stack = trv.stack_accesses();
         if (!stack.empty()) issue(port, slot, stack, 0, stack.size(), 0);
       }
-      if (trv.done()) finish(slot, 0);
+      if (trv.done()) finish(slot, 0, 0);
       else any_active = true;
     }
     if (done_rays_ - reported >= 4096) {
@@ -284,9 +310,15 @@ void RayEngine::issue_step(MemoryPort& port, uint32_t id, uint64_t t) {
   Slot& slot = slots_[id];
   RayTraversal& trv = slot.traversal;
   if (trv.done()) {  // a ray with nothing to do (e.g. an unusable direction)
+    slot.step = Slot::Step::None;
     schedule(t, id, EventKind::Complete);
     return;
   }
+  if (slot.probed) workload_->probe->next_step();
+  // The TRV unit waits for its node's reads, or for the IST unit that tests the leaf.
+  const bool triangles = trv.action() == TraversalAction::TestTriangles;
+  slot.step = triangles ? Slot::Step::Triangles : Slot::Step::Node;
+  trv_account_[slot.unit].change(t, triangles ? UnitAccounting::Downstream : UnitAccounting::AtL1, +1);
   const std::vector<MemoryAccess>& reads = trv.step_reads();
   const size_t independent = trv.step_independent_reads();
   const uint64_t back = issue(port, slot, reads, 0, independent, t);
@@ -329,39 +361,54 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
       }
       case EventKind::Arrive: {
         uint64_t ready;
+        const size_t type = size_t(trv.ray().type);
         if (trv.action() == TraversalAction::FetchNode) {
           // A node takes one pipeline pass per trv.boxes_per_pass child boxes.
           const uint32_t passes = config_.trv_passes(trv.step_box_tests());
           const uint64_t start = std::max(t, trv_free_[slot.unit]);
           trv_free_[slot.unit] = start + passes * trv_interval_ps_;
-          trv_time_[slot.unit].busy_ps += passes * trv_interval_ps_;
+          UnitAccounting& unit = trv_account_[slot.unit];
+          unit.change(t, UnitAccounting::AtL1, -1);
+          unit.reserve(t, start, trv_free_[slot.unit]);
           ready = start + (passes - 1) * trv_interval_ps_ + box_latency_ps_;
           trv.process();
           trv_passes_[slot.unit] += passes;
+          trv_passes_by_type_[type] += passes;
         } else {
           trv.process();
           const uint32_t tests = trv.last_step_tests();
           const uint32_t ist = slot.ist;
           const uint64_t start = std::max(t, ist_free_[ist]);
           ist_free_[ist] = start + tests * ist_interval_ps_;
-          ist_time_[ist].busy_ps += tests * ist_interval_ps_;
           ready = start + (tests - 1) * ist_interval_ps_ + test_latency_ps_;
-          ist_time_[ist].add_span(t, ready);
+          // The IST unit holds the leaf from its data's arrival to its last test's result.
+          UnitAccounting& unit = ist_account_[ist];
+          unit.reserve(t, start, ist_free_[ist]);
+          unit.change(t, UnitAccounting::Resident, +1);
+          unit.change(t, ready, UnitAccounting::Resident, -1);
           ist_tests_[ist] += tests;
+          ist_tests_by_type_[type] += tests;
         }
         schedule(ready, e.slot, EventKind::Complete);
         break;
       }
       case EventKind::Complete: {
+        UnitAccounting& unit = trv_account_[slot.unit];
+        if (slot.step == Slot::Step::Triangles) unit.change(t, UnitAccounting::Downstream, -1);
+        slot.step = Slot::Step::None;
         const std::vector<MemoryAccess>& stack = trv.stack_accesses();
         const uint64_t next = stack.empty() ? t : issue(port, slot, stack, 0, stack.size(), t);
+        if (next > t) {  // the stack's refills are waited for
+          unit.change(t, UnitAccounting::AtL1, +1);
+          unit.change(t, next, UnitAccounting::AtL1, -1);
+        }
         if (!trv.done()) {
           // The next step right away when nothing is waited for (saves an event).
           if (next == t) issue_step(port, e.slot, t);
           else schedule(next, e.slot, EventKind::Issue);
           break;
         }
-        finish(slot, next);
+        finish(slot, t, next);
         uint64_t start = 0;
         if (start_next_ray(slot, next, &start)) schedule(start, e.slot, EventKind::Issue);
         else idle_slots_[slot.core].push_back(e.slot);

@@ -1,3 +1,5 @@
+#include <rtsim/model/sim/stat_names.h>
+#include <rtsim/model/sim/accounting.h>
 #include <rtsim/model/sim/cycle/cycle_system.h>
 #include <rtsim/model/sim/dram_reference.h>
 #include <rtsim/model/sim/energy.h>
@@ -33,27 +35,51 @@ uint64_t peak_rss_bytes() {
   return uint64_t(usage.ru_maxrss) * 1024;  // Linux reports KiB
 }
 
-struct UnitFigures {
-  uint64_t busy_ps = 0, occupied_ps = 0, stalled_ps = 0;
-};
-
-void report_unit(StatsRegistry& s, const std::string& prefix, const UnitFigures& f,
-                 uint64_t total_ps, double cycle_ps, uint64_t work, const std::string& work_unit,
+// A unit's cycles split exclusively (accounting.h): <prefix>.<bucket>_cycles for every
+// bucket its kind has, adding up to time.cycles, its utilisation and its work.
+void report_unit(StatsRegistry& s, const std::string& prefix, UnitKind kind, const CycleSplit& ps,
+                 double cycle_ps, uint64_t work, const std::string& work_unit,
                  const std::string& work_description) {
-  const auto cycles = [&](uint64_t ps) { return uint64_t(std::llround(double(ps) / cycle_ps)); };
-  const uint64_t total = cycles(total_ps);
-  const uint64_t busy = std::min(cycles(f.busy_ps), total);
-  const uint64_t occupied = std::min(cycles(f.occupied_ps), total);
-  const uint64_t stalled = std::min(cycles(f.stalled_ps), occupied);
-  s.set(prefix + ".busy_cycles", busy, "cycles", "cycles the unit's pipeline accepted work");
-  s.set(prefix + ".idle_cycles", total - occupied, "cycles", "cycles with no work resident");
-  s.set(prefix + ".stalled_cycles", stalled, "cycles",
-        "cycles resident work waited for a full downstream queue");
-  s.set(prefix + ".waiting_cycles", occupied - std::min(occupied, busy), "cycles",
-        "cycles with work resident but the pipeline not fed (memory latency, stalls)");
-  s.set_real(prefix + ".utilisation", total ? double(busy) / double(total) : 0, "ratio",
-             "busy cycles / simulated cycles");
+  const CycleSplit cycles = bucket_cycles(ps, cycle_ps);
+  uint64_t total = 0;
+  for (uint64_t c : cycles) total += c;
+  for (CycleBucket b : kAllCycleBuckets)
+    if (unit_has_bucket(kind, b))
+      s.set(prefix + "." + cycle_bucket_name(b) + "_cycles", cycles[size_t(b)], "cycles",
+            cycle_bucket_meaning(b));
+  s.set_real(prefix + ".utilisation", total ? double(cycles[size_t(CycleBucket::Busy)]) / double(total) : 0,
+             "ratio", "busy cycles / simulated cycles");
   s.set(prefix + "." + work_unit, work, work_unit, work_description);
+}
+
+// Mean, least and most over a kind's units of each bucket and of utilisation:
+// machine.<kind>.<bucket>_cycles.{mean,min,max}.
+void report_rollup(StatsRegistry& s, UnitKind kind, const std::vector<CycleSplit>& units, double cycle_ps) {
+  if (units.empty()) return;
+  const std::string p = std::string("machine.") + unit_kind_name(kind) + ".";
+  const std::string of = std::string(" over the machine's ") + unit_kind_name(kind) + " units";
+  std::vector<CycleSplit> cycles;
+  for (const CycleSplit& u : units) cycles.push_back(bucket_cycles(u, cycle_ps));
+  const auto rollup = [&](const std::string& name, const std::string& unit, const std::string& what,
+                          const std::function<double(const CycleSplit&)>& value) {
+    double sum = 0, lo = INFINITY, hi = -INFINITY;
+    for (const CycleSplit& c : cycles) {
+      const double v = value(c);
+      sum += v, lo = std::min(lo, v), hi = std::max(hi, v);
+    }
+    s.set_real(p + name + ".mean", sum / double(cycles.size()), unit, "mean" + of + " of the " + what);
+    s.set_real(p + name + ".min", lo, unit, "least" + of + " of the " + what);
+    s.set_real(p + name + ".max", hi, unit, "most" + of + " of the " + what);
+  };
+  for (CycleBucket b : kAllCycleBuckets)
+    if (unit_has_bucket(kind, b))
+      rollup(std::string(cycle_bucket_name(b)) + "_cycles", "cycles", cycle_bucket_meaning(b),
+             [b](const CycleSplit& c) { return double(c[size_t(b)]); });
+  rollup("utilisation", "ratio", "busy cycles / simulated cycles", [](const CycleSplit& c) {
+    uint64_t total = 0;
+    for (uint64_t v : c) total += v;
+    return total ? double(c[size_t(CycleBucket::Busy)]) / double(total) : 0.0;
+  });
 }
 
 void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCount>& per_type) {
@@ -93,11 +119,15 @@ void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCou
 // (machine.h numbering). Each level fills it from its own components; the names
 // and the accounting are this one function's.
 struct MachineFigures {
-  std::vector<UnitFigures> trv, ist;          // per TRV / IST unit
+  std::vector<CycleSplit> trv, ist;           // per TRV / IST unit: picoseconds per bucket
   std::vector<uint64_t> trv_passes, ist_tests;
-  std::vector<UnitFigures> shading;           // per core; empty when nothing is shaded
+  std::vector<CycleSplit> shading;            // per core; empty when nothing is shaded
   std::vector<uint64_t> shaded, spawned;      // per core
-  std::vector<uint64_t> raygen_stalled_ps;    // per core (cycle level only)
+  std::vector<uint64_t> raygen_blocked_ps;    // per core (cycle level only)
+  std::vector<uint64_t> trv_leaves_blocked;   // per TRV unit (cycle level only)
+  // By ray type: the TRV and IST pipelines' time its work took, and (timed) its rays'
+  // time from start to finish in a TRV slot.
+  std::array<uint64_t, kRayTypeCount> trv_busy_ps_by_type{}, ist_busy_ps_by_type{}, ray_ps_by_type{};
   std::vector<const CacheModel*> l1_node, l1_triangle, l2;
   std::vector<uint64_t> l2_downstream_stall_ps, l2_downstream_refusals;  // per slice (cycle)
   const DramModel* dram = nullptr;
@@ -138,19 +168,37 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
   for (const CounterTotals& t : per_type) rays += t.rays;
   const auto cycles = [&](uint64_t ps) { return uint64_t(std::llround(double(ps) / cycle_ps)); };
   for (uint32_t u = 0; u < f.trv.size(); ++u)
-    report_unit(s, m.trv_name(u), f.trv[u], sim_ps, cycle_ps, f.trv_passes[u], "passes",
+    report_unit(s, m.trv_name(u), UnitKind::Trv, f.trv[u], cycle_ps, f.trv_passes[u], "passes",
                 "box-test pipeline passes (a node takes ceil(children / trv.boxes_per_pass))");
   for (uint32_t u = 0; u < f.ist.size(); ++u)
-    report_unit(s, m.ist_name(u), f.ist[u], sim_ps, cycle_ps, f.ist_tests[u], "tests",
+    report_unit(s, m.ist_name(u), UnitKind::Ist, f.ist[u], cycle_ps, f.ist_tests[u], "tests",
                 "triangle tests through the pipeline");
   for (uint32_t c = 0; c < f.shading.size(); ++c) {
     const std::string p = MachineShape::core_name(c) + ".shading";
-    report_unit(s, p, f.shading[c], sim_ps, cycle_ps, f.shaded[c], "rays", "rays shaded");
+    report_unit(s, p, UnitKind::Shading, f.shading[c], cycle_ps, f.shaded[c], "rays", "rays shaded");
     s.set(p + ".spawned", f.spawned[c], "rays", "secondary rays spawned");
   }
-  for (uint32_t c = 0; c < f.raygen_stalled_ps.size(); ++c)
-    s.set(MachineShape::core_name(c) + ".raygen.stalled_cycles", cycles(f.raygen_stalled_ps[c]),
+  for (uint32_t u = 0; u < f.trv_leaves_blocked.size(); ++u)
+    s.set(m.trv_name(u) + ".leaves_blocked", f.trv_leaves_blocked[u], "leaves",
+          "leaves that found the IST unit's queue full and waited for room");
+  report_rollup(s, UnitKind::Trv, f.trv, cycle_ps);
+  report_rollup(s, UnitKind::Ist, f.ist, cycle_ps);
+  report_rollup(s, UnitKind::Shading, f.shading, cycle_ps);
+  for (uint32_t c = 0; c < f.raygen_blocked_ps.size(); ++c)
+    s.set(MachineShape::core_name(c) + ".raygen.blocked_cycles", cycles(f.raygen_blocked_ps[c]),
           "cycles", "cycles a ready ray found no free TRV slot of its core");
+  for (RayType t : kAllRayTypes) {
+    const size_t k = size_t(t);
+    if (per_type[k].rays == 0) continue;
+    const std::string p = std::string("per_type.") + ray_type_name(t) + ".";
+    s.set_real(p + "trv_busy_cycles", double(f.trv_busy_ps_by_type[k]) / cycle_ps, "cycles",
+               "busy cycles of the TRV units spent on these rays' nodes (summed over units)");
+    s.set_real(p + "ist_busy_cycles", double(f.ist_busy_ps_by_type[k]) / cycle_ps, "cycles",
+               "busy cycles of the IST units spent on these rays' triangle tests (summed over units)");
+    if (timed)
+      s.set_real(p + "cycles_per_ray", double(f.ray_ps_by_type[k]) / cycle_ps / double(per_type[k].rays),
+                 "cycles/ray", "mean cycles from a ray's start in a TRV slot to its finish");
+  }
   s.set("machine.cores", m.cores, "cores", "RT cores");
   uint64_t passes = 0;
   for (uint64_t p : f.trv_passes) passes += p;
@@ -198,7 +246,7 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
   f.noc->report(s, "noc", sim_ps);
   f.dram->report(s, "dram", timed, timed, sim_ps);
   // Every DRAM byte read is an L2 fill: attribute them the same way.
-  filled.report(s, "dram.bytes_by_type", "bytes read from DRAM");
+  filled.report(s, stat::kDramBytesByType, "bytes read from DRAM");
   s.set_real("dram.bytes_per_ray", rays ? double(f.dram->counters().bytes) / double(rays) : 0,
              "bytes/ray", "DRAM bytes read / rays");
   EnergyCounts energy = energy_counts(f, per_type, filled, config.dram);
@@ -221,10 +269,11 @@ void report_layout(StatsRegistry& s, const MemoryImage& image, uint64_t triangle
 }
 
 void report_time(StatsRegistry& s, const HardwareConfig& c, uint64_t sim_ps, uint64_t rays,
-                 bool estimate, uint32_t frames) {
+                 uint32_t frames) {
   const double cycle_ps = c.clock_period_ps();
   const uint64_t cycles = uint64_t(std::llround(double(sim_ps) / cycle_ps));
-  const std::string how = estimate ? " (analytic estimate)" : "";
+  // One description at every level: the functional level's time is its estimate.
+  const std::string how = " (the functional level: an analytic estimate)";
   s.set("time.cycles", cycles, "cycles", "simulated accelerator cycles of the last frame" + how);
   s.set_real("time.seconds", double(sim_ps) * 1e-12, "s", "simulated time of the last frame" + how);
   s.set_real("time.rays_per_second", sim_ps ? double(rays) / (double(sim_ps) * 1e-12) : 0, "rays/s",
@@ -239,8 +288,9 @@ void report_frames(StatsRegistry& s, const std::vector<FrameFigures>& history,
   if (history.size() < 2) return;
   for (size_t f = 0; f < history.size(); ++f) {
     const FrameFigures& h = history[f];
+    // One description for every frame (one name, one meaning): frame1 is the cold one.
     const std::string p = "frames.frame" + std::to_string(f + 1);
-    const std::string which = f == 0 ? " (cold caches)" : "";
+    const std::string which = " (frame1: cold caches)";
     s.set(p + ".dram_bytes", h.dram_bytes_read, "bytes", "bytes read from DRAM in this frame" + which);
     s.set(p + ".dram_bytes_written", h.dram_bytes_written, "bytes", "bytes written to DRAM in this frame");
     s.set_real(p + ".dram_bytes_per_ray", h.rays ? double(h.dram_bytes_read) / double(h.rays) : 0,
@@ -249,6 +299,43 @@ void report_frames(StatsRegistry& s, const std::vector<FrameFigures>& history,
       s.set(p + ".cycles", uint64_t(std::llround(double(h.simulated_ps) / c.clock_period_ps())),
             "cycles", "simulated cycles of this frame" + which);
   }
+}
+
+// Every unit, cache, crossbar port and DRAM channel of a timed machine gets its
+// track on the timeline: units and L1s under their core, L2 slices, the crossbar's
+// ports and the DRAM channels under "memory".
+template <class Cache>
+void draw_machine(Timeline& t, const HardwareConfig& config, const MachineShape& m,
+                  const std::vector<UnitAccounting*>& trv, const std::vector<UnitAccounting*>& ist,
+                  const std::vector<UnitAccounting*>& shading, const std::vector<Cache*>& l1_node,
+                  const std::vector<Cache*>& l1_triangle, const std::vector<Cache*>& l2, Crossbar& noc,
+                  DramModel& dram) {
+  const auto core = [](uint32_t c) { return MachineShape::core_name(c); };
+  for (uint32_t u = 0; u < trv.size(); ++u) {
+    trv[u]->draw_on(&t, t.track(core(m.core_of_trv(u)), m.trv_name(u)));
+    l1_node[u]->draw_on(&t, t.track(core(m.core_of_trv(u)), m.l1_node_name(u) + " misses", true));
+  }
+  for (uint32_t i = 0; i < ist.size(); ++i) {
+    ist[i]->draw_on(&t, t.track(core(m.core_of_ist(i)), m.ist_name(i)));
+    l1_triangle[i]->draw_on(&t, t.track(core(m.core_of_ist(i)), m.l1_triangle_name(i) + " misses", true));
+  }
+  for (uint32_t c = 0; c < shading.size(); ++c) shading[c]->draw_on(&t, t.track(core(c), core(c) + ".shading"));
+  for (uint32_t s = 0; s < l2.size(); ++s)
+    l2[s]->draw_on(&t, t.track("memory", MachineShape::slice_name(s) + " misses", true));
+  std::vector<uint32_t> to_slice, to_core;
+  for (uint32_t s = 0; s < m.l2_slices; ++s)
+    to_slice.push_back(t.track("memory", "noc to " + MachineShape::slice_name(s), true));
+  for (uint32_t c = 0; c < m.cores; ++c) to_core.push_back(t.track("memory", "noc to " + core(c), true));
+  noc.draw_on(&t, to_slice, to_core);
+  std::vector<uint32_t> channels;
+  for (uint32_t c = 0; c < config.dram.channels; ++c)
+    channels.push_back(t.track("memory", "dram channel " + std::to_string(c), true));
+  const uint64_t tck = config.dram.tck_ps;
+  dram.set_command_observer([&t, channels, tck](const DramCommand& c) {
+    t.span(channels[c.channel], dram_command_name(c.kind), c.time_ps, c.time_ps + tck,
+           "\"rank\":" + std::to_string(c.rank) + ",\"bank\":" + std::to_string(c.bank) +
+               ",\"row\":" + std::to_string(c.row));
+  });
 }
 
 bool& systemc_used() {
@@ -284,26 +371,43 @@ namespace {
 using Progress = std::function<void(uint64_t)>;
 
 // Figures of the engine's units (functional and lt). Untimed, a unit is busy for
-// its work / throughput and idle for the rest of the estimate; stalls are not
-// modelled at this level.
-void engine_figures(const RayEngine& engine, bool timed, const HardwareConfig& c, MachineFigures& f) {
+// its work / throughput and idle for the rest of the estimate; timed, the engine's
+// accounting splits the time (accounting.h).
+void engine_figures(RayEngine& engine, bool timed, const HardwareConfig& c, uint64_t total_ps,
+                    MachineFigures& f) {
   const double cycle_ps = c.clock_period_ps();
-  const auto units = [&](const std::vector<uint64_t>& work, const std::vector<UnitTime>& time,
-                         double per_cycle, std::vector<UnitFigures>& out) {
-    for (size_t u = 0; u < work.size(); ++u) {
-      const uint64_t busy = uint64_t(std::llround(double(work[u]) / per_cycle * cycle_ps));
-      out.push_back(timed ? UnitFigures{time[u].busy_ps, time[u].occupied_ps(), 0}
-                          : UnitFigures{busy, busy, 0});
+  const auto untimed = [&](const std::vector<uint64_t>& work, double per_cycle, std::vector<CycleSplit>& out) {
+    for (uint64_t w : work) {
+      const uint64_t busy = std::min(total_ps, uint64_t(std::llround(double(w) / per_cycle * cycle_ps)));
+      CycleSplit split{};
+      split[size_t(CycleBucket::Busy)] = busy;
+      split[size_t(CycleBucket::Idle)] = total_ps - busy;
+      out.push_back(split);
     }
+  };
+  const auto accounted = [](const std::vector<UnitAccounting>& units, std::vector<CycleSplit>& out) {
+    for (const UnitAccounting& u : units) out.push_back(u.ps());
   };
   f.trv_passes = engine.trv_passes();
   f.ist_tests = engine.ist_tests();
-  units(f.trv_passes, engine.trv_time(), c.trv_nodes_per_cycle, f.trv);
-  units(f.ist_tests, engine.ist_time(), c.ist_tests_per_cycle, f.ist);
   f.shaded = engine.shaded();
   f.spawned = engine.spawned();
-  if (engine.spawned_rays_are_shaded())
-    units(f.shaded, engine.shading_time(), c.shading_rays_per_cycle, f.shading);
+  if (timed) {
+    accounted(engine.trv_accounting(), f.trv);
+    accounted(engine.ist_accounting(), f.ist);
+    accounted(engine.shading_accounting(), f.shading);
+  } else {
+    untimed(f.trv_passes, c.trv_nodes_per_cycle, f.trv);
+    untimed(f.ist_tests, c.ist_tests_per_cycle, f.ist);
+    if (engine.spawned_rays_are_shaded()) untimed(f.shaded, c.shading_rays_per_cycle, f.shading);
+  }
+  for (size_t t = 0; t < kRayTypeCount; ++t) {
+    f.trv_busy_ps_by_type[t] = uint64_t(std::llround(double(engine.trv_passes_by_type()[t]) /
+                                                     c.trv_nodes_per_cycle * cycle_ps));
+    f.ist_busy_ps_by_type[t] = uint64_t(std::llround(double(engine.ist_tests_by_type()[t]) /
+                                                     c.ist_tests_per_cycle * cycle_ps));
+  }
+  f.ray_ps_by_type = engine.ray_ps_by_type();
 }
 
 // Connects the request's traces, if any, to the level's DRAM model and caches.
@@ -372,7 +476,7 @@ void run_functional(const SimulationRequest& request, const HardwareConfig& conf
   s.set_real("time.bound_dram_cycles", dram_cycles, "cycles",
              "DRAM bytes read / peak DRAM bytes per cycle");
   MachineFigures f;
-  engine_figures(engine, false, config, f);
+  engine_figures(engine, false, config, result.simulated_ps, f);
   for (auto& c : memory.l1_node) f.l1_node.push_back(c.get());
   for (auto& c : memory.l1_triangle) f.l1_triangle.push_back(c.get());
   for (auto& c : memory.l2) f.l2.push_back(c.get());
@@ -384,18 +488,35 @@ void run_functional(const SimulationRequest& request, const HardwareConfig& conf
 void run_lt(const SimulationRequest& request, const HardwareConfig& config, const Workload& work,
             const Progress& progress, const std::function<void()>& stop_clock, SimulationResult& result) {
   LtSystem lt("lt", config, work, progress);
+  if (work.timeline) {
+    RayEngine& e = lt.engine;
+    const auto pointers = [](std::vector<UnitAccounting>& v) {
+      std::vector<UnitAccounting*> out;
+      for (UnitAccounting& a : v) out.push_back(&a);
+      return out;
+    };
+    const auto caches = [](std::vector<std::unique_ptr<LtCache>>& v) {
+      std::vector<LtCache*> out;
+      for (auto& c : v) out.push_back(c.get());
+      return out;
+    };
+    draw_machine(*work.timeline, config, lt.shape, pointers(e.trv_accounting()), pointers(e.ist_accounting()),
+                 pointers(e.shading_accounting()), caches(lt.l1_node), caches(lt.l1_triangle), caches(lt.l2),
+                 lt.noc_model, lt.dram->model);
+  }
   attach_traces(request, lt.dram->model, models_of(lt.l1_node), models_of(lt.l1_triangle),
                 models_of(lt.l2));
   sc_core::sc_start();
   stop_clock();
-  const RayEngine& engine = lt.engine;
+  RayEngine& engine = lt.engine;
   result.frame_history = lt.frame_history;
   result.per_type = engine.per_type();
   result.rays = engine.total().rays;
   result.simulated_ps = engine.end_ps() - engine.start_ps();
+  result.frame_start_ps = engine.start_ps();
   lt.dram->model.settle(engine.end_ps());  // idle-time refreshes into the counts
   MachineFigures f;
-  engine_figures(engine, true, config, f);
+  engine_figures(engine, true, config, result.simulated_ps, f);
   for (auto& c : lt.l1_node) f.l1_node.push_back(&c->model);
   for (auto& c : lt.l1_triangle) f.l1_triangle.push_back(&c->model);
   for (auto& c : lt.l2) f.l2.push_back(&c->model);
@@ -408,6 +529,19 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
                const Progress& progress, const std::function<void()>& stop_clock,
                SimulationResult& result) {
   CycleSystem system("accelerator", config, work, progress);
+  if (work.timeline) {
+    std::vector<UnitAccounting*> trv, ist, shading;
+    for (auto& u : system.trv) trv.push_back(&u->accounting);
+    for (auto& u : system.ist) ist.push_back(&u->accounting);
+    for (auto& u : system.shading) shading.push_back(&u->accounting);
+    const auto caches = [](std::vector<std::unique_ptr<CycleCache>>& v) {
+      std::vector<CycleCache*> out;
+      for (auto& c : v) out.push_back(c.get());
+      return out;
+    };
+    draw_machine(*work.timeline, config, system.shape, trv, ist, shading, caches(system.l1_node),
+                 caches(system.l1_triangle), caches(system.l2), system.noc_model, system.dram->model);
+  }
   attach_traces(request, system.dram->model, models_of(system.l1_node), models_of(system.l1_triangle),
                 models_of(system.l2));
   sc_core::sc_start();
@@ -420,24 +554,33 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
   result.rays = system.rays_done;
   result.frame_history = system.frame_history;
   result.simulated_ps = system.end_ps - system.frame_start_ps;
+  result.frame_start_ps = system.frame_start_ps;
   system.dram->settle(system.end_ps);  // idle-time refreshes (or the reference's counts)
   MachineFigures f;
+  const auto add = [](std::array<uint64_t, kRayTypeCount>& sum, const std::array<uint64_t, kRayTypeCount>& part) {
+    for (size_t t = 0; t < kRayTypeCount; ++t) sum[t] += part[t];
+  };
   for (auto& u : system.trv) {
-    const Occupancy& o = u->occupancy;
-    f.trv.push_back({o.busy_ps, o.occupied_ps, o.stalled_ps});
+    u->accounting.finish(system.end_ps);
+    f.trv.push_back(u->accounting.ps());
     f.trv_passes.push_back(u->passes);
+    f.trv_leaves_blocked.push_back(u->leaves_blocked);
+    add(f.trv_busy_ps_by_type, u->busy_ps_by_type);
+    add(f.ray_ps_by_type, u->ray_ps_by_type);
   }
   for (auto& u : system.ist) {
-    const Occupancy& o = u->occupancy;
-    f.ist.push_back({o.busy_ps, o.occupied_ps, o.stalled_ps});
+    u->accounting.finish(system.end_ps);
+    f.ist.push_back(u->accounting.ps());
     f.ist_tests.push_back(u->tests);
+    add(f.ist_busy_ps_by_type, u->busy_ps_by_type);
   }
   for (auto& sh : system.shading) {
-    f.shading.push_back({sh->busy_ps, sh->occupancy.occupied_ps, 0});
+    sh->accounting.finish(system.end_ps);
+    f.shading.push_back(sh->accounting.ps());
     f.shaded.push_back(sh->shaded);
     f.spawned.push_back(sh->spawned);
   }
-  for (auto& r : system.raygen) f.raygen_stalled_ps.push_back(r->stalled_ps);
+  for (auto& r : system.raygen) f.raygen_blocked_ps.push_back(r->blocked_ps);
   for (auto& c : system.l1_node) f.l1_node.push_back(&c->model);
   for (auto& c : system.l1_triangle) f.l1_triangle.push_back(&c->model);
   for (auto& c : system.l2) {
@@ -484,6 +627,9 @@ SimulationResult simulate(const SimulationRequest& request) {
   work.height = request.settings.height;
   work.frames = request.frames;
   work.observer = request.observer;
+  work.timeline = request.timeline;
+  if (request.timeline && request.fidelity == Fidelity::Functional)
+    throw InputError("--timeline", "the functional level has no time to draw; use --fidelity lt or cycle");
   SimulationResult result;
   if (request.rays.empty()) {
     work.plan = plan_effects(*request.scene, request.settings);
@@ -494,6 +640,12 @@ SimulationResult simulate(const SimulationRequest& request) {
     work.initial_rays = request.rays;
   }
   result.plan = work.plan;
+  std::optional<RayProbe> probe;
+  if (request.trace_ray) {
+    probe.emplace(find_target_ray(*request.trace_ray, context, request.camera, request.settings, work.plan,
+                                  request.rays));
+    work.probe = &*probe;
+  }
   auto progress = request.progress ? request.progress : [](uint64_t) {};
 
   const double cpu_start = cpu_now();
@@ -510,13 +662,15 @@ SimulationResult simulate(const SimulationRequest& request) {
   }
   StatsRegistry& s = result.stats;
   const double cycle_ps = config.clock_period_ps();
-  report_time(s, config, result.simulated_ps, result.rays, request.fidelity == Fidelity::Functional,
-              request.frames);
+  report_time(s, config, result.simulated_ps, result.rays, request.frames);
   report_counts(s, result.per_type);
   report_layout(s, image, request.scene->triangle_count());
   report_frames(s, result.frame_history, config, request.fidelity == Fidelity::Functional);
   result.cycles = uint64_t(std::llround(double(result.simulated_ps) / cycle_ps));
   result.peak_memory_bytes = peak_rss_bytes();
+  if (probe)
+    result.ray_trace = ray_trace_json(*probe, *request.trace_ray, image, context, cycle_ps, result.frame_start_ps,
+                                      request.fidelity != Fidelity::Functional);
   return result;
 }
 

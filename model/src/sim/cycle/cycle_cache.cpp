@@ -1,4 +1,5 @@
 #include <rtsim/model/sim/cycle/cycle_cache.h>
+#include <rtsim/model/sim/timeline.h>
 
 #include <unistd.h>
 
@@ -22,22 +23,33 @@ void CycleCache::reset_counters() {
   if (awaiting_end_req_) refused_since_ps_ = now_ps();
 }
 
-bool CycleCache::serve(int id, tlm_generic_payload* p, uint64_t t_ps, bool* completed,
-                       uint64_t* done_ps) {
-  const AccessExtension& ext = PayloadPool::extension(*p);
+bool CycleCache::serve(int id, tlm_generic_payload* p, uint64_t arrival_ps, uint64_t t_ps,
+                       bool* completed, uint64_t* done_ps) {
+  AccessExtension& ext = PayloadPool::extension(*p);
   const LineAccess a{model.line_of(p->get_address()), p->get_data_length(), ext.kind,
                      ext.ray_type, p->is_write()};
   const CacheModel::Result r = model.request(a);
   if (r.outcome == CacheModel::Outcome::Blocked) return false;
   const uint64_t tag_done = t_ps + model.hit_latency_ps();
   if (r.writeback.dirty)
-    send_down(r.writeback.line, true, AccessKind::Stack, a.ray_type, tag_done);
+    send_down(r.writeback.line, true, AccessKind::Stack, r.writeback.writer, tag_done);
   *completed = r.outcome == CacheModel::Outcome::Hit ||
                (r.outcome == CacheModel::Outcome::Miss && !r.fetch);  // a write miss allocates at once
   *done_ps = tag_done;
-  if (*completed) return true;
-  waiting_[a.line].push_back({id, p});
-  if (r.fetch) send_down(a.line, false, a.kind, a.ray_type, tag_done);
+  if (*completed) {
+    ext.served = served_[a.write];
+    if (!a.write) model.note_read_latency(a.ray_type, tag_done - arrival_ps);
+    return true;
+  }
+  const bool merged = r.outcome == CacheModel::Outcome::Merged;
+  Miss& miss = waiting_[a.line];
+  miss.waiters.push_back({id, p, arrival_ps, merged});
+  // A read of the L1 above waits for DRAM from here: the miss goes down, or it joins one.
+  if (level_ == 2) move_read(ext, now_ps(), merged ? t_ps : tag_done, UnitAccounting::AtDram);
+  if (r.fetch) {
+    miss.since_ps = tag_done;
+    send_down(a.line, false, a.kind, a.ray_type, tag_done);
+  }
   return true;
 }
 
@@ -45,11 +57,12 @@ tlm::tlm_sync_enum CycleCache::nb_transport_fw(int id, tlm_generic_payload& p,
                                                tlm::tlm_phase& phase, sc_core::sc_time& delay) {
   if (phase != tlm::BEGIN_REQ) return tlm::TLM_ACCEPTED;
   const uint64_t now = now_ps();
-  const uint64_t t = model.reserve_port(now + to_ps(delay));
+  const uint64_t arrival = now + to_ps(delay);
+  const uint64_t t = model.reserve_port(arrival);
   bool completed = false;
   uint64_t done = 0;
-  if (!serve(id, &p, t, &completed, &done)) {
-    blocked_.push_back({id, &p});  // taken, answered once an MSHR frees
+  if (!serve(id, &p, arrival, t, &completed, &done)) {
+    blocked_.push_back({id, &p, arrival, false});  // taken, answered once an MSHR frees
   } else if (completed) {
     // A hit without a port wait (most requests) takes the hit latency: a time
     // made once, not converted on every access.
@@ -66,6 +79,9 @@ void CycleCache::send_down(uint64_t line, bool write, AccessKind kind, RayType t
   tlm_generic_payload* q = payloads_.get();
   AccessExtension& ext = PayloadPool::extension(*q);
   ext.kind = kind, ext.ray_type = type, ext.token = line, ext.first_try_ps = at_ps;
+  // An L1's read miss is its unit's read on the way below (the unit's accounting).
+  ext.owner = write || level_ != 1 ? nullptr : unit_;
+  ext.served = ServedBy::None;
   q->set_command(write ? tlm::TLM_WRITE_COMMAND : tlm::TLM_READ_COMMAND);
   q->set_address(line);
   q->set_data_length(model.config().line_bytes);
@@ -82,9 +98,16 @@ void CycleCache::try_send() {
     tlm::tlm_phase phase = tlm::BEGIN_REQ;
     sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
     outbound_.pop_front();
+    if (ext.owner) {
+      ext.owner->change(now, UnitAccounting::AtNoc, +1);
+      ext.location = UnitAccounting::AtNoc;
+    }
     const tlm::tlm_sync_enum status = next->nb_transport_fw(*q, phase, delay);
     if (status == tlm::TLM_COMPLETED) {  // the next level hit
-      if (!q->is_write()) queue_.push(now + to_ps(delay) + model.fill_latency_ps(), Item{Item::Fill, ext.token});
+      if (!q->is_write()) {
+        waiting_[ext.token].below = ext.served;
+        queue_.push(now + to_ps(delay) + model.fill_latency_ps(), Item{Item::Fill, ext.token});
+      }
       payloads_.put(q);
     } else if (status == tlm::TLM_ACCEPTED && phase == tlm::BEGIN_REQ) {
       // Taken but not accepted (a full queue below): nothing more goes down until END_REQ.
@@ -97,28 +120,49 @@ void CycleCache::try_send() {
 
 tlm::tlm_sync_enum CycleCache::nb_transport_bw(tlm_generic_payload& q, tlm::tlm_phase& phase,
                                                sc_core::sc_time& delay) {
+  const uint64_t now = now_ps();
   if (phase == tlm::END_REQ) {
     awaiting_end_req_ = false;
-    downstream_stall_ps += now_ps() - refused_since_ps_;
-    queue_.push(now_ps(), Item{Item::Send, 0});
+    downstream_stall_ps += now - refused_since_ps_;
+    queue_.push(now, Item{Item::Send, 0});
     return tlm::TLM_ACCEPTED;
   }
   if (phase != tlm::BEGIN_RESP) return tlm::TLM_ACCEPTED;
-  if (!q.is_write())
-    queue_.push(now_ps() + to_ps(delay) + model.fill_latency_ps(),
-                Item{Item::Fill, PayloadPool::extension(q).token});
+  if (!q.is_write()) {
+    const uint64_t line = PayloadPool::extension(q).token;
+    const uint64_t arrives = now + to_ps(delay);
+    auto it = waiting_.find(line);
+    if (it != waiting_.end()) {
+      it->second.below = PayloadPool::extension(q).served;
+      // The data is back from DRAM: the reads above wait for this slice's fill now.
+      if (level_ == 2)
+        for (const Waiter& w : it->second.waiters)
+          move_read(PayloadPool::extension(*w.p), now, arrives, UnitAccounting::AtL2);
+    }
+    queue_.push(arrives + model.fill_latency_ps(), Item{Item::Fill, line});
+  }
   payloads_.put(&q);
   return tlm::TLM_COMPLETED;
 }
 
 void CycleCache::on_fill(uint64_t line) {
+  const uint64_t now = now_ps();
   const Eviction e = model.fill(line);
-  if (e.dirty) send_down(e.line, true, AccessKind::Stack, RayType::Primary, now_ps());
+  if (e.dirty) send_down(e.line, true, AccessKind::Stack, e.writer, now);
   auto it = waiting_.find(line);
   if (it != waiting_.end()) {
-    std::vector<Waiter> waiters = std::move(it->second);
+    Miss miss = std::move(it->second);
     waiting_.erase(it);
-    for (const Waiter& w : waiters) {
+    if (timeline_ && !miss.waiters.empty()) {
+      const AccessExtension& first = PayloadPool::extension(*miss.waiters.front().p);
+      timeline_->span(track_, access_kind_name(first.kind), miss.since_ps, now,
+                      std::string("\"type\":\"") + ray_type_name(first.ray_type) + "\",\"waiters\":" +
+                          std::to_string(miss.waiters.size()) + ",\"served\":\"" + served_by_name(miss.below) + "\"");
+    }
+    for (const Waiter& w : miss.waiters) {
+      AccessExtension& ext = PayloadPool::extension(*w.p);
+      ext.served = w.merged ? served_merge(level_) : miss.below;
+      if (!w.p->is_write()) model.note_read_latency(ext.ray_type, now - w.arrival_ps);
       tlm::tlm_phase phase = tlm::BEGIN_RESP;
       sc_core::sc_time zero = sc_core::SC_ZERO_TIME;
       w.p->set_response_status(tlm::TLM_OK_RESPONSE);
@@ -126,13 +170,12 @@ void CycleCache::on_fill(uint64_t line) {
     }
   }
   // An MSHR is free again: requests that found them all busy try again, in order.
-  const uint64_t now = now_ps();
   while (!blocked_.empty() && model.mshrs_in_use() < model.config().mshrs) {
     const Waiter w = blocked_.front();
     blocked_.pop_front();
     bool completed = false;
     uint64_t done = 0;
-    if (!serve(w.id, w.p, model.reserve_port(now), &completed, &done)) {
+    if (!serve(w.id, w.p, w.arrival_ps, model.reserve_port(now), &completed, &done)) {
       blocked_.push_front(w);
       break;
     }
@@ -227,6 +270,8 @@ void CycleDram::on_event() {
       free_slots_.push_back(item.request);
       tlm::tlm_phase phase = tlm::BEGIN_RESP;
       sc_core::sc_time zero = sc_core::SC_ZERO_TIME;
+      // A reference model (DRAMsim3) does not say how the row stood: plain "DRAM".
+      PayloadPool::extension(*f.p).served = reference_ ? ServedBy::Dram : served_by_dram(f.outcome);
       f.p->set_response_status(tlm::TLM_OK_RESPONSE);
       target[f.id]->nb_transport_bw(*f.p, phase, zero);
     } else {
@@ -241,7 +286,10 @@ void CycleDram::on_event() {
   } else {
     model.advance(now, issued_);
   }
-  for (const DramCompletion& c : issued_) queue_.push(c.done_ps, Item{Item::Respond, uint32_t(c.tag)});
+  for (const DramCompletion& c : issued_) {
+    in_flight_[c.tag].outcome = c.outcome;
+    queue_.push(c.done_ps, Item{Item::Respond, uint32_t(c.tag)});
+  }
   // Issues freed queue entries: held requests enter in order, each sender told by END_REQ.
   while (!held_.empty() && can_accept(*in_flight_[held_.front()].p)) {
     const uint32_t r = held_.front();

@@ -2,6 +2,8 @@
 #include <rtsim/model/sim/cycle/cycle_system.h>
 #include <rtsim/model/sim/cycle/cycle_trv.h>
 
+#include <rtsim/model/sim/ray_probe.h>
+
 #include <cmath>
 
 namespace rtsim::sim {
@@ -17,16 +19,17 @@ CycleIst::CycleIst(sc_core::sc_module_name name, const HardwareConfig& config, C
 }
 
 void CycleIst::reset_counters() {
-  occupancy.restart(now_ps());
+  accounting.restart(now_ps());
   tests = 0;
+  busy_ps_by_type = {};
 }
 
 void CycleIst::accept(CycleTrv* from, uint32_t slot, RayTraversal* traversal, uint32_t ray,
-                      uint64_t t) {
+                      uint64_t t, bool probed) {
   const uint32_t j = free_jobs_.back();
   free_jobs_.pop_back();
-  jobs_[j] = Job{from, slot, ray, traversal, 0, false};
-  occupancy.enter(t);
+  jobs_[j] = Job{from, slot, ray, traversal, 0, false, probed};
+  accounting.change(t, UnitAccounting::Resident, +1);
   queue_.push(t, Item{Item::Fetch, j});
 }
 
@@ -43,10 +46,18 @@ void CycleIst::send(uint32_t j, const std::vector<MemoryAccess>& reads, size_t b
     append_line_accesses(reads[i], type, config_.l1_triangle.line_bytes, lines_);
   }
   const uint64_t now = now_ps();
+  RayProbe* probe = system_.workload.probe;
+  uint32_t request = 0;  // the probed ray's first request of these, + 1
+  if (job.probed)
+    request = 1 + probe->add(reads.data() + begin, end - begin, lines_.data(), lines_.size(),
+                             config_.l1_node.line_bytes, config_.l1_triangle.line_bytes, now);
+  // The job waits on its L1 from its first read to its last one's data.
+  if (!lines_.empty()) accounting.change(now, UnitAccounting::AtL1, +1);
   for (const LineAccess& line : lines_) {
     tlm::tlm_generic_payload* p = payloads_.get();
     AccessExtension& ext = PayloadPool::extension(*p);
     ext.kind = line.kind, ext.ray_type = type, ext.token = j;
+    if (probe) ext.probe_request = request ? request++ : 0;  // pooled payloads: never stale
     p->set_command(tlm::TLM_READ_COMMAND);
     p->set_address(line.line);
     p->set_data_length(line.bytes);
@@ -54,17 +65,21 @@ void CycleIst::send(uint32_t j, const std::vector<MemoryAccess>& reads, size_t b
     tlm::tlm_phase phase = tlm::BEGIN_REQ;
     sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
     if (memory->nb_transport_fw(*p, phase, delay) == tlm::TLM_COMPLETED) {
-      queue_.push(now + to_ps(delay), Item{Item::MemoryBack, j});
+      read_back(j, ext, now + to_ps(delay));
       payloads_.put(p);
     }
   }
 }
 
+void CycleIst::probed_read_back(const AccessExtension& ext, uint64_t at) {
+  system_.workload.probe->served(ext.probe_request - 1, ext.served, at);
+}
+
 tlm::tlm_sync_enum CycleIst::nb_transport_bw(tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                              sc_core::sc_time& delay) {
   if (phase != tlm::BEGIN_RESP) return tlm::TLM_ACCEPTED;
-  queue_.push(now_ps() + to_ps(delay),
-              Item{Item::MemoryBack, uint32_t(PayloadPool::extension(p).token)});
+  const AccessExtension& ext = PayloadPool::extension(p);
+  read_back(uint32_t(ext.token), ext, now_ps() + to_ps(delay));
   payloads_.put(&p);
   return tlm::TLM_COMPLETED;
 }
@@ -75,9 +90,11 @@ void CycleIst::tests_start(uint32_t j) {
   RayTraversal& trv = *jobs_[j].traversal;
   trv.process();
   const uint32_t n = trv.last_step_tests();
-  const uint64_t start = std::max(now_ps(), pipe_free_ps_);
+  const uint64_t now = now_ps();
+  const uint64_t start = std::max(now, pipe_free_ps_);
   pipe_free_ps_ = start + n * interval_ps_;
-  occupancy.busy_ps += n * interval_ps_;
+  accounting.reserve(now, start, pipe_free_ps_);
+  busy_ps_by_type[size_t(trv.ray().type)] += n * interval_ps_;
   tests += n;
   queue_.push(start + (n - 1) * interval_ps_ + latency_ps_, Item{Item::TestDone, j});
 }
@@ -88,6 +105,7 @@ void CycleIst::handle(const Item& item) {
   RayTraversal& trv = *job.traversal;
   switch (item.kind) {
     case Item::Fetch: {
+      if (job.probed) system_.workload.probe->next_step();
       const std::vector<MemoryAccess>& reads = trv.step_reads();
       const size_t independent = trv.step_independent_reads();
       job.dependent_sent = independent == reads.size();
@@ -96,6 +114,7 @@ void CycleIst::handle(const Item& item) {
     }
     case Item::MemoryBack:
       if (--job.pending > 0) break;
+      accounting.change(now, UnitAccounting::AtL1, -1);
       if (!job.dependent_sent) {  // the prim refs are here: now the triangles they point to
         job.dependent_sent = true;
         const std::vector<MemoryAccess>& reads = trv.step_reads();
@@ -112,7 +131,7 @@ void CycleIst::handle(const Item& item) {
       // Leaf finished: back to TRV, and the entry is free for a waiting leaf.
       job.trv->leaf_done(job.slot, now);
       free_jobs_.push_back(item.job);
-      occupancy.leave(now);
+      accounting.change(now, UnitAccounting::Resident, -1);
       for (CycleTrv* client : clients_) client->ist_has_space(now);
       break;
   }

@@ -23,22 +23,36 @@ uint64_t CycleCrossbar::back_to_core(uint32_t slice, int port, const tlm::tlm_ge
 tlm::tlm_sync_enum CycleCrossbar::nb_transport_fw(int id, tlm::tlm_generic_payload& p,
                                                   tlm::tlm_phase& phase, sc_core::sc_time& delay) {
   const uint32_t slice = shape_.slice_of(p.get_address());
+  AccessExtension& ext = PayloadPool::extension(p);
+  const uint64_t now = now_ps();
   if (phase == tlm::BEGIN_REQ) {
-    PayloadPool::extension(p).crossbar_port = id;
-    const uint64_t now = now_ps();
+    ext.crossbar_port = id;
     const uint64_t there = model_.to_slice(core_of_port_[size_t(id)], slice,
                                            p.is_write() ? p.get_data_length() : 0, now + to_ps(delay));
+    move_read(ext, now, there, UnitAccounting::AtL2);
     delay = from_ps(there - now);
   }
   const tlm::tlm_sync_enum status = to_slice[int(slice)]->nb_transport_fw(p, phase, delay);
-  if (status == tlm::TLM_COMPLETED) delay = from_ps(back_to_core(slice, id, p, delay) - now_ps());
+  if (status == tlm::TLM_COMPLETED) {  // an L2 hit, answered on the forward path
+    const uint64_t back = back_to_core(slice, id, p, delay);
+    move_read(ext, now, now + to_ps(delay), UnitAccounting::AtNoc);
+    end_read(ext, now, back);
+    delay = from_ps(back - now);
+  }
   return status;
 }
 
 tlm::tlm_sync_enum CycleCrossbar::nb_transport_bw(int slice, tlm::tlm_generic_payload& p,
                                                   tlm::tlm_phase& phase, sc_core::sc_time& delay) {
-  const int port = PayloadPool::extension(p).crossbar_port;
-  if (phase == tlm::BEGIN_RESP) delay = from_ps(back_to_core(uint32_t(slice), port, p, delay) - now_ps());
+  AccessExtension& ext = PayloadPool::extension(p);
+  const int port = ext.crossbar_port;
+  if (phase == tlm::BEGIN_RESP) {
+    const uint64_t now = now_ps();
+    const uint64_t back = back_to_core(uint32_t(slice), port, p, delay);
+    move_read(ext, now, now + to_ps(delay), UnitAccounting::AtNoc);
+    end_read(ext, now, back);
+    delay = from_ps(back - now);
+  }
   return target[port]->nb_transport_bw(p, phase, delay);
 }
 

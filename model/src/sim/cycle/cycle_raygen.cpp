@@ -15,7 +15,7 @@ CycleRayGen::CycleRayGen(sc_core::sc_module_name name, const HardwareConfig& con
 
 void CycleRayGen::slot_free(CycleTrv* trv, uint32_t slot, uint64_t t) {
   free_slots_.emplace_back(trv, slot);
-  if (no_slot_since_ != UINT64_MAX) stalled_ps += t - no_slot_since_, no_slot_since_ = UINT64_MAX;
+  if (no_slot_since_ != UINT64_MAX) blocked_ps += t - no_slot_since_, no_slot_since_ = UINT64_MAX;
   wake_.push(t, 0);
 }
 

@@ -15,15 +15,16 @@ CycleShading::CycleShading(sc_core::sc_module_name name, const HardwareConfig& c
 }
 
 void CycleShading::reset_counters() {
-  busy_ps = shaded = spawned = 0;
-  occupancy.restart(now_ps());
+  shaded = spawned = 0;
+  accounting.restart(now_ps());
 }
 
 void CycleShading::shade(uint32_t ray_index, const Ray& ray, const HitRecord& hit, uint64_t t) {
   const uint64_t start = std::max(t, free_ps_);
   free_ps_ = start + interval_ps_;
-  busy_ps += interval_ps_;
-  occupancy.enter(t);
+  accounting.reserve(t, start, free_ps_);
+  accounting.change(t, UnitAccounting::Resident, +1);
+
   queue_.push(start + latency_ps_, Item{ray_index, ray, hit});
 }
 
@@ -34,7 +35,7 @@ void CycleShading::on_event() {
                          item.ray_index, item.hit, out_);
     ++shaded;
     spawned += out_.size();
-    occupancy.leave(now_ps());
+    accounting.change(now_ps(), UnitAccounting::Resident, -1);
     system_.spawned(core_, out_, now_ps());
   });
 }

@@ -31,6 +31,7 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
     ist.push_back(std::make_unique<CycleIst>(module(shape.ist_name(i)).c_str(), cfg, *this));
     l1_triangle.push_back(std::make_unique<CycleCache>(module(shape.l1_triangle_name(i)).c_str(),
                                                        cfg.l1_triangle_of(shape.core_of_ist(i)), cycle_ps, scheduler));
+    l1_triangle.back()->set_level(1, &ist.back()->accounting);
     ist.back()->memory.bind(l1_triangle.back()->target);
     noc->bind_l1(l1_triangle.back()->next, shape.core_of_ist(i));
   }
@@ -39,6 +40,7 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
         std::make_unique<CycleTrv>(module(shape.trv_name(u)).c_str(), cfg, *work.context, u, *this));
     l1_node.push_back(std::make_unique<CycleCache>(module(shape.l1_node_name(u)).c_str(),
                                                    cfg.l1_node_of(shape.core_of_trv(u)), cycle_ps, scheduler));
+    l1_node.back()->set_level(1, &trv.back()->accounting);
     trv.back()->memory.bind(l1_node.back()->target);
     noc->bind_l1(l1_node.back()->next, shape.core_of_trv(u));
     ist_for(u).serve(trv.back().get());

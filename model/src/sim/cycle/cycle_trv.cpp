@@ -1,6 +1,8 @@
 #include <rtsim/model/sim/cycle/cycle_system.h>
 #include <rtsim/model/sim/cycle/cycle_trv.h>
 
+#include <rtsim/model/sim/ray_probe.h>
+
 #include <cmath>
 
 namespace rtsim::sim {
@@ -24,8 +26,10 @@ CycleTrv::CycleTrv(sc_core::sc_module_name name, const HardwareConfig& config,
 }
 
 void CycleTrv::reset_counters() {
-  occupancy.restart(now_ps());
-  passes = 0;
+  accounting.restart(now_ps());
+  passes = leaves_blocked = 0;
+  busy_ps_by_type = {};
+  ray_ps_by_type = {};
 }
 
 void CycleTrv::start_ray(uint32_t s, uint32_t ray_index, const Ray& ray, uint64_t t) {
@@ -33,11 +37,18 @@ void CycleTrv::start_ray(uint32_t s, uint32_t ray_index, const Ray& ray, uint64_
   slot.traversal.reset(ray);
   slot.ray = ray_index;
   slot.phase = Phase::WaitStack;
-  occupancy.enter(t);
+  slot.start_ps = t;
+  RayProbe* probe = system_.workload.probe;
+  slot.probed = probe && probe->is(ray);
+  if (slot.probed) probe->begin(t);
+  accounting.change(t, UnitAccounting::Resident, +1);
   queue_.push(t, Item{Item::Continue, s});
 }
 
-void CycleTrv::leaf_done(uint32_t s, uint64_t t) { queue_.push(t, Item{Item::Continue, s}); }
+void CycleTrv::leaf_done(uint32_t s, uint64_t t) {
+  accounting.change(t, UnitAccounting::Downstream, -1);
+  queue_.push(t, Item{Item::Continue, s});
+}
 
 void CycleTrv::ist_has_space(uint64_t t) {
   if (!waiting_for_ist_.empty()) queue_.push(t, Item{Item::IstSpace, 0});
@@ -57,10 +68,20 @@ uint32_t CycleTrv::send(uint32_t s, const std::vector<MemoryAccess>& accesses) {
   }
   uint32_t reads = 0;
   const uint64_t now = now_ps();
+  RayProbe* probe = system_.workload.probe;
+  uint32_t request = 0;  // the probed ray's first request of these, + 1
+  if (slot.probed)
+    request = 1 + probe->add(accesses.data(), accesses.size(), lines_.data(), lines_.size(),
+                             config_.l1_node.line_bytes, config_.l1_triangle.line_bytes, now);
+  // The slot waits on its L1 from its first read to its last one's data (MemoryBack).
+  bool waits = false;
+  for (const LineAccess& line : lines_) waits = waits || !line.write;
+  if (waits) accounting.change(now, UnitAccounting::AtL1, +1);
   for (const LineAccess& line : lines_) {
     tlm::tlm_generic_payload* p = payloads_.get();
     AccessExtension& ext = PayloadPool::extension(*p);
     ext.kind = line.kind, ext.ray_type = type, ext.token = s | (line.write ? kWriteToken : 0);
+    if (probe) ext.probe_request = request ? request++ : 0;  // pooled payloads: never stale
     p->set_command(line.write ? tlm::TLM_WRITE_COMMAND : tlm::TLM_READ_COMMAND);
     p->set_address(line.line);
     p->set_data_length(line.bytes);
@@ -68,19 +89,23 @@ uint32_t CycleTrv::send(uint32_t s, const std::vector<MemoryAccess>& accesses) {
     tlm::tlm_phase phase = tlm::BEGIN_REQ;
     sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
     if (memory->nb_transport_fw(*p, phase, delay) == tlm::TLM_COMPLETED) {
-      if (!line.write) queue_.push(now + to_ps(delay), Item{Item::MemoryBack, s});
+      if (!line.write) read_back(s, ext, now + to_ps(delay));
+      else if (ext.probe_request) system_.workload.probe->served(ext.probe_request - 1, ext.served, now);
       payloads_.put(p);
     }
   }
   return reads;
 }
 
+void CycleTrv::probed_read_back(const AccessExtension& ext, uint64_t at) {
+  system_.workload.probe->served(ext.probe_request - 1, ext.served, at);
+}
+
 tlm::tlm_sync_enum CycleTrv::nb_transport_bw(tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                              sc_core::sc_time& delay) {
   if (phase != tlm::BEGIN_RESP) return tlm::TLM_ACCEPTED;
-  const uint64_t token = PayloadPool::extension(p).token;
-  if (!(token & kWriteToken))
-    queue_.push(now_ps() + to_ps(delay), Item{Item::MemoryBack, uint32_t(token)});
+  const AccessExtension& ext = PayloadPool::extension(p);
+  if (!(ext.token & kWriteToken)) read_back(uint32_t(ext.token), ext, now_ps() + to_ps(delay));
   payloads_.put(&p);
   return tlm::TLM_COMPLETED;
 }
@@ -91,9 +116,10 @@ void CycleTrv::handle(const Item& item) {
     while (!waiting_for_ist_.empty() && ist_.can_accept()) {
       const uint32_t s = waiting_for_ist_.front();
       waiting_for_ist_.pop_front();
-      if (waiting_for_ist_.empty()) occupancy.stalled_ps += now - stalled_since_;
+      accounting.change(now, UnitAccounting::Blocked, -1);
+      accounting.change(now, UnitAccounting::Downstream, +1);
       slots_[s].phase = Phase::InIst;
-      ist_.accept(this, s, &slots_[s].traversal, slots_[s].ray, now);
+      ist_.accept(this, s, &slots_[s].traversal, slots_[s].ray, now, slots_[s].probed);
     }
     return;
   }
@@ -104,13 +130,15 @@ void CycleTrv::handle(const Item& item) {
       break;
     case Item::MemoryBack:
       if (--slot.pending > 0) break;
+      accounting.change(now, UnitAccounting::AtL1, -1);
       if (slot.phase == Phase::WaitNode) {
         // Box-test pipeline: one pass per interval, a node of more than
         // trv.boxes_per_pass children takes several; the result after the last.
         const uint32_t passes = config_.trv_passes(slot.traversal.step_box_tests());
         const uint64_t start = std::max(now, pipe_free_ps_);
         pipe_free_ps_ = start + passes * interval_ps_;
-        occupancy.busy_ps += passes * interval_ps_;
+        accounting.reserve(now, start, pipe_free_ps_);
+        busy_ps_by_type[size_t(slot.traversal.ray().type)] += passes * interval_ps_;
         queue_.push(start + (passes - 1) * interval_ps_ + latency_ps_, Item{Item::NodeDone, item.slot});
       } else {
         next_action(item.slot);
@@ -139,22 +167,27 @@ void CycleTrv::next_action(uint32_t s) {
   switch (slot.traversal.action()) {
     case TraversalAction::FetchNode:
       slot.phase = Phase::WaitNode;
+      if (slot.probed) system_.workload.probe->next_step();
       send(s, slot.traversal.step_reads());
       break;
     case TraversalAction::TestTriangles: {
       if (ist_.can_accept() && waiting_for_ist_.empty()) {
         slot.phase = Phase::InIst;
-        ist_.accept(this, s, &slot.traversal, slot.ray, now);
+        accounting.change(now, UnitAccounting::Downstream, +1);
+        ist_.accept(this, s, &slot.traversal, slot.ray, now, slot.probed);
       } else {
         slot.phase = Phase::WaitIst;
-        if (waiting_for_ist_.empty()) stalled_since_ = now;  // the unit starts stalling
+        ++leaves_blocked;
+        accounting.change(now, UnitAccounting::Blocked, +1);
         waiting_for_ist_.push_back(s);
       }
       break;
     }
     case TraversalAction::Done:
       slot.phase = Phase::Idle;
-      occupancy.leave(now);
+      accounting.change(now, UnitAccounting::Resident, -1);
+      ray_ps_by_type[size_t(slot.traversal.ray().type)] += now - slot.start_ps;
+      if (slot.probed) system_.workload.probe->end(now, slot.traversal.counters());
       system_.ray_finished(*this, s, slot.ray, slot.traversal, now);
       break;
   }

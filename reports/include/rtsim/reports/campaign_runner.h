@@ -47,7 +47,18 @@ struct RunOptions {
   // builds its own). A job's tree is built once by `rtsim build --out` under a file
   // lock, then every job needing it runs `simulate --bvh`.
   std::filesystem::path tree_cache;
+  // Finished runs shared across campaigns (empty: none), by content: the job key (a
+  // hash of everything the run depends on and the binary's revision, campaign.h) and
+  // the job binary's own content (a binary rebuilt at the same revision is another
+  // simulator). An ok result stored under them is that job's result in any campaign:
+  // a missing job found here is recorded from it instead of run again, and every job
+  // that runs ok is stored here.
+  std::filesystem::path results_cache;
 };
+
+// Where the results cache keeps a job's result: <cache>/<job key>-<binary hash>.json.
+std::filesystem::path cached_result(const std::filesystem::path& cache, const std::string& job_key,
+                                    const std::string& binary_hash);
 
 // The tree a job replays from the cache: <cache>/<hash of scene, builder, camera, seed,
 // revision>.bvh.
@@ -56,6 +67,7 @@ std::filesystem::path cached_tree(const std::filesystem::path& cache, const Camp
 
 struct RunSummary {
   size_t total = 0, already_ok = 0, skipped_failed = 0, ran = 0, ok = 0, failed = 0;
+  size_t reused = 0;     // recorded from the results cache, not run
   size_t collected = 0;  // result files merged before running (a previous run's leftovers)
   double wall_seconds = 0;
   bool interrupted = false;

@@ -39,6 +39,10 @@ struct Table1Options {
   BuildParams build;              // one parameter set for every builder and scene
   // Node record format the trees are built (collapsed) for and traced with.
   std::string node_format = "bvh2-64";
+  // Where the patent's Table 1 is shown: empty, on this table's own page; else the
+  // page (relative to out_dir) that shows it once for several tables (--node-formats,
+  // --all-scenes), which this page points to instead of repeating it.
+  std::string patent_table_page;
 };
 
 // Per ray type (primary, AO) and combined.
@@ -108,6 +112,18 @@ void write_table1(const Table1& table);
 // (table1_formats.png); returns the text for the terminal.
 std::string write_table1_formats(const std::vector<Table1>& tables,
                                  const std::filesystem::path& out_dir);
+
+// The patent's Table 1 (TRV+IST ops/ray, reduction against its BVH), as Markdown or text.
+std::string patent_table1_text(bool markdown);
+
+// Which hardware the cycle-level runs used, in one sentence ("Cycle-level runs:
+// hardware preset 'mobile' (--config), 2 frames ..."), or that there were none.
+std::string table1_cycle_runs_text(const Table1Options& options);
+
+// The figures a table's page shows (table1.json "figures"; the plot script draws
+// exactly these): the reductions only where some builder is compared with a
+// baseline (median or SAH) other than itself, the heatmaps always.
+std::vector<std::string> table1_figures(const Table1& table);
 
 // What the terminal shows: within 120 columns, or every column with `wide`.
 std::string table1_text(const Table1& table, bool wide = false);

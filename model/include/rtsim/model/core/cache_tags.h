@@ -2,6 +2,8 @@
 // Cache tag logic (no data, no timing): set-associative, LRU, write-back (a
 // dirty bit per line). The one tag implementation; the memory hierarchy of every
 // fidelity level (model/sim/cache_model.h) keeps its counts around it.
+#include <rtsim/model/core/ray.h>
+
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -26,6 +28,7 @@ struct Eviction {
   bool valid = false;  // a valid line was replaced
   bool dirty = false;  // it was written: the next level must receive it (write back)
   uint64_t line = 0;   // its byte address
+  RayType writer = RayType::Primary;  // dirty: the ray type of its last write (who the write-back is charged to)
 };
 
 class CacheTags {
@@ -36,17 +39,19 @@ class CacheTags {
   uint32_t sets() const { return sets_; }
   uint64_t line_address(uint64_t address) const { return address & ~uint64_t(geometry_.line_bytes - 1); }
 
-  // Hit: the line becomes most recently used (and dirty when make_dirty), and
-  // *ready_ps (if given) says when its data is there (set_ready; 0 = always was).
-  // Miss: nothing changes.
-  bool lookup(uint64_t address, bool make_dirty = false, uint64_t* ready_ps = nullptr);
+  // Hit: the line becomes most recently used (and dirty when make_dirty, written by
+  // a ray of type `writer`), and *ready_ps (if given) says when its data is there
+  // (set_ready; 0 = always was). Miss: nothing changes.
+  bool lookup(uint64_t address, bool make_dirty = false, uint64_t* ready_ps = nullptr,
+              RayType writer = RayType::Primary);
   // A timed model's note of when a present line's data arrives (its fill).
   void set_ready(uint64_t address, uint64_t ready_ps);
   // Present? No LRU update.
   bool contains(uint64_t address) const;
-  // Installs the line (most recently used, dirty if asked) and says which line it
-  // replaced. Inserting a present line only refreshes it (dirty stays or is set).
-  Eviction insert(uint64_t address, bool dirty = false);
+  // Installs the line (most recently used, dirty if asked: written by `writer`) and
+  // says which line it replaced. Inserting a present line only refreshes it (dirty
+  // stays or is set).
+  Eviction insert(uint64_t address, bool dirty = false, RayType writer = RayType::Primary);
   // lookup, and insert on a miss; returns hit.
   bool access(uint64_t address);
   void clear();
@@ -71,6 +76,7 @@ class CacheTags {
   std::vector<uint64_t> tags_;      // sets_ x ways; kInvalid = empty way
   std::vector<uint64_t> last_use_;  // LRU clock; 0 = empty way
   std::vector<uint64_t> ready_ps_;  // when the data arrives (timed models)
+  // 0: clean; else 1 + the RayType of the last write (one byte a line, as the bit was).
   std::vector<uint8_t> dirty_;
 };
 
@@ -85,11 +91,11 @@ inline size_t CacheTags::find(uint64_t line) const {
   return way;
 }
 
-inline bool CacheTags::lookup(uint64_t address, bool make_dirty, uint64_t* ready_ps) {
+inline bool CacheTags::lookup(uint64_t address, bool make_dirty, uint64_t* ready_ps, RayType writer) {
   const size_t way = find(address >> line_shift_);
   if (way == npos) return false;
   last_use_[way] = ++clock_;
-  dirty_[way] = dirty_[way] || make_dirty;
+  dirty_[way] = make_dirty ? uint8_t(1 + uint8_t(writer)) : dirty_[way];
   if (ready_ps) *ready_ps = ready_ps_[way];
   return true;
 }

@@ -73,6 +73,12 @@ class CacheModel {
   uint32_t mshrs_in_use() const { return uint32_t(mshr_.size()); }
   // lt: a miss waited for a free MSHR (the cycle level counts its refusals itself).
   void note_mshr_wait() { ++counters_.mshr_full_stalls; }
+  // Timed levels: a read of this ray type took this long from reaching the cache to
+  // its data leaving it (hit: port wait + hit latency; miss or merge: until the fill).
+  void note_read_latency(RayType type, uint64_t ps) {
+    ++counters_.timed_reads[size_t(type)];
+    counters_.read_latency_ps[size_t(type)] += ps;
+  }
 
   // Ports: config.ports accesses per cycle. Returns when an access arriving at
   // t_ps is served, and takes its slot.
@@ -84,6 +90,9 @@ class CacheModel {
   struct Counters {
     uint64_t accesses = 0, hits = 0, misses = 0, mshr_merges = 0, mshr_full_stalls = 0;
     uint64_t writes = 0, writebacks = 0, port_wait_ps = 0;
+    // Timed levels: reads answered and their time from reaching this cache to their
+    // data leaving it (the level's average memory access time), by ray type.
+    std::array<uint64_t, kRayTypeCount> timed_reads{}, read_latency_ps{};
     void add(const Counters& o);
   };
   const Counters& counters() const { return counters_; }
@@ -101,7 +110,7 @@ class CacheModel {
  private:
   void count(const LineAccess& a, Outcome outcome);
   Result request_missing(const LineAccess& a);  // request() of a line not present
-  Eviction install(uint64_t line, bool dirty);
+  Eviction install(uint64_t line, bool dirty, RayType writer);
 
   CacheConfig config_;
   CacheTags tags_;
@@ -113,6 +122,7 @@ class CacheModel {
   struct Mshr {
     uint32_t waiting = 0;
     bool dirty_on_fill = false;  // a write met the line while its fill was on the way
+    RayType writer = RayType::Primary;  // ... of this ray type
   };
   std::unordered_map<uint64_t, Mshr> mshr_;  // cycle: missing lines
   std::function<void(const LineAccess&, Outcome)> observer_;
@@ -135,7 +145,7 @@ inline void CacheModel::count(const LineAccess& a, Outcome outcome) {
 inline CacheModel::Result CacheModel::access(const LineAccess& a, uint64_t now_ps) {
   Result r;
   uint64_t ready = 0;
-  if (tags_.lookup(a.line, a.write, &ready)) {
+  if (tags_.lookup(a.line, a.write, &ready, a.ray_type)) {
     // lt: a read of a line whose fill has not landed yet merges and waits for it.
     r.outcome = ready > now_ps && !a.write ? Outcome::Merged : Outcome::Hit;
     r.ready_ps = ready;
@@ -145,13 +155,13 @@ inline CacheModel::Result CacheModel::access(const LineAccess& a, uint64_t now_p
   r.outcome = Outcome::Miss;
   r.fetch = !a.write;
   if (r.fetch) filled_.add(a.ray_type, a.kind, config_.line_bytes);
-  r.writeback = install(a.line, a.write);
+  r.writeback = install(a.line, a.write, a.ray_type);
   count(a, r.outcome);
   return r;
 }
 
 inline CacheModel::Result CacheModel::request(const LineAccess& a) {
-  if (!tags_.lookup(a.line, a.write)) return request_missing(a);
+  if (!tags_.lookup(a.line, a.write, nullptr, a.ray_type)) return request_missing(a);
   count(a, Outcome::Hit);
   return Result{};
 }

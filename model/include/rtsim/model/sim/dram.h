@@ -134,7 +134,8 @@ class DramModel {
   // ---- loosely timed: one request at a time, answered at once, FCFS per channel.
   // Calls should come in (nearly) non-decreasing now_ps; returns the time its last
   // data beat is on the bus.
-  uint64_t lt_access(uint64_t address, bool write, uint64_t now_ps);
+  // `outcome`, if given, says whether the request found its row open, closed or another open.
+  uint64_t lt_access(uint64_t address, bool write, uint64_t now_ps, RowOutcome* outcome = nullptr);
   // ---- functional level: counts the access, no time (write defaults to a read, as
   // the functional memory only reads today).
   void count_access(uint64_t address, bool write = false);

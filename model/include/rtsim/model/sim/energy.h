@@ -18,6 +18,10 @@
 
 namespace rtsim::sim {
 
+// The components energy is reported by (energy.<component>.pj), in report order.
+constexpr std::array<const char*, 7> kEnergyComponents = {"trv", "ist", "l1_node", "l1_triangle",
+                                                          "l2",  "noc", "dram"};
+
 struct EnergyCounts {
   // Each cache level's accesses (requests plus the dirty lines it wrote down) times
   // cache_access_pj of the instance's size, summed over its instances, and the

@@ -25,6 +25,8 @@
 
 namespace rtsim::sim {
 
+class Timeline;
+
 // Host memory the model of machine `c` needs before its first ray, from the
 // configuration alone: cache tags (kCacheLineHostBytes a line: tag, LRU clock,
 // arrival time, dirty flag) of every L1 (one per TRV / IST unit of every core) and
@@ -84,6 +86,11 @@ class Crossbar {
   uint64_t to_core(uint32_t slice, uint32_t core, uint32_t data_bytes, uint64_t t_ps);
 
   void reset_counters();
+  // Draws every message, from its send to its arrival, on a track per receiving port:
+  // requests on to_slice[slice], answers on to_core[core] (timed levels).
+  void draw_on(Timeline* timeline, std::vector<uint32_t> to_slice, std::vector<uint32_t> to_core) {
+    timeline_ = timeline, slice_tracks_ = std::move(to_slice), core_tracks_ = std::move(to_core);
+  }
   // noc.*: messages, bytes and flits each way, port utilisation, queueing.
   void report(StatsRegistry& stats, const std::string& prefix, uint64_t simulated_ps) const;
   uint64_t bytes() const { return bytes_[0] + bytes_[1]; }
@@ -101,6 +108,8 @@ class Crossbar {
   std::vector<uint64_t> core_in_flits_, slice_in_flits_;  // busy flit-cycles per receiving port
   uint64_t messages_[2] = {}, bytes_[2] = {}, flits_[2] = {};
   uint64_t wait_ps_ = 0, wait_max_ps_ = 0;
+  Timeline* timeline_ = nullptr;
+  std::vector<uint32_t> slice_tracks_, core_tracks_;
 };
 
 }  // namespace rtsim::sim

@@ -11,10 +11,12 @@
 //    request in arrival order from its bank, bus and refresh state (DramModel).
 //    Any other TLM-2.0 LT target can stand in for LtDram (or for the whole hierarchy).
 // Both walk the same CacheModel objects, so their counts follow one definition.
+#include <rtsim/model/sim/accounting.h>
 #include <rtsim/model/sim/cache_model.h>
 #include <rtsim/model/sim/dram.h>
 #include <rtsim/model/sim/machine.h>
 #include <rtsim/model/sim/ray_engine.h>
+#include <rtsim/model/sim/ray_probe.h>
 
 #include <systemc>
 #include <tlm>
@@ -37,11 +39,40 @@ struct AccessExtension : tlm::tlm_extension<AccessExtension> {
   uint64_t token = 0;  // the requester's id for the response (cycle level)
   uint64_t first_try_ps = 0;  // when the requester first tried to send it (DRAM latency)
   int crossbar_port = 0;      // cycle level: the crossbar port the request came in on
+  // A read an L1 sends down on a miss: the unit that waits for it (its accounting) and
+  // where the read is now (UnitAccounting::AtNoc, AtL2 or AtDram); null otherwise.
+  UnitAccounting* owner = nullptr;
+  UnitAccounting::Counter location = UnitAccounting::AtNoc;
+  ServedBy served = ServedBy::None;  // the level that answered (set on the way back)
+  uint32_t probe_request = 0;        // the probed ray's request number + 1; 0: another ray's
   tlm::tlm_extension_base* clone() const override { return new AccessExtension(*this); }
   void copy_from(const tlm::tlm_extension_base& other) override {
     *this = static_cast<const AccessExtension&>(other);
   }
 };
+
+// The read `e` carries moves to `to` at `at` in its owner's accounting (no owner: a
+// write, or nobody's miss); end_read: it is back at its L1.
+inline void move_read(AccessExtension& e, uint64_t now, uint64_t at, UnitAccounting::Counter to) {
+  if (!e.owner) return;
+  e.owner->move(now, at, e.location, to);
+  e.location = to;
+}
+inline void end_read(AccessExtension& e, uint64_t now, uint64_t at) {
+  if (!e.owner) return;
+  e.owner->change(now, at, e.location, -1);
+  e.owner = nullptr;
+}
+
+// The DRAM's answer as a level that served a read.
+inline ServedBy served_by_dram(RowOutcome outcome) {
+  switch (outcome) {
+    case RowOutcome::Hit: return ServedBy::DramRowHit;
+    case RowOutcome::Closed: return ServedBy::DramRowMiss;
+    case RowOutcome::Conflict: return ServedBy::DramRowConflict;
+  }
+  return ServedBy::Dram;
+}
 
 // Reusable read payloads, each owning one AccessExtension. Every payload the
 // cycle-level units exchange comes from a pool, so they reach its extension
@@ -78,7 +109,13 @@ class FunctionalMemory final : public MemoryPort {
  public:
   explicit FunctionalMemory(const HardwareConfig& config);
   // Inline (below): the functional level's engine calls it for every line.
-  uint64_t access(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps) override;
+  uint64_t access(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps) override {
+    return serve<false>(who, unit, access, issue_ps, nullptr);
+  }
+  uint64_t access_probed(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps,
+                         ServedBy* served) override {
+    return serve<true>(who, unit, access, issue_ps, served);
+  }
   uint32_t line_bytes(Requester who) const override;
   void reset_counters();
 
@@ -88,36 +125,48 @@ class FunctionalMemory final : public MemoryPort {
   DramModel dram;
 
  private:
-  void to_l2(uint32_t core, const LineAccess& access);
+  template <bool kProbed>
+  uint64_t serve(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps, ServedBy* served);
+  bool to_l2(uint32_t core, const LineAccess& access);  // true: the L2 hit
 };
 
-inline uint64_t FunctionalMemory::access(Requester who, uint32_t unit, const LineAccess& a,
-                                         uint64_t issue_ps) {
+template <bool kProbed>
+inline uint64_t FunctionalMemory::serve(Requester who, uint32_t unit, const LineAccess& a,
+                                        uint64_t issue_ps, ServedBy* served) {
   const bool trv = who == Requester::Trv;
   CacheModel& l1 = *(trv ? l1_node : l1_triangle)[unit];
   const CacheModel::Result r = l1.access(a);
+  if constexpr (kProbed) *served = a.write ? ServedBy::L1Write : ServedBy::L1Hit;
   if (!r.writeback.dirty && !r.fetch) return issue_ps;  // a hit: nothing goes to the L2
   const uint32_t core = trv ? shape.core_of_trv(unit) : shape.core_of_ist(unit);
   const uint32_t l1_line = l1.config().line_bytes;
   const CacheModel& slices = *l2.front();
   if (r.writeback.dirty)
-    to_l2(core, {slices.line_of(r.writeback.line), l1_line, AccessKind::Stack, a.ray_type, true});
-  if (r.fetch) to_l2(core, {slices.line_of(a.line), l1_line, a.kind, a.ray_type, false});
+    to_l2(core, {slices.line_of(r.writeback.line), l1_line, AccessKind::Stack, r.writeback.writer, true});
+  if (r.fetch) {
+    const bool l2_hit = to_l2(core, {slices.line_of(a.line), l1_line, a.kind, a.ray_type, false});
+    if constexpr (kProbed) *served = l2_hit ? ServedBy::L2Hit : ServedBy::Dram;
+  }
   return issue_ps;
 }
 
 // The functional hierarchy fed by the core's accesses as one TRV and one IST
 // unit would send them (one request per line and step): what `rtsim trace`
 // measures, with one ray in flight.
+// With a probe: every request is also the probed ray's (trace --trace-ray feeds it
+// that ray alone).
 class FunctionalMemorySink : public AccessSink {
  public:
-  explicit FunctionalMemorySink(FunctionalMemory& memory) : memory_(&memory) {}
+  explicit FunctionalMemorySink(FunctionalMemory& memory, RayProbe* probe = nullptr)
+      : memory_(&memory), probe_(probe) {}
   void on_access(const MemoryAccess& access, RayType ray_type) override;
   void on_step_end() override;
 
  private:
   FunctionalMemory* memory_;
+  RayProbe* probe_;
   std::vector<LineAccess> lines_;  // this step's, in order
+  std::vector<MemoryAccess> accesses_;  // this step's (probed)
 };
 
 class LtCache : public sc_core::sc_module {
@@ -126,8 +175,15 @@ class LtCache : public sc_core::sc_module {
   tlm_utils::simple_initiator_socket<LtCache> next;
   LtCache(sc_core::sc_module_name name, const CacheConfig& config, uint64_t cycle_ps);
   CacheModel model;
+  // Level 1 (a unit's L1: its misses are `unit`'s reads, for its accounting) or 2.
+  void set_level(int level, UnitAccounting* unit = nullptr) { level_ = level, unit_ = unit; }
+  void draw_on(Timeline* timeline, uint32_t track) { timeline_ = timeline, track_ = track; }
 
  private:
+  int level_ = 2;
+  UnitAccounting* unit_ = nullptr;
+  Timeline* timeline_ = nullptr;
+  uint32_t track_ = 0;
   void b_transport(int id, tlm::tlm_generic_payload& payload, sc_core::sc_time& delay);
   tlm::tlm_generic_payload writeback_;  // owns its AccessExtension
   AccessExtension* writeback_extension_;
@@ -171,6 +227,8 @@ class LtSystem : public sc_core::sc_module, public MemoryPort {
   LtSystem(sc_core::sc_module_name name, const HardwareConfig& config, const Workload& workload,
            std::function<void(uint64_t)> progress);
   uint64_t access(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps) override;
+  uint64_t access_probed(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps,
+                         ServedBy* served) override;
   uint32_t line_bytes(Requester who) const override;
   void reset_counters();
 

@@ -26,6 +26,7 @@
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/core/ray_generation.h>
 #include <rtsim/model/core/traversal.h>
+#include <rtsim/model/sim/accounting.h>
 #include <rtsim/model/sim/cache_model.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/machine.h>
@@ -40,6 +41,10 @@
 #include <vector>
 
 namespace rtsim::sim {
+
+class RayProbe;
+class Timeline;
+enum class ServedBy : uint8_t;
 
 // Which unit's L1 an access goes through: nodes and stack entries the TRV
 // unit's node cache, prim refs and triangles the IST unit's triangle cache.
@@ -56,6 +61,9 @@ class MemoryPort {
   virtual ~MemoryPort() = default;
   virtual uint64_t access(Requester who, uint32_t unit, const LineAccess& access,
                           uint64_t issue_ps) = 0;
+  // The same for the probed ray (--trace-ray), saying which level served it.
+  virtual uint64_t access_probed(Requester who, uint32_t unit, const LineAccess& access,
+                                 uint64_t issue_ps, ServedBy* served) = 0;
   virtual uint32_t line_bytes(Requester who) const = 0;
 };
 
@@ -100,6 +108,8 @@ struct Workload {
   EffectSettings settings;
   uint32_t frames = 1;           // the same rays this many times; stats of the last
   AccessObserver observer;       // optional
+  RayProbe* probe = nullptr;     // optional: the ray whose every request is traced
+  Timeline* timeline = nullptr;  // optional (lt, cycle): the run drawn as spans
 };
 
 // What each frame of a multi-frame run cost: the first shows the cold caches, the
@@ -107,22 +117,6 @@ struct Workload {
 struct FrameFigures {
   uint64_t rays = 0, dram_bytes_read = 0, dram_bytes_written = 0;
   uint64_t simulated_ps = 0;
-};
-
-// Per-unit timing record (lt) used for busy / idle figures.
-struct UnitTime {
-  uint64_t busy_ps = 0;                               // pipeline occupied
-  std::vector<std::pair<uint64_t, uint64_t>> spans;   // [start, end) work was resident
-  uint64_t occupied_ps() const;                       // union of spans
-  // Records [a, b); neighbouring overlapping spans merge at once to stay small.
-  void add_span(uint64_t a, uint64_t b) {
-    if (!spans.empty() && a <= spans.back().second && b >= spans.back().first) {
-      spans.back().first = std::min(spans.back().first, a);
-      spans.back().second = std::max(spans.back().second, b);
-    } else {
-      spans.emplace_back(a, b);
-    }
-  }
 };
 
 class RayEngine {
@@ -141,13 +135,19 @@ class RayEngine {
   const std::vector<Ray>& rays() const { return dispatcher_.rays(); }
   const std::array<CounterTotals, kRayTypeCount>& per_type() const { return per_type_; }
   CounterTotals total() const;
-  const std::vector<UnitTime>& trv_time() const { return trv_time_; }
-  const std::vector<UnitTime>& ist_time() const { return ist_time_; }
-  const std::vector<UnitTime>& shading_time() const { return shading_time_; }  // per core
+  // lt: each unit's cycle accounting (finished at end_ps() by run()).
+  std::vector<UnitAccounting>& trv_accounting() { return trv_account_; }
+  std::vector<UnitAccounting>& ist_accounting() { return ist_account_; }
+  std::vector<UnitAccounting>& shading_accounting() { return shading_account_; }  // per core
   const std::vector<uint64_t>& trv_passes() const { return trv_passes_; }  // per TRV unit
   const std::vector<uint64_t>& ist_tests() const { return ist_tests_; }  // per IST unit
   const std::vector<uint64_t>& shaded() const { return shaded_; }  // per core
   const std::vector<uint64_t>& spawned() const { return spawned_count_; }  // per core
+  // By ray type: box-test passes and triangle tests, and (lt) the rays' time from
+  // their start in a TRV slot to their finish.
+  const std::array<uint64_t, kRayTypeCount>& trv_passes_by_type() const { return trv_passes_by_type_; }
+  const std::array<uint64_t, kRayTypeCount>& ist_tests_by_type() const { return ist_tests_by_type_; }
+  const std::array<uint64_t, kRayTypeCount>& ray_ps_by_type() const { return ray_ps_by_type_; }
   const MachineShape& shape() const { return shape_; }
   bool spawned_rays_are_shaded() const { return workload_->spawn_secondary; }  // shading exists
 
@@ -157,6 +157,11 @@ class RayEngine {
     uint32_t ray = 0;
     uint32_t unit = 0, ist = 0, core = 0;  // its TRV unit, that unit's IST unit and core
     bool active = false;
+    bool probed = false;          // the ray --trace-ray follows
+    bool watched = false;         // probed, or an observer sees every access (the slow path)
+    // lt: the step in flight, and what its TRV unit waits on until it completes
+    // (a node: its reads, then its pipeline; triangles: the IST unit).
+    enum class Step : uint8_t { None, Node, Triangles } step = Step::None;
     uint64_t start_ps = 0;
     Slot(const TraversalContext& c, uint32_t id, uint32_t u, const MachineShape& m)
         : traversal(c, id), unit(u), ist(m.ist_of_trv(u)), core(m.core_of_trv(u)) {}
@@ -184,9 +189,13 @@ class RayEngine {
   template <class Port>
   uint64_t issue(Port& port, Slot& slot, const std::vector<MemoryAccess>& list, size_t begin,
                  size_t end, uint64_t t);
+  template <class Port>
+  uint64_t issue_probed(Port& port, Slot& slot, const std::vector<MemoryAccess>& list, size_t begin,
+                        size_t end, uint64_t t);
   bool start_next_ray(Slot& slot, uint64_t now_ps, uint64_t* start_ps);
   void issue_step(MemoryPort& port, uint32_t slot, uint64_t t);  // lt: the step's first reads
-  void finish(Slot& slot, uint64_t t);
+  // The ray is done at t (>= now, the engine's time).
+  void finish(Slot& slot, uint64_t now, uint64_t t);
   void schedule(uint64_t t, uint32_t slot, EventKind kind);
 
   HardwareConfig config_;
@@ -201,9 +210,9 @@ class RayEngine {
   std::vector<uint64_t> shading_free_, raygen_free_;  // per core
   uint64_t trv_interval_ps_, ist_interval_ps_, shading_interval_ps_, raygen_interval_ps_;
   uint64_t box_latency_ps_, test_latency_ps_, shading_latency_ps_;
-  std::vector<UnitTime> trv_time_, ist_time_;
+  std::vector<UnitAccounting> trv_account_, ist_account_, shading_account_;
   std::vector<uint64_t> trv_passes_, ist_tests_;
-  std::vector<UnitTime> shading_time_;
+  std::array<uint64_t, kRayTypeCount> trv_passes_by_type_{}, ist_tests_by_type_{}, ray_ps_by_type_{};
   std::vector<uint64_t> shaded_, spawned_count_;
   std::array<CounterTotals, kRayTypeCount> per_type_{};
   uint64_t frame_start_ps_ = 0, end_ps_ = 0;

@@ -14,10 +14,13 @@
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/ray_engine.h>
+#include <rtsim/model/sim/ray_probe.h>
 #include <rtsim/model/sim/stats.h>
+#include <rtsim/model/sim/timeline.h>
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,6 +40,9 @@ struct SimulationRequest {
   uint32_t frames = 1;                // the same rays this many times, caches warm; stats of the last
   std::function<void(uint64_t rays_done)> progress;
   AccessObserver observer;            // optional: every access the core names, per ray
+  // Optional: the ray whose every request is traced (--trace-ray; ray_probe.h).
+  std::optional<RayTarget> trace_ray;
+  Timeline* timeline = nullptr;       // optional, lt and cycle: the run drawn (timeline.h); closed by the caller
   // Optional (memory_trace.h): every request reaching the DRAM, and every access
   // entering the cache the writer names (all its instances), over every frame.
   DramTraceWriter* dram_trace = nullptr;
@@ -59,6 +65,8 @@ struct SimulationResult {
   std::array<CounterTotals, kRayTypeCount> per_type{};
   EffectPlan plan;
   std::vector<FrameFigures> frame_history;  // one per frame (stats are the last's)
+  uint64_t frame_start_ps = 0;              // when the last frame began (probe and timeline times)
+  nlohmann::json ray_trace;                 // trace_ray's requests and totals (ray_trace_json); else null
 };
 
 // Throws InputError for an invalid configuration or request; std::runtime_error

@@ -33,14 +33,22 @@ class CycleCache : public sc_core::sc_module {
   uint64_t downstream_stall_ps = 0;  // the outbound queue's head waited for the next level
   uint64_t downstream_refusals = 0;  // requests the next level did not take at once
   void reset_counters();
+  // Level 1 (a unit's L1: its misses are `unit`'s reads, for its accounting) or 2.
+  void set_level(int level, UnitAccounting* unit = nullptr) {
+    level_ = level, unit_ = unit;
+    served_[0] = served_hit(level);
+    served_[1] = level == 1 ? ServedBy::L1Write : ServedBy::L2Hit;
+  }
+  // Draws every miss, from its tag check to its fill, on the timeline.
+  void draw_on(Timeline* timeline, uint32_t track) { timeline_ = timeline, track_ = track; }
 
  private:
   tlm::tlm_sync_enum nb_transport_fw(int id, tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                      sc_core::sc_time& delay);
   tlm::tlm_sync_enum nb_transport_bw(tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                      sc_core::sc_time& delay);
-  // Serves a request at t_ps; false when it must wait for an MSHR.
-  bool serve(int id, tlm::tlm_generic_payload* p, uint64_t t_ps, bool* completed,
+  // Serves a request that arrived at arrival_ps at t_ps; false when it must wait for an MSHR.
+  bool serve(int id, tlm::tlm_generic_payload* p, uint64_t arrival_ps, uint64_t t_ps, bool* completed,
              uint64_t* done_ps);
   void send_down(uint64_t line, bool write, AccessKind kind, RayType type, uint64_t at_ps);
   void try_send();
@@ -50,12 +58,20 @@ class CycleCache : public sc_core::sc_module {
   struct Waiter {
     int id;
     tlm::tlm_generic_payload* p;
+    uint64_t arrival_ps;  // when it reached this cache (its latency counts from there)
+    bool merged;          // it found the line's miss under way
+  };
+  // A line on its way from the next level, and the requests waiting for it.
+  struct Miss {
+    std::vector<Waiter> waiters;
+    uint64_t since_ps = 0;             // its tag check (the timeline's span)
+    ServedBy below = ServedBy::None;   // the level below that answered it
   };
   struct Item {
     enum Kind : uint8_t { Fill, Send } kind;
     uint64_t line;
   };
-  std::unordered_map<uint64_t, std::vector<Waiter>> waiting_;  // missing line -> requests
+  std::unordered_map<uint64_t, Miss> waiting_;  // missing line -> its miss
   std::deque<Waiter> blocked_;                                  // waiting for an MSHR
   std::deque<tlm::tlm_generic_payload*> outbound_;              // to the next level, in order
   bool awaiting_end_req_ = false;
@@ -63,6 +79,11 @@ class CycleCache : public sc_core::sc_module {
   TimedQueue<Item> queue_;
   PayloadPool payloads_;
   sc_core::sc_time hit_delay_;  // the hit latency
+  int level_ = 2;
+  UnitAccounting* unit_ = nullptr;
+  ServedBy served_[2] = {ServedBy::L2Hit, ServedBy::L2Hit};  // a read's hit, a write's (by level)
+  Timeline* timeline_ = nullptr;
+  uint32_t track_ = 0;
 };
 
 // Cycle level DRAM: the DramModel (FR-FCFS, refresh, writes) behind a TLM-2.0
@@ -92,6 +113,7 @@ class CycleDram : public sc_core::sc_module {
   struct InFlight {
     int id = 0;
     tlm::tlm_generic_payload* p = nullptr;
+    RowOutcome outcome = RowOutcome::Hit;  // known once its column command issues
   };
   uint32_t slot_for(int id, tlm::tlm_generic_payload* p);
   TimedQueue<Item> queue_;

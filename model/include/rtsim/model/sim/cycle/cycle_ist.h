@@ -25,11 +25,13 @@ class CycleIst : public sc_core::sc_module {
 
   void serve(CycleTrv* trv) { clients_.push_back(trv); }
   bool can_accept() const { return !free_jobs_.empty(); }
-  void accept(CycleTrv* from, uint32_t slot, RayTraversal* traversal, uint32_t ray, uint64_t t);
+  void accept(CycleTrv* from, uint32_t slot, RayTraversal* traversal, uint32_t ray, uint64_t t,
+              bool probed);
   void reset_counters();
 
-  Occupancy occupancy;
+  UnitAccounting accounting;
   uint64_t tests = 0;
+  std::array<uint64_t, kRayTypeCount> busy_ps_by_type{};  // test pipeline time of each type's tests
 
  private:
   struct Job {
@@ -38,6 +40,7 @@ class CycleIst : public sc_core::sc_module {
     RayTraversal* traversal = nullptr;
     uint32_t pending = 0;
     bool dependent_sent = false;  // the reads behind the prim-ref list went out
+    bool probed = false;          // the ray --trace-ray follows
   };
   struct Item {
     enum Kind : uint8_t { Fetch, MemoryBack, TestDone } kind;
@@ -46,6 +49,11 @@ class CycleIst : public sc_core::sc_module {
   void on_event();
   void handle(const Item& item);
   void send(uint32_t job, const std::vector<MemoryAccess>& reads, size_t begin, size_t end);
+  void read_back(uint32_t job, const AccessExtension& ext, uint64_t at) {
+    if (ext.probe_request) probed_read_back(ext, at);
+    queue_.push(at, Item{Item::MemoryBack, job});
+  }
+  void probed_read_back(const AccessExtension& ext, uint64_t at);
   void tests_start(uint32_t job);
   tlm::tlm_sync_enum nb_transport_bw(tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                      sc_core::sc_time& delay);

@@ -21,8 +21,8 @@ class CycleRayGen : public sc_core::sc_module {
   void add_rays(const std::vector<Ray>& rays, uint64_t ready_ps);  // from the core's shading
   uint64_t issued() const { return issued_; }
   void restart(uint64_t t);  // the next frame (after the dispatcher's restart)
-  void reset_counters() { stalled_ps = 0; }
-  uint64_t stalled_ps = 0;  // rays ready but no free TRV slot
+  void reset_counters() { blocked_ps = 0; }
+  uint64_t blocked_ps = 0;  // rays ready but no free TRV slot (blocked downstream)
 
  private:
   void on_event();

@@ -4,6 +4,7 @@
 // for through the core's spawn_secondary_rays. Elaborated only when some effect
 // needs secondary rays.
 #include <rtsim/model/core/ray_generation.h>
+#include <rtsim/model/sim/accounting.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/cycle/unit_scheduler.h>
 
@@ -17,10 +18,10 @@ class CycleShading : public sc_core::sc_module {
   CycleShading(sc_core::sc_module_name name, const HardwareConfig& config, const Workload& workload,
                CycleSystem& system, uint32_t core);
   void shade(uint32_t ray_index, const Ray& ray, const HitRecord& hit, uint64_t t);
-  bool idle() const { return occupancy.resident == 0; }
+  bool idle() const { return accounting.count(UnitAccounting::Resident) == 0; }
   void reset_counters();
-  uint64_t busy_ps = 0, shaded = 0, spawned = 0;
-  Occupancy occupancy;
+  uint64_t shaded = 0, spawned = 0;
+  UnitAccounting accounting;
 
  private:
   struct Item {

@@ -30,11 +30,14 @@ class CycleTrv : public sc_core::sc_module {
   uint32_t slots() const { return uint32_t(slots_.size()); }
   void start_ray(uint32_t slot, uint32_t ray_index, const Ray& ray, uint64_t t);
   void leaf_done(uint32_t slot, uint64_t t);  // from IST
-  void ist_has_space(uint64_t t);             // from IST: retry stalled leaves
+  void ist_has_space(uint64_t t);             // from IST: retry blocked leaves
   void reset_counters();
 
-  Occupancy occupancy;
+  UnitAccounting accounting;
   uint64_t passes = 0;  // box-test pipeline passes (trv.boxes_per_pass)
+  uint64_t leaves_blocked = 0;  // leaves that found the IST queue full and waited
+  std::array<uint64_t, kRayTypeCount> busy_ps_by_type{};  // pipeline time of each type's nodes
+  std::array<uint64_t, kRayTypeCount> ray_ps_by_type{};   // rays' time from start to finish
 
  private:
   enum class Phase : uint8_t { Idle, WaitNode, WaitStack, InIst, WaitIst };
@@ -43,6 +46,8 @@ class CycleTrv : public sc_core::sc_module {
     uint32_t ray = 0;
     uint32_t pending = 0;
     Phase phase = Phase::Idle;
+    bool probed = false;  // the ray --trace-ray follows
+    uint64_t start_ps = 0;
     Slot(const TraversalContext& c, uint32_t id) : traversal(c, id) {}
   };
   struct Item {
@@ -55,6 +60,12 @@ class CycleTrv : public sc_core::sc_module {
   void next_action(uint32_t slot);
   // Sends the accesses through the L1; returns how many reads the slot waits for.
   uint32_t send(uint32_t slot, const std::vector<MemoryAccess>& accesses);
+  // A read's data is back at `at` (inline: every read of the unit comes here).
+  void read_back(uint32_t slot, const AccessExtension& ext, uint64_t at) {
+    if (ext.probe_request) probed_read_back(ext, at);
+    queue_.push(at, Item{Item::MemoryBack, slot});
+  }
+  void probed_read_back(const AccessExtension& ext, uint64_t at);
   tlm::tlm_sync_enum nb_transport_bw(tlm::tlm_generic_payload& p, tlm::tlm_phase& phase,
                                      sc_core::sc_time& delay);
 
@@ -67,7 +78,6 @@ class CycleTrv : public sc_core::sc_module {
   TimedQueue<Item> queue_;
   uint64_t pipe_free_ps_ = 0;
   std::deque<uint32_t> waiting_for_ist_;  // slots whose leaf found the IST queue full
-  uint64_t stalled_since_ = 0;
   std::vector<LineAccess> lines_;
   PayloadPool payloads_;
 };

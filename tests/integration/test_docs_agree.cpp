@@ -1,0 +1,136 @@
+// The docs and the files they describe say the same: the numbers the docs give
+// for the example campaigns (resolution, jobs, ranges) are those of the campaign
+// files, and every `rtsim ... --flag` the docs and the README show is a flag of
+// that subcommand under its current spelling (not a deprecated one).
+#include "commands.h"
+
+#include <rtsim/reports/campaign.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+
+namespace {
+
+namespace fs = std::filesystem;
+const fs::path kSource = RTSIM_SOURCE_DIR;
+
+std::string read_all(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The text from a Markdown heading to the next heading of its level or above.
+std::string section(const std::string& doc, const std::string& heading) {
+  const size_t start = doc.find(heading);
+  if (start == std::string::npos) return "";
+  const size_t end = doc.find("\n## ", start + heading.size());
+  return doc.substr(start, end == std::string::npos ? std::string::npos : end - start);
+}
+
+std::vector<double> override_values(const rtsim::Campaign& c, const std::string& key) {
+  std::vector<double> out;
+  for (const rtsim::CampaignJob& j : c.jobs)
+    if (j.overrides.count(key)) out.push_back(std::stod(j.overrides.at(key)));
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::string binary_size(double bytes) {
+  const double kib = bytes / 1024;
+  return kib >= 1024 ? std::to_string(int(kib / 1024)) + " MiB" : std::to_string(int(kib)) + " KiB";
+}
+
+}  // namespace
+
+TEST(DocsAgree, TheExampleCampaignIsAsDocumented) {
+  const rtsim::Campaign c = rtsim::load_campaign(kSource / "campaigns" / "example.toml", "rev");
+  // One line of prose however the paragraph is wrapped.
+  const std::string text = std::regex_replace(section(read_all(kSource / "docs" / "campaigns.md"),
+                                                      "## The example campaign"),
+                                              std::regex(R"(\s+)"), " ");
+  ASSERT_FALSE(text.empty());
+  std::set<std::string> resolutions, presets, builders;
+  for (const auto& j : c.jobs) resolutions.insert(j.resolution), presets.insert(j.preset), builders.insert(j.builder);
+  ASSERT_EQ(resolutions.size(), 1u);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(text, m, std::regex(R"((\d+)x(\d+))"))) << text;
+  EXPECT_EQ(m.str(0), *resolutions.begin()) << "the resolution the docs give";
+  ASSERT_TRUE(std::regex_search(text, m, std::regex(R"((\d+) jobs)"))) << text;
+  EXPECT_EQ(std::stoul(m[1]), c.jobs.size()) << "the job count the docs give";
+  const std::vector<double> l2 = override_values(c, "l2.size_bytes");
+  ASSERT_FALSE(l2.empty());
+  EXPECT_NE(text.find(binary_size(l2.front()) + " to " + binary_size(l2.back())), std::string::npos)
+      << "the L2 sweep is " << binary_size(l2.front()) << " to " << binary_size(l2.back()) << ":\n" << text;
+  for (const std::string& b : builders) EXPECT_NE(text.find(b), std::string::npos) << b;
+  for (const std::string& p : presets) EXPECT_NE(text.find("`" + p + "`"), std::string::npos) << p;
+  // The file's own description says the same resolution.
+  EXPECT_NE(c.description.find(*resolutions.begin()), std::string::npos) << c.description;
+}
+
+TEST(DocsAgree, TheGpuScalingRangeIsAsDocumented) {
+  const rtsim::Campaign c = rtsim::load_campaign(kSource / "campaigns" / "gpu-scaling.toml", "rev");
+  const std::vector<double> cores = override_values(c, "cores");
+  ASSERT_GE(cores.size(), 2u);
+  const std::string range = std::to_string(int(cores.front())) + ".." + std::to_string(int(cores.back()));
+  const std::string words = "from " + std::to_string(int(cores.front())) + " to " + std::to_string(int(cores.back()));
+  EXPECT_NE(c.description.find(range), std::string::npos) << c.description;
+  const std::string machine = read_all(kSource / "docs" / "machine.md");
+  const size_t at = machine.find("`campaigns/gpu-scaling.toml` sweeps `cores` ");
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_EQ(machine.substr(at + 44, words.size()), words) << machine.substr(at, 120);
+}
+
+// Every flag shown after `rtsim SUBCOMMAND` in the docs is one that subcommand has,
+// under its current name.
+TEST(DocsAgree, EveryFlagTheDocsShowIsTheCommandsOwn) {
+  CLI::App app;
+  rtsim::cli::add_rtsim_commands(app);
+  std::vector<fs::path> docs = {kSource / "README.md"};
+  for (const auto& e : fs::directory_iterator(kSource / "docs"))
+    if (e.path().extension() == ".md") docs.push_back(e.path());
+  // "rtsim" then words (whole words: not ~/.cache/rtsim build/bench), then the line.
+  const std::regex command(R"(rtsim((?: [a-z][a-z0-9-]*(?=[\s`\]|]|$))+)([^`\n]*))");
+  // A flag, not a value of one (--sbatch-option=--partition=short).
+  const std::regex flag(R"((^|[^=a-z0-9-])--([a-z][a-z0-9-]*))");
+  size_t checked = 0;
+  for (const fs::path& doc : docs) {
+    const std::string text = read_all(doc);
+    for (auto it = std::sregex_iterator(text.begin(), text.end(), command); it != std::sregex_iterator(); ++it) {
+      // The deepest subcommand the words name, and the rest of the line after it.
+      std::istringstream words((*it)[1]);
+      const CLI::App* sub = &app;
+      std::string rest, word;
+      std::string path = "rtsim";
+      while (words >> word) {
+        const CLI::App* deeper = nullptr;
+        for (const CLI::App* s : sub->get_subcommands({})) if (s->get_name() == word) deeper = s;
+        if (!deeper) { rest += " " + word; continue; }
+        if (!rest.empty()) break;
+        sub = deeper, path += " " + word;
+      }
+      if (sub == &app) continue;  // "rtsim" in prose, not a command
+      rest += (*it)[2].str();
+      for (auto f = std::sregex_iterator(rest.begin(), rest.end(), flag); f != std::sregex_iterator(); ++f) {
+        const std::string name = (*f)[2];
+        const CLI::Option* option = nullptr;
+        for (const CLI::App* a = sub; a && !option; a = a->get_parent())
+          for (const CLI::Option* o : a->get_options())
+            for (const std::string& l : o->get_lnames()) if (l == name) option = o;
+        EXPECT_NE(option, nullptr) << doc.filename() << ": `" << path << " --" << name << "`: no such flag";
+        if (option)
+          EXPECT_EQ(option->get_group().find("Deprecated"), std::string::npos)
+              << doc.filename() << ": `" << path << " --" << name << "` is a deprecated spelling";
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 50u);
+}
