@@ -2,6 +2,7 @@
 #include "cli_util.h"
 #include "commands.h"
 
+#include <cstdlib>
 #include <rtsim/reports/campaign.h>
 #include <rtsim/reports/campaign_runner.h>
 #include <rtsim/reports/results_store.h>
@@ -13,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -37,15 +39,20 @@ struct CampaignArgs {
 void add_results_cache(CLI::App* cmd, CampaignArgs& a) {
   cmd->add_option("--results-cache", a.results_cache,
                   "folder of finished runs shared by job key across campaigns (default: "
-                  "<scene cache>/results when the jobs run this rtsim)");
+                  "<scene cache>/results when the jobs run this rtsim, or $RTSIM_RESULTS_CACHE: "
+                  "a folder or 'off')");
   cmd->add_flag("--no-results-cache", a.no_results_cache, "run every missing job, even one another campaign ran");
 }
 
 // As the tree cache: on by default only for this rtsim's own jobs.
+// RTSIM_RESULTS_CACHE (a folder, or "off") replaces the default, so a test suite or a
+// benchmark can make every campaign run its jobs without passing a flag to each.
 fs::path results_cache_of(const CampaignArgs& a) {
   if (a.no_results_cache) return {};
   if (!a.results_cache.empty()) return fs::absolute(a.results_cache);
   if (!a.binary.empty()) return {};
+  if (const char* env = std::getenv("RTSIM_RESULTS_CACHE"); env && *env)
+    return std::string(env) == "off" ? fs::path() : fs::absolute(env);
   return scene_cache_dir() / "results";
 }
 

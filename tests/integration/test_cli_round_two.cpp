@@ -391,6 +391,29 @@ TEST(CampaignsKeepTheirWord, ADamagedCachedTreeIsDetectedAndRebuilt) {
   EXPECT_EQ(fs::file_size(tree), size);
 }
 
+// RTSIM_RESULTS_CACHE names the default results cache (the suite runs with "off"): a
+// renamed campaign reuses the first one's run from the folder it names.
+TEST(CampaignsKeepTheirWord, ResultsCacheFromTheEnvironmentIsUsedAndOffRunsTheJobs) {
+  const fs::path dir = fresh_folder("results_env");
+  const auto run = [&](const std::string& name, const std::string& env) {
+    write_text(dir / (name + ".toml"), "[campaign]\nname = \"" + name +
+                                           "\"\n[sweep]\nscene = \"cornell\"\nbuilder = \"sah\"\n"
+                                           "resolution = \"8x8\"\n");
+    return run_rtsim_command("cd " + shell_quote(dir.string()) + " && RTSIM_NO_PROGRESS=1 " + env + " " +
+                             shell_quote(RTSIM_BINARY) + " campaign run " + name + ".toml --no-tree-cache 2>&1");
+  };
+  const std::string cache = "RTSIM_RESULTS_CACHE=" + shell_quote((dir / "results").string());
+  const CliResult first = run("first", cache);
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  EXPECT_FALSE(has(first, "reused")) << first.output;
+  const CliResult renamed = run("renamed", cache);
+  ASSERT_EQ(renamed.exit_code, 0) << renamed.output;
+  EXPECT_TRUE(has(renamed, "1 reused from the results cache")) << renamed.output;
+  const CliResult off = run("off", "RTSIM_RESULTS_CACHE=off");
+  ASSERT_EQ(off.exit_code, 0) << off.output;
+  EXPECT_FALSE(has(off, "reused")) << off.output;
+}
+
 // ---------------------------------------------------------------- validation
 
 // Before: exit 1 on cornell at 64x64 (one ray Embree hits through a box corner it
