@@ -123,7 +123,10 @@ std::string stats_reference_markdown(const std::vector<StatReferenceRow>& rows, 
        << sim::cycle_bucket_meaning(b) << ")";
   md << ". Deepest level first, as the top-down method charges a stalled cycle to the farthest level "
         "with a miss outstanding. TRV units have every state, IST units all but `blocked` and "
-        "`waiting_ist`, shading `busy`, `latency` and `idle`. `utilisation` = `busy_cycles` / "
+        "`waiting_ist`, shading `busy`, `latency` and `idle`. At the lt level a leaf's triangle "
+        "reads are issued in its TRV unit's step, so their wait is the TRV's `waiting_ist` and the IST "
+        "unit shows no memory waits (the cycle level's IST unit reads them itself). `utilisation` = "
+        "`busy_cycles` / "
         "`time.cycles`; `machine.<kind>.<state>_cycles.{mean,min,max}` are over the machine's units of a "
         "kind.\n"
      << "- `per_type.<type>.trv_busy_cycles` summed over the ray types is the TRV units' `busy_cycles` "
