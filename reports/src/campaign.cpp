@@ -288,6 +288,18 @@ void toml_table(const json& object, const std::string& path, std::string& out) {
 
 }  // namespace
 
+const json* json_at_path(const json& object, const std::string& dotted) {
+  const json* node = &object;
+  for (size_t start = 0;;) {
+    const size_t dot = dotted.find('.', start);
+    const std::string part = dotted.substr(start, dot == std::string::npos ? dot : dot - start);
+    if (!node->is_object() || !node->contains(part)) return nullptr;
+    node = &node->at(part);
+    if (dot == std::string::npos) return node;
+    start = dot + 1;
+  }
+}
+
 std::string json_to_toml(const json& object) {
   std::string out;
   toml_table(object, "", out);
@@ -555,19 +567,8 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
       // builder's default. The job is the same (its key does not change), and now it
       // says so: reports count it as the plain run and find it in every sweep.
       const json& preset_hardware = hardware_for(job, {}, where);
-      const auto preset_value = [&](const std::string& dotted) -> const json* {
-        const json* node = &preset_hardware;
-        for (size_t start = 0;;) {
-          const size_t dot = dotted.find('.', start);
-          const std::string part = dotted.substr(start, dot == std::string::npos ? dot : dot - start);
-          if (!node->is_object() || !node->contains(part)) return nullptr;
-          node = &node->at(part);
-          if (dot == std::string::npos) return node;
-          start = dot + 1;
-        }
-      };
       for (auto it = typed_overrides.begin(); it != typed_overrides.end();) {
-        const json* at_preset = preset_value(it->first);
+        const json* at_preset = json_at_path(preset_hardware, it->first);
         if (!at_preset || *at_preset != it->second) {
           ++it;
           continue;

@@ -1,4 +1,5 @@
 // The campaign report: data for the plot script, then Markdown and HTML around it.
+#include <rtsim/reports/campaign.h>
 #include <rtsim/reports/campaign_report.h>
 
 #include <rtsim/builder/builder_registry.h>
@@ -71,18 +72,6 @@ std::string hardware_unit(const std::string& key) {
   return unit;
 }
 
-const json* at_path(const json& object, const std::string& dotted) {
-  const json* node = &object;
-  for (size_t start = 0;;) {
-    const size_t dot = dotted.find('.', start);
-    const std::string part = dotted.substr(start, dot == std::string::npos ? dot : dot - start);
-    if (!node->is_object() || !node->contains(part)) return nullptr;
-    node = &node->at(part);
-    if (dot == std::string::npos) return node;
-    start = dot + 1;
-  }
-}
-
 // A value as the campaign wrote it, as a number where it is one ("524288" -> 524288).
 json typed(const json& text) {
   if (!text.is_string()) return text;
@@ -121,9 +110,9 @@ json coordinate_values(const std::vector<Coordinate>& coordinates, const json& j
   for (const Coordinate& c : coordinates) {
     json value;
     if (c.kind == Coordinate::Hardware) {
-      if (const json* v = at_path(hardware, c.key)) value = *v;
+      if (const json* v = json_at_path(hardware, c.key)) value = *v;
     } else if (c.kind == Coordinate::NodeFormat) {
-      if (const json* v = at_path(hardware, "memory.node_format")) value = *v;
+      if (const json* v = json_at_path(hardware, "memory.node_format")) value = *v;
     } else {
       const std::string key = c.key.substr(6);
       const json set = job.value("build", json::object());

@@ -69,6 +69,9 @@ Campaign load_campaign(const std::filesystem::path& file, const std::string& rev
 Campaign parse_campaign(const nlohmann::json& document, const std::filesystem::path& file,
                         const std::string& revision);
 
+// The value at a dotted key ("l2.size_bytes") inside nested objects, or nullptr.
+const nlohmann::json* json_at_path(const nlohmann::json& object, const std::string& dotted);
+
 // A JSON object as TOML (tables for objects, inline arrays, JSON string escapes).
 std::string json_to_toml(const nlohmann::json& object);
 
