@@ -72,6 +72,9 @@ TEST(MemoryTraces, DramTraceHoldsEveryRequestOfTheRun) {
   for (const auto& e : entries) last = std::max(last, e.cycle);
   EXPECT_LE(double(last) * 833, sim_ps + 833);
   EXPECT_GT(double(last) * 833, 0.5 * sim_ps);
+  // Streamed to a temporary name and renamed once whole: nothing else is left beside it.
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
 }
 
 TEST(MemoryTraces, Ramulator2TraceDecodesEveryField) {

@@ -41,14 +41,24 @@ const char* dram_command_name(DramCommandKind kind) {
 
 // ------------------------------------------------------------------ address map
 
+std::vector<std::string> dram_mapping_fields(const std::string& mapping) {
+  std::vector<std::string> names;
+  std::stringstream in(mapping);
+  for (std::string field; std::getline(in, field, ':');) names.push_back(field);
+  return names;
+}
+
+uint32_t dram_field_bits(uint64_t values) {
+  uint32_t bits = 0;
+  while ((uint64_t(1) << bits) < values) ++bits;
+  return bits;
+}
+
 DramAddressMap::DramAddressMap(const DramConfig& c, uint32_t access_bytes) {
   offset_bits_ = log2_exact(access_bytes);
   const uint32_t groups = std::max<uint32_t>(1, c.bank_groups);
   banks_per_group_ = std::max<uint32_t>(1, c.banks / groups);
-  std::vector<std::string> names;
-  std::stringstream in(c.address_mapping);
-  std::string field;
-  while (std::getline(in, field, ':')) names.push_back(field);
+  const std::vector<std::string> names = dram_mapping_fields(c.address_mapping);
   group_field_ = std::find(names.begin(), names.end(), "bankgroup") != names.end();
   // Least significant first: the last name sits right above the access offset.
   // Each field is a digit of a mixed-radix number, so a channel count need not be a

@@ -20,13 +20,6 @@
 
 namespace rtsim::sim {
 
-namespace {
-uint32_t log2_of(uint64_t v) {
-  uint32_t bits = 0;
-  while ((uint64_t(1) << bits) < v) ++bits;
-  return bits;
-}
-}  // namespace
 
 bool dramsim3_linked() {
 #ifdef RTSIM_HAVE_DRAMSIM3
@@ -68,7 +61,7 @@ std::string dramsim3_ini(const DramConfig& d, uint32_t access_bytes) {
   const uint64_t rows = uint64_t(1) << 16;
   const uint64_t channel_mb =
       rows * d.row_bytes * d.banks * d.ranks / (uint64_t(1) << 20);
-  const uint32_t channels = 1u << log2_of(d.channels);
+  const uint32_t channels = 1u << dram_field_bits(d.channels);
   const char* policy = d.page_policy == "closed" ? "CLOSE_PAGE" : "OPEN_PAGE";
   std::ostringstream s;
   s << "; written by rtsim (dramsim3_ini) for dram.part = " << d.part << "\n"

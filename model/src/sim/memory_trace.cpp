@@ -2,23 +2,26 @@
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/numbers.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cinttypes>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
 namespace rtsim::sim {
 
 namespace {
-uint32_t bits_for(uint64_t values) {
-  uint32_t bits = 0;
-  while ((uint64_t(1) << bits) < values) ++bits;
-  return bits;
-}
+
+// A trace is streamed during the run to a temporary name beside `path` (as the
+// timeline is) and renamed into place once complete, so a failed or killed run never
+// leaves a half-written trace under the name asked for.
+std::string partial_name(const std::string& path) { return path + ".tmp-" + std::to_string(::getpid()); }
 
 std::FILE* open_for_writing(const std::string& path, const std::string& flag) {
   if (path.empty()) throw InputError(flag, "needs a file name");
-  std::FILE* f = std::fopen(path.c_str(), "w");
+  std::FILE* f = std::fopen(partial_name(path).c_str(), "w");
   if (!f) throw InputError(flag, "cannot write '" + path + "'");
   return f;
 }
@@ -28,7 +31,21 @@ void close_checked(std::FILE*& f, const std::string& path, const std::string& fl
   const bool bad = std::ferror(f) != 0;
   const bool closed = std::fclose(f) == 0;
   f = nullptr;
-  if (bad || !closed) throw InputError(flag, "writing '" + path + "' failed");
+  std::error_code ec;
+  if (!bad && closed) std::filesystem::rename(partial_name(path), path, ec);
+  if (bad || !closed || ec) {
+    std::filesystem::remove(partial_name(path), ec);
+    throw InputError(flag, "writing '" + path + "' failed");
+  }
+}
+
+// A writer destroyed before close() (the run failed): its partial file goes.
+void discard(std::FILE*& f, const std::string& path) {
+  if (!f) return;
+  std::fclose(f);
+  f = nullptr;
+  std::error_code ec;
+  std::filesystem::remove(partial_name(path), ec);
 }
 }  // namespace
 
@@ -41,24 +58,21 @@ DramTraceFormat parse_dram_trace_format(const std::string& name) {
 // ------------------------------------------------------------ bit-field encoder
 
 DramBitFieldEncoder::DramBitFieldEncoder(const DramConfig& c, uint32_t access_bytes)
-    : offset_bits_(bits_for(access_bytes)) {
+    : offset_bits_(dram_field_bits(access_bytes)) {
   const uint32_t groups = std::max<uint32_t>(1, c.bank_groups);
   banks_per_group_ = std::max<uint32_t>(1, c.banks / groups);
-  std::vector<std::string> names;
-  std::stringstream in(c.address_mapping);
-  std::string field;
-  while (std::getline(in, field, ':')) names.push_back(field);
+  const std::vector<std::string> names = dram_mapping_fields(c.address_mapping);
   group_field_ = std::find(names.begin(), names.end(), "bankgroup") != names.end();
   // The same fields as DramAddressMap, each as wide as its range needs; a row field
   // below others keeps the map's 2^24 rows.
   for (auto it = names.rbegin(); it != names.rend(); ++it) {
     Field f{};
     if (*it == "row") f = {'r', it + 1 == names.rend() ? 0u : 24u};
-    else if (*it == "rank") f = {'k', bits_for(c.ranks)};
-    else if (*it == "bank") f = {'b', bits_for(group_field_ ? banks_per_group_ : c.banks)};
-    else if (*it == "bankgroup") f = {'g', bits_for(groups)};
-    else if (*it == "column") f = {'c', bits_for(std::max<uint64_t>(1, c.row_bytes / access_bytes))};
-    else if (*it == "channel") f = {'h', bits_for(c.channels)};
+    else if (*it == "rank") f = {'k', dram_field_bits(c.ranks)};
+    else if (*it == "bank") f = {'b', dram_field_bits(group_field_ ? banks_per_group_ : c.banks)};
+    else if (*it == "bankgroup") f = {'g', dram_field_bits(groups)};
+    else if (*it == "column") f = {'c', dram_field_bits(std::max<uint64_t>(1, c.row_bytes / access_bytes))};
+    else if (*it == "channel") f = {'h', dram_field_bits(c.channels)};
     else throw InputError("dram.address_mapping", "unknown field '" + *it + "'");
     fields_.push_back(f);
   }
@@ -109,9 +123,7 @@ DramTraceWriter::DramTraceWriter(const std::string& path, DramTraceFormat format
   file_ = open_for_writing(path, flag);
 }
 
-DramTraceWriter::~DramTraceWriter() {
-  if (file_) std::fclose(file_);
-}
+DramTraceWriter::~DramTraceWriter() { discard(file_, path_); }
 
 void DramTraceWriter::write(const DramRequestRecord& r) {
   ++records_;
@@ -187,9 +199,7 @@ CacheTraceWriter::CacheTraceWriter(const std::string& path, const std::string& c
   file_ = open_for_writing(path, flag);
 }
 
-CacheTraceWriter::~CacheTraceWriter() {
-  if (file_) std::fclose(file_);
-}
+CacheTraceWriter::~CacheTraceWriter() { discard(file_, path_); }
 
 void CacheTraceWriter::header(const CacheConfig& c, uint32_t instances) {
   std::fprintf(file_,

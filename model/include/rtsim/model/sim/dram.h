@@ -44,6 +44,11 @@ struct DramAddress {
   uint64_t row = 0;
 };
 
+// dram.address_mapping's field names, most significant first ("row:rank:...:channel").
+std::vector<std::string> dram_mapping_fields(const std::string& mapping);
+// Bits that hold `values` distinct values (0 for 1): a field's width in a bit-field mapping.
+uint32_t dram_field_bits(uint64_t values);
+
 class DramAddressMap {
  public:
   DramAddressMap(const DramConfig& config, uint32_t access_bytes);
