@@ -47,12 +47,16 @@ void add_results_cache(CLI::App* cmd, CampaignArgs& a) {
 // As the tree cache: on by default only for this rtsim's own jobs.
 // RTSIM_RESULTS_CACHE (a folder, or "off") replaces the default, so a test suite or a
 // benchmark can make every campaign run its jobs without passing a flag to each.
-fs::path results_cache_of(const CampaignArgs& a) {
+// `source` names where the folder came from, for messages about it.
+fs::path results_cache_of(const CampaignArgs& a, std::string* source) {
+  *source = "--results-cache";
   if (a.no_results_cache) return {};
   if (!a.results_cache.empty()) return fs::absolute(a.results_cache);
   if (!a.binary.empty()) return {};
-  if (const char* env = std::getenv("RTSIM_RESULTS_CACHE"); env && *env)
+  if (const char* env = std::getenv("RTSIM_RESULTS_CACHE"); env && *env) {
+    *source = "RTSIM_RESULTS_CACHE";
     return std::string(env) == "off" ? fs::path() : fs::absolute(env);
+  }
   return scene_cache_dir() / "results";
 }
 
@@ -147,8 +151,9 @@ void add_campaign_command(CLI::App& root) {
       o.timeout_seconds = *timeout;
       o.progress = Progress::enabled();
       o.tree_cache = usable_tree_cache(tree_cache_of(*a), "--tree-cache");
-      o.results_cache = usable_tree_cache(results_cache_of(*a), "--results-cache", "results cache",
-                                        "every missing job runs");
+      std::string results_source;
+      const fs::path results_cache = results_cache_of(*a, &results_source);
+      o.results_cache = usable_tree_cache(results_cache, results_source, "results cache", "every missing job runs");
       const RunSummary s = run_campaign(c, paths, o);
       ResultsStore store(paths.database, ResultsStore::Access::ReadOnly);
       const CampaignStatus st = campaign_status(c, paths, store);
