@@ -101,7 +101,9 @@ def load_timeline(path):
     for event in document["traceEvents"]:
         if event.get("ph") != "X":
             continue
-        start_ps, dur_ps = round(event["ts"] * 1e6), round(event["dur"] * 1e6)
+        # Times are multiples of 2^-20 us: each is within half a picosecond of its own.
+        start_ps = round(event["ts"] * 1e6)
+        dur_ps = round((event["ts"] + event["dur"]) * 1e6) - start_ps
         rows.append({"group": groups.get(event["pid"]), "track": tracks.get((event["pid"], event["tid"])),
                      "name": event["name"], "start_us": event["ts"], "dur_us": event["dur"],
                      "start_ps": start_ps, "dur_ps": dur_ps, "start_cycle": start_ps / cycle_ps,

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <charconv>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -19,32 +20,34 @@ namespace {
 // viewer can show apart; the rest are counted, not drawn.
 constexpr size_t kMaxLanes = 64;
 
-// Picoseconds as microseconds, exactly: "12.345678".
-// Picoseconds as exact decimal microseconds ("7.335244").
-int format_us(char* buf, size_t size, uint64_t ps) {
-  return std::snprintf(buf, size, "%llu.%06llu", static_cast<unsigned long long>(ps / 1000000),
-                       static_cast<unsigned long long>(ps % 1000000));
+// Times are written as multiples of 2^-20 microseconds (0.95 ps), each the nearest
+// to its picosecond time. A viewer reads ts and dur as doubles, adds them, and
+// speedscope also subtracts the file's first ts from every ts. With decimal
+// microseconds those sums round (7.335244 + 0.000733 = 7.335977000000001 passes
+// the next span's 7.335977) and speedscope then nests every later span of the row
+// inside that one. Multiples of 2^-20 below 2^33 us (2.4 hours of simulated time)
+// are doubles whose sums and differences are exact, so a span that ends where the
+// next begins still does so however a viewer adds them. Each is within 0.48 ps of
+// its time, so a reader rounding to picoseconds gets the time back.
+constexpr int kFractionBits = 20;
+
+uint64_t ticks_of(uint64_t ps) {  // round(ps * 2^20 / 10^6)
+  return uint64_t((static_cast<unsigned __int128>(ps) << kFractionBits) / 1000000u +
+                  ((static_cast<unsigned __int128>(ps) << kFractionBits) % 1000000u >= 500000u));
 }
 
-// The span's start and duration. A viewer reads both as doubles and adds them: the
-// sum of the two decimals can round past the next span's start (7.335244 + 0.000733
-// = 7.335977000000001 > 7.335977), and speedscope then nests every later span of
-// the row inside that one. So where the exact decimal duration would, the duration
-// written is the largest double whose sum with the start stays at the end: within
-// 1e-9 ps of the exact one, which a reader rounding to picoseconds gets back.
+// A tick count as the shortest decimal that reads back as exactly that double.
+void write_ticks(std::FILE* out, uint64_t ticks) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, std::ldexp(double(ticks), -kFractionBits));
+  std::fwrite(buf, 1, size_t(r.ptr - buf), out);
+}
+
 void write_start_and_dur(std::FILE* out, uint64_t start_ps, uint64_t end_ps) {
-  char start[32], end[32], dur[32];
-  format_us(start, sizeof start, start_ps);
-  format_us(end, sizeof end, end_ps);
-  format_us(dur, sizeof dur, end_ps - start_ps);
-  const double s = std::strtod(start, nullptr), e = std::strtod(end, nullptr);
-  double d = std::strtod(dur, nullptr);
-  if (s + d > e) {
-    d = e - s;
-    while (d > 0 && s + d > e) d = std::nextafter(d, 0.0);
-    std::snprintf(dur, sizeof dur, "%.17g", d);
-  }
-  std::fprintf(out, "%s,\"dur\":%s", start, dur);
+  const uint64_t start = ticks_of(start_ps);
+  write_ticks(out, start);
+  std::fputs(",\"dur\":", out);
+  write_ticks(out, ticks_of(end_ps) - start);
 }
 }  // namespace
 
