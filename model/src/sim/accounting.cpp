@@ -85,6 +85,21 @@ void UnitAccounting::date(uint64_t at, Counter from, Counter to) {
   next_dated_ = dated_.front().at;
 }
 
+void UnitAccounting::condition_flipped(uint64_t now, Counter counter, bool holds) {
+  if (counter != Resident) {
+    const uint8_t bit = uint8_t(1u << kBitOf[counter]);
+    waiting_ = holds ? uint8_t(waiting_ | bit) : uint8_t(waiting_ & ~bit);
+  }
+  const CycleBucket next = state();
+  if (next != state_) switch_state(now, next);
+}
+
+void UnitAccounting::add_reservation(uint64_t now, uint64_t start, uint64_t end) {
+  busy_.emplace_back(start, end);
+  busy_end_ = end;
+  if (busy_.size() - busy_head_ > kBusyBacklog) catch_up(now);
+}
+
 void UnitAccounting::apply_dated(uint64_t now) {
   while (!dated_.empty() && dated_.front().at <= now) {
     const Dated d = dated_.front();

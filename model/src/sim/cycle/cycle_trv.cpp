@@ -73,10 +73,6 @@ uint32_t CycleTrv::send(uint32_t s, const std::vector<MemoryAccess>& accesses) {
   if (slot.probed)
     request = 1 + probe->add(accesses.data(), accesses.size(), lines_.data(), lines_.size(),
                              config_.l1_node.line_bytes, config_.l1_triangle.line_bytes, now);
-  // The slot waits on its L1 from its first read to its last one's data (MemoryBack).
-  bool waits = false;
-  for (const LineAccess& line : lines_) waits = waits || !line.write;
-  if (waits) accounting.change(now, UnitAccounting::AtL1, +1);
   for (const LineAccess& line : lines_) {
     tlm::tlm_generic_payload* p = payloads_.get();
     AccessExtension& ext = PayloadPool::extension(*p);
@@ -94,6 +90,9 @@ uint32_t CycleTrv::send(uint32_t s, const std::vector<MemoryAccess>& accesses) {
       payloads_.put(p);
     }
   }
+  // The slot waits on its L1 from its first read to its last one's data (MemoryBack;
+  // a hit's comes later than now, so after the sends is the same instant).
+  if (reads) accounting.change(now, UnitAccounting::AtL1, +1);
   return reads;
 }
 

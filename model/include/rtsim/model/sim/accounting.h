@@ -73,14 +73,19 @@ class UnitAccounting {
   // Work resident with none of the conditions above is in the unit's own pipeline
   // (latency), or between two of its steps at one instant: no count of its own.
 
-  // A count changes by delta at `at` (>= now; `now` is the caller's time). Inline: a
-  // unit changes its counts several times a step, and mostly its state stays.
+  // A count changes by delta at `at` (>= now; `now` is the caller's time). Inline and
+  // small: a unit changes its counts several times a step, and mostly no condition
+  // starts or ends (another ray already waits there), so the state stays; the rare
+  // rest is out of line.
   void change(uint64_t now, uint64_t at, Counter counter, int delta) {
     if (at > now) return date(at, delta > 0 ? kCounters : counter, delta > 0 ? counter : kCounters);
     if (next_dated_ <= now) apply_dated(now);
     apply(now, counter, delta);
   }
-  void change(uint64_t now, Counter counter, int delta) { change(now, now, counter, delta); }
+  void change(uint64_t now, Counter counter, int delta) {
+    if (next_dated_ <= now) apply_dated(now);
+    apply(now, counter, delta);
+  }
   // One of the work's moves from one condition to another at `at` (kCounters: none,
   // for work that arrives or leaves), e.g. a read from the crossbar to an L2 slice.
   void move(uint64_t now, uint64_t at, Counter from, Counter to) {
@@ -99,9 +104,7 @@ class UnitAccounting {
       busy_.back().second = busy_end_ = end;
       return;
     }
-    busy_.emplace_back(start, end);
-    busy_end_ = end;
-    if (busy_.size() - busy_head_ > kBusyBacklog) catch_up(now);
+    add_reservation(now, start, end);
   }
   // A new frame from t: the figures start again, the work resident stays.
   void restart(uint64_t t);
@@ -139,15 +142,12 @@ class UnitAccounting {
   void apply(uint64_t now, Counter counter, int delta) {
     const uint32_t before = counts_[counter];
     const uint32_t n = counts_[counter] = before + uint32_t(delta);
-    if ((before == 0) == (n == 0)) return;  // the same conditions hold: the same state
-    if (counter != Resident) {
-      const uint8_t bit = uint8_t(1u << kBitOf[counter]);
-      waiting_ = n ? uint8_t(waiting_ | bit) : uint8_t(waiting_ & ~bit);
-    }
-    const CycleBucket next = state();
-    if (next != state_) switch_state(now, next);
+    if ((before == 0) != (n == 0)) condition_flipped(now, counter, n != 0);
   }
+  // A condition starts (holds) or ends: the state may change.
+  __attribute__((noinline)) void condition_flipped(uint64_t now, Counter counter, bool holds);
   void date(uint64_t at, Counter from, Counter to);
+  void add_reservation(uint64_t now, uint64_t start, uint64_t end);  // a new interval
   void apply_dated(uint64_t now);
   void catch_up(uint64_t now);  // every dated change up to now, and the accounting to now
   void switch_state(uint64_t at, CycleBucket next);  // accounts up to `at` in the old state
