@@ -187,17 +187,25 @@ void check_frame_flags(const EffectSettings& settings) {
   if (settings.max_depth > kMaxBounces)
     throw InputError(typed_flag("--bounces"), "must be 0.." + std::to_string(kMaxBounces) + ", got " +
                                                   std::to_string(settings.max_depth));
+  if (settings.diffuse_bounces > kMaxDiffuseBounces)
+    throw InputError(typed_flag("--diffuse-bounces"), "must be 0.." + std::to_string(kMaxDiffuseBounces) +
+                                                          " (a ray type per depth), got " +
+                                                          std::to_string(settings.diffuse_bounces));
+  if (settings.russian_roulette && settings.diffuse_bounces < 2)
+    throw InputError(typed_flag("--russian-roulette"),
+                     "ends diffuse paths from their second bounce on: give --diffuse-bounces 2 or more");
 }
 
 void check_frame_memory(const Scene& scene, const EffectSettings& settings) {
   const EffectPlan plan = plan_effects(scene, settings);
   const uint64_t primary = uint64_t(settings.width) * settings.height * settings.spp;
   const uint64_t rays = max_frame_rays(scene, plan, primary);
-  check_memory_budget(saturating_mul(rays, sizeof(Ray) + sizeof(TraceResult)), "--res x --spp x --bounces",
+  check_memory_budget(saturating_mul(rays, sizeof(Ray) + sizeof(TraceResult)), "--res x --spp x --bounces x --diffuse-bounces",
                       "up to " + std::to_string(rays) + " rays: " + std::to_string(settings.width) + "x" +
                           std::to_string(settings.height) + " x " + std::to_string(settings.spp) +
                           " spp primary rays, each with " + std::to_string(plan.ao_samples) + " AO rays and " +
-                          std::to_string(plan.max_depth) + " bounces in scene '" + scene.name + "'");
+                          std::to_string(plan.max_depth) + " bounces and " + std::to_string(plan.diffuse_bounces) +
+                          " diffuse bounces in scene '" + scene.name + "'");
 }
 
 void refuse_with_rays_in(const std::vector<const CLI::Option*>& flags) {

@@ -38,7 +38,8 @@ struct SimulateOptions {
   uint64_t timeline_max_events = sim::Timeline::kDefaultMaxEvents;
   int ao = -1;
   double ao_cutoff = -1;  // AO ray length x scene diagonal; < 0: the scene's
-  uint32_t spp = 1, bounces = 2, frames = 1;
+  uint32_t spp = 1, bounces = 2, frames = 1, diffuse_bounces = 0;
+  bool russian_roulette = false;
   uint64_t seed = 1, shuffle_faces = 0;
   std::vector<std::string> build_settings;  // --build-set KEY=VALUE
   std::string dram_trace_out, dram_trace_format = "dramsim3", cache_trace_out, cache_trace = "l2";
@@ -97,6 +98,8 @@ void run_simulate(const SimulateOptions& o) {
   request.settings.spp = o.spp;
   request.settings.seed = o.seed;
   request.settings.max_depth = o.bounces;
+  request.settings.diffuse_bounces = o.diffuse_bounces;
+  request.settings.russian_roulette = o.russian_roulette;
   check_frame_flags(request.settings);
   if (!o.rays_in.empty()) refuse_with_rays_in(o.ray_making_flags);
   if (!o.trace_ray.empty()) {
@@ -170,14 +173,15 @@ void run_simulate(const SimulateOptions& o) {
     request.rays = std::move(set.rays);
     rays_hash = file_content_hash(o.rays_in);
   }
-  // Progress: the total grows with spawned rays; primary rays x (1 + AO) is the estimate.
+  // Progress: the total grows with spawned rays; primary rays x (1 + AO + diffuse bounces) is the estimate.
   const EffectPlan plan = plan_effects(scene, request.settings);
   const uint64_t primary = request.rays.empty()
                                ? uint64_t(request.settings.width) * request.settings.height * o.spp
                                : request.rays.size();
   const uint64_t expected =
-      o.frames * (request.rays.empty() ? primary * (1 + (plan.on(RayType::Ao) ? plan.ao_samples : 0))
-                                       : primary);
+      o.frames * (request.rays.empty()
+                      ? primary * (1 + (plan.on(RayType::Ao) ? plan.ao_samples : 0) + plan.diffuse_bounces)
+                      : primary);
   auto progress = std::make_shared<Progress>("simulate " + o.fidelity, expected, "rays");
   uint64_t reported = 0;
   request.progress = [&, progress](uint64_t done) {
@@ -220,6 +224,8 @@ void run_simulate(const SimulateOptions& o) {
       {"ao", o.ao},
       {"ao_cutoff_relative", scene.ao.cutoff_relative},
       {"bounces", o.bounces},
+      {"diffuse_bounces", o.diffuse_bounces},
+      {"russian_roulette", o.russian_roulette},
       {"frames", o.frames},
       {"shuffle_faces", o.shuffle_faces},
       {"config_source", o.config},
@@ -305,7 +311,13 @@ void add_simulate_command(CLI::App& root) {
                       "reflection/refraction bounces (0.." + std::to_string(kMaxBounces) + ")")
           ->capture_default_str(),
       add_deprecated_option(cmd, "--max-depth", "--bounces", opts->bounces,
-                            " (the bounce count in trace and simulate; the BVH depth in build and table1)")};
+                            " (the bounce count in trace and simulate; the BVH depth in build and table1)"),
+      cmd->add_option("--diffuse-bounces", opts->diffuse_bounces,
+                      "diffuse path bounces per primary hit (0.." + std::to_string(kMaxDiffuseBounces) +
+                          "; ray types diffuse1, ...)")
+          ->capture_default_str(),
+      cmd->add_flag("--russian-roulette", opts->russian_roulette,
+                    "a diffuse bounce past the first survives with the albedo")};
   cmd->add_option("--seed", opts->seed, "seed of every random choice (rays and the build)")
       ->capture_default_str();
   cmd->add_option("--rays-in", opts->rays_in, "replay this ray file (rtsim trace --rays-out; no secondary rays)");

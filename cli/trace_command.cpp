@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -36,7 +37,8 @@ struct TraceOptions {
   // "" = the hardware configuration's memory.node_format; else a format's name.
   std::string node_format, node_layout, config = "mobile", trace_ray;
   int ao = -1;
-  uint32_t spp = 1, threads = 0, bounces = 2, stack_limit = 128;
+  uint32_t spp = 1, threads = 0, bounces = 2, stack_limit = 128, diffuse_bounces = 0;
+  bool russian_roulette = false;
   uint64_t shuffle_faces = 0;
   uint64_t seed = 1;
   float heat_max = 150.0f;
@@ -136,6 +138,8 @@ void run_trace(const TraceOptions& o) {
   settings.seed = o.seed;
   settings.ao_samples = o.ao;
   settings.max_depth = o.bounces;
+  settings.diffuse_bounces = o.diffuse_bounces;
+  settings.russian_roulette = o.russian_roulette;
   check_frame_flags(settings);
   if (!o.rays_in.empty()) refuse_with_rays_in(o.ray_making_flags);
   std::optional<sim::RayTarget> target;
@@ -264,9 +268,13 @@ void run_trace(const TraceOptions& o) {
       if (run.per_type[ray_type_index(t)].rays) row(ray_type_name(t), run.per_type[ray_type_index(t)]);
     row("total", run.total);
     std::printf("\neffects:\n");
-    for (RayType t : kAllRayTypes)
-      std::printf("  %-11s %-4s %s\n", ray_type_name(t), run.plan.enabled[ray_type_index(t)] ? "on" : "off",
-                  run.plan.reason[ray_type_index(t)].c_str());
+    for (RayType t : kAllRayTypes) {
+      const bool on = run.plan.enabled[ray_type_index(t)];
+      // Diffuse depths past the asked ones are off for one reason: diffuse1's line (or
+      // the first depth not asked) says it once.
+      if (!on && diffuse_depth(t) > std::max(1u, run.plan.diffuse_bounces + 1)) continue;
+      std::printf("  %-11s %-4s %s\n", ray_type_name(t), on ? "on" : "off", run.plan.reason[ray_type_index(t)].c_str());
+    }
     std::printf("\ncaches (%s, one ray in flight):  L1 node %.1f%%  L1 triangle %.1f%%  L2 %.1f%%  DRAM %.1f B/ray\n",
                 o.config.c_str(), 100 * hit_rate(memory.l1_node),
                 100 * hit_rate(memory.l1_triangle), 100 * hit_rate(memory.l2),
@@ -324,6 +332,14 @@ void add_trace_command(CLI::App& root) {
   options->ray_making_flags.push_back(
       add_deprecated_option(cmd, "--max-depth", "--bounces", options->bounces,
                             " (the bounce count in trace and simulate; the BVH depth in build and table1)"));
+  options->ray_making_flags.push_back(
+      cmd->add_option("--diffuse-bounces", options->diffuse_bounces,
+                      "diffuse path bounces per primary hit (0.." + std::to_string(kMaxDiffuseBounces) +
+                          "; ray types diffuse1, ...)")
+          ->capture_default_str());
+  options->ray_making_flags.push_back(
+      cmd->add_flag("--russian-roulette", options->russian_roulette,
+                    "a diffuse bounce past the first survives with the albedo"));
   cmd->add_option("--threads", options->threads,
                   "threads for the build, the trace and validation (0: all); results do not depend on it");
   cmd->add_option("--config", options->config,

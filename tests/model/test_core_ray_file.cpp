@@ -97,7 +97,7 @@ TEST(CoreRayFile, CorruptOrTruncatedFilesAreRefusedNamingTheFieldAndOffset) {
   b[12] = 40;
   variant(b, "record_bytes");
   b = bytes;
-  b[32 + 48 * 5 + 32] = 9;  // ray 5's type
+  b[32 + 48 * 5 + 32] = char(kRayTypeCount);  // ray 5's type: the first unknown one
   variant(b, "offset " + std::to_string(32 + 48 * 5 + 32) + ": ray 5 type");
   b = bytes;
   b[32 + 48 * 2 + 3] = char(0x7f), b[32 + 48 * 2 + 2] = char(0xc0);  // ray 2 origin.x = NaN

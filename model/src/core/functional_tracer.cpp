@@ -207,7 +207,7 @@ Image shaded_image(const Scene& scene, const FrameRun& run) {
   struct Gather {
     uint32_t ao_open = 0, ao_total = 0, lights_visible = 0, lights_tested = 0;
     float direct = 0.0f;
-    vec3 reflected{0.0f}, refracted{0.0f};
+    vec3 reflected{0.0f}, refracted{0.0f}, diffuse{0.0f};
   };
   const vec3 background(0.05f, 0.05f, 0.08f);
   std::vector<Gather> gather(run.rays.size());
@@ -253,12 +253,16 @@ Image shaded_image(const Scene& scene, const FrameRun& run) {
         colour = colour * kept + (has_refl ? refl * g.reflected : vec3(0.0f)) +
                  (has_trans ? trans * g.refracted : vec3(0.0f)) + s.material->emission;
       }
+      // A cosine-weighted bounce's pdf cancels the cosine and 1/pi of a Lambertian
+      // surface: the light it brings back counts albedo times what it found.
+      colour += albedo * g.diffuse;
     }
     if (r.type == RayType::Primary) {
       if (r.pixel < image.pixels.size())
         image.pixels[r.pixel] += glm::clamp(colour, vec3(0.0f), vec3(1.0f)) / float(std::max(run.spp, 1u));
     } else if (parent) {
-      (r.type == RayType::Reflection ? parent->reflected : parent->refracted) = colour;
+      if (diffuse_depth(r.type) > 0) parent->diffuse = colour;
+      else (r.type == RayType::Reflection ? parent->reflected : parent->refracted) = colour;
     }
   }
   return image;

@@ -3,12 +3,17 @@
 #include <rtsim/workloads/host.h>
 #include <rtsim/workloads/random.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
 namespace rtsim {
 
 namespace {
+// The key that keeps diffuse bounces' random numbers apart from AO's (whose keys are
+// {pixel, sample, bounce, k} with bounce <= kMaxBounces).
+constexpr uint64_t kDiffuseKey = 0xD1FFu;
+
 bool any_triangle_material(const Scene& scene, bool (*pred)(const Material&)) {
   std::vector<char> used(scene.materials.size(), 0);
   for (uint32_t id : scene.material_ids)
@@ -54,7 +59,7 @@ EffectPlan plan_effects(const Scene& scene, const EffectSettings& settings) {
     set(RayType::Shadow, false, "switched off for this run");
   else
     set(RayType::Shadow, true,
-        "one per light facing the surface, from primary/reflection/refraction hits, any hit");
+        "one per light facing the surface, from every closest-hit ray's hit, any hit");
 
   const bool mirrors = any_triangle_material(scene, [](const Material& m) { return m.reflectance > 0.0f; });
   const bool glass = any_triangle_material(scene, [](const Material& m) { return m.transmittance > 0.0f; });
@@ -76,6 +81,20 @@ EffectPlan plan_effects(const Scene& scene, const EffectSettings& settings) {
   else
     set(RayType::Refraction, true, "from hits on materials with transmittance > 0, up to depth " +
                                        std::to_string(settings.max_depth));
+  plan.diffuse_bounces = std::min(settings.diffuse_bounces, kMaxDiffuseBounces);
+  plan.russian_roulette = settings.russian_roulette;
+  for (uint32_t depth = 1; depth <= kMaxDiffuseBounces; ++depth) {
+    if (depth > plan.diffuse_bounces)
+      set(diffuse_ray_type(depth), false,
+          plan.diffuse_bounces == 0 ? "no diffuse bounces asked (--diffuse-bounces 0)"
+                                    : "deeper than --diffuse-bounces " + std::to_string(plan.diffuse_bounces));
+    else
+      set(diffuse_ray_type(depth), true,
+          "diffuse bounce " + std::to_string(depth) + " of " + std::to_string(plan.diffuse_bounces) +
+              ", cosine-weighted from the " + (depth == 1 ? std::string("primary") : "previous bounce's") +
+              " hit, closest hit" +
+              (plan.russian_roulette && depth > 1 ? ", russian roulette by albedo" : ""));
+  }
   return plan;
 }
 
@@ -112,6 +131,7 @@ uint64_t max_frame_rays(const Scene& scene, const EffectPlan& plan, uint64_t pri
     level = saturating_mul(level, branching);
   }
   const uint64_t shadows = plan.on(RayType::Shadow) ? scene.lights.size() : 0;
+  closest = saturating_add(closest, plan.diffuse_bounces);  // one diffuse path per primary
   const uint64_t per_primary = saturating_add(saturating_mul(closest, 1 + shadows), plan.ao_samples);
   return saturating_mul(per_primary, primary_rays);
 }
@@ -186,7 +206,25 @@ void spawn_secondary_rays(const Scene& scene, const EffectPlan& plan, const Effe
       out.push_back(child);
     }
   }
-  if (!s.material || ray.bounce >= plan.max_depth) return;
+  const uint32_t depth = diffuse_depth(ray.type);  // 0: the primary hit or a specular one
+  if ((ray.type == RayType::Primary || depth > 0) && depth < plan.diffuse_bounces) {
+    KeyedRng rng(settings.seed, {ray.pixel, ray.sample, kDiffuseKey, depth + 1});
+    const float r1 = rng.next_float(), r2 = rng.next_float();
+    bool survives = true;
+    if (plan.russian_roulette && depth >= 1) {
+      const vec3 albedo = s.material ? s.material->albedo : vec3(0.7f);
+      const float keep = std::clamp(std::max({albedo.x, albedo.y, albedo.z}), 0.05f, 0.95f);
+      survives = rng.next_float() < keep;
+    }
+    if (survives) {
+      child.type = diffuse_ray_type(depth + 1);
+      child.origin = front;
+      child.direction = cosine_hemisphere_direction(s.normal, r1, r2);
+      child.tmax = std::numeric_limits<float>::infinity();
+      out.push_back(child);
+    }
+  }
+  if (depth > 0 || !s.material || ray.bounce >= plan.max_depth) return;
   const vec3 d = glm::normalize(ray.direction);
   const float cos_i = -glm::dot(d, s.normal);  // > 0: normal faces the incoming ray
   if (plan.on(RayType::Reflection) && s.material->reflectance > 0.0f) {

@@ -43,6 +43,14 @@ const char* ray_type_name(RayType type) {
     case RayType::Shadow: return "shadow";
     case RayType::Reflection: return "reflection";
     case RayType::Refraction: return "refraction";
+    case RayType::Diffuse1: return "diffuse1";
+    case RayType::Diffuse2: return "diffuse2";
+    case RayType::Diffuse3: return "diffuse3";
+    case RayType::Diffuse4: return "diffuse4";
+    case RayType::Diffuse5: return "diffuse5";
+    case RayType::Diffuse6: return "diffuse6";
+    case RayType::Diffuse7: return "diffuse7";
+    case RayType::Diffuse8: return "diffuse8";
   }
   return "unknown";
 }

@@ -11,12 +11,28 @@
 namespace rtsim {
 
 // The effect a ray serves. The order is part of the ray file format: append only.
-enum class RayType : uint8_t { Primary = 0, Ao = 1, Shadow = 2, Reflection = 3, Refraction = 4 };
-constexpr int kRayTypeCount = 5;
+// Diffuse<k>: a path tracer's k-th cosine-weighted diffuse bounce (--diffuse-bounces);
+// each depth is its own type, so the stats split them.
+enum class RayType : uint8_t {
+  Primary = 0, Ao = 1, Shadow = 2, Reflection = 3, Refraction = 4,
+  Diffuse1 = 5, Diffuse2, Diffuse3, Diffuse4, Diffuse5, Diffuse6, Diffuse7, Diffuse8
+};
+constexpr uint32_t kMaxDiffuseBounces = 8;  // Diffuse1 .. Diffuse8
+constexpr int kRayTypeCount = 5 + int(kMaxDiffuseBounces);
 constexpr std::array<RayType, kRayTypeCount> kAllRayTypes = {
-    RayType::Primary, RayType::Ao, RayType::Shadow, RayType::Reflection, RayType::Refraction};
-const char* ray_type_name(RayType type);  // "primary", "ao", "shadow", "reflection", "refraction"
+    RayType::Primary,  RayType::Ao,       RayType::Shadow,   RayType::Reflection, RayType::Refraction,
+    RayType::Diffuse1, RayType::Diffuse2, RayType::Diffuse3, RayType::Diffuse4,   RayType::Diffuse5,
+    RayType::Diffuse6, RayType::Diffuse7, RayType::Diffuse8};
+// "primary", "ao", "shadow", "reflection", "refraction", "diffuse1" .. "diffuse8"
+const char* ray_type_name(RayType type);
 inline int ray_type_index(RayType type) { return int(type); }
+// The diffuse bounce's depth (1..kMaxDiffuseBounces), 0 for any other type.
+inline uint32_t diffuse_depth(RayType type) {
+  const uint32_t d = uint32_t(type) - uint32_t(RayType::Diffuse1) + 1;
+  return d >= 1 && d <= kMaxDiffuseBounces ? d : 0;
+}
+// The type of the diffuse bounce at depth (1..kMaxDiffuseBounces).
+inline RayType diffuse_ray_type(uint32_t depth) { return RayType(uint32_t(RayType::Diffuse1) + depth - 1); }
 
 constexpr uint32_t kNoParent = ~0u;
 constexpr uint32_t kNoPrim = ~0u;
@@ -42,7 +58,8 @@ struct HitRecord {
   bool hit() const { return prim != kNoPrim; }
 };
 
-// Closest-hit rays want the nearest surface; any-hit rays (AO, shadow) stop at the first.
+// Closest-hit rays (primary, reflection, refraction, diffuse) want the nearest surface;
+// any-hit rays (AO, shadow) stop at the first.
 enum class TraversalMode : uint8_t { ClosestHit, AnyHit };
 inline TraversalMode traversal_mode_for(RayType type) {
   return (type == RayType::Ao || type == RayType::Shadow) ? TraversalMode::AnyHit

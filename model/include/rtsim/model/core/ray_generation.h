@@ -30,6 +30,11 @@ struct EffectSettings {
   bool reflections = true;   // AND the run allows it
   bool refractions = true;
   uint32_t max_depth = 2;    // reflection/refraction bounces after the primary hit
+  // A path tracer's diffuse bounces from each primary hit (0: none, up to
+  // kMaxDiffuseBounces); with russian_roulette a bounce past the first survives with
+  // the probability of the surface's largest albedo channel (in 0.05..0.95).
+  uint32_t diffuse_bounces = 0;
+  bool russian_roulette = false;
 };
 
 // Which effects run for one (scene, settings), and why the others do not.
@@ -39,6 +44,8 @@ struct EffectPlan {
   uint32_t ao_samples = 0;
   float ao_length = 0.0f;  // scene.ao_cutoff()
   uint32_t max_depth = 0;
+  uint32_t diffuse_bounces = 0;
+  bool russian_roulette = false;
   bool on(RayType t) const { return enabled[ray_type_index(t)]; }
 };
 EffectPlan plan_effects(const Scene& scene, const EffectSettings& settings);
@@ -46,7 +53,8 @@ EffectPlan plan_effects(const Scene& scene, const EffectSettings& settings);
 // The most rays one frame can spawn, before it is traced: per primary ray its AO
 // rays, and down to plan.max_depth bounces every closest-hit ray's shadow rays (one
 // per light) and children (reflection and refraction where a material of the scene
-// has them: up to two per hit, so 2^bounces in glass). Saturates at UINT64_MAX.
+// has them: up to two per hit, so 2^bounces in glass), and its diffuse bounces with
+// their shadow rays. Saturates at UINT64_MAX.
 uint64_t max_frame_rays(const Scene& scene, const EffectPlan& plan, uint64_t primary_rays);
 
 // Primary ray of (x, y, sample): through the pixel centre for spp == 1, jittered
@@ -66,9 +74,13 @@ struct SurfaceHit {
 SurfaceHit surface_at(const Scene& scene, const Ray& ray, const HitRecord& hit);
 
 // Appends the secondary rays a finished ray spawns (parent = ray_index): AO
-// rays from primary hits; shadow rays (one per light on the lit side) and
-// mirror/refraction rays from primary, reflection and refraction hits below
-// max depth. AO and shadow rays spawn nothing. Origins are offset robustly.
+// rays from primary hits; shadow rays (one per light on the lit side) from every
+// closest-hit ray's hit; mirror/refraction rays from primary, reflection and
+// refraction hits below max depth; one diffuse bounce (cosine-weighted about the
+// normal, closest hit, KeyedRng(seed, {pixel, sample, kDiffuseKey, depth})) from a
+// primary hit and from each diffuse bounce's hit below diffuse_bounces. A diffuse
+// bounce's hit spawns no mirror or refraction ray: a path continues diffusely. AO and
+// shadow rays spawn nothing. Origins are offset robustly.
 void spawn_secondary_rays(const Scene& scene, const EffectPlan& plan, const EffectSettings& settings,
                           const Ray& ray, uint32_t ray_index, const HitRecord& hit,
                           std::vector<Ray>& out);
