@@ -8,6 +8,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+
 using namespace rtsim;
 
 namespace {
@@ -173,4 +176,117 @@ TEST(CoreDeterminism, IdenticalResultsAndCacheStatsForEveryThreadCount) {
   EXPECT_EQ(caches_1.hash, caches_2.hash);
   EXPECT_EQ(caches_1.hash, caches_all.hash);
   EXPECT_GT(caches_1.accesses, a.total.node_fetches);
+}
+
+// Diffuse bounces (--diffuse-bounces): a path of closest-hit rays, one per primary hit.
+namespace {
+FrameRun cornell_run(const EffectSettings& s, uint32_t threads = 0) {
+  static const Scene scene = make_procedural_scene("cornell");
+  static const Bvh bvh = test::median_bvh(scene);
+  static const MemoryImage image(scene, bvh);
+  static const TraversalContext context(scene, bvh, image);
+  return run_frame(context, scene.cameras.front(), s, nullptr, threads);
+}
+uint64_t hits_of(const FrameRun& run, RayType t) { return run.per_type[ray_type_index(t)].hits; }
+}  // namespace
+
+TEST(CoreDiffuse, OffByDefaultWithTheReasonInThePlan) {
+  Room room(false, false);
+  const FrameRun run = room.run(small());
+  for (uint32_t depth = 1; depth <= kMaxDiffuseBounces; ++depth) {
+    EXPECT_FALSE(run.plan.on(diffuse_ray_type(depth)));
+    EXPECT_EQ(rays_of(run, diffuse_ray_type(depth)), 0u);
+  }
+  EXPECT_NE(run.plan.reason[ray_type_index(RayType::Diffuse1)].find("--diffuse-bounces 0"), std::string::npos);
+  EXPECT_FALSE(small().russian_roulette);
+}
+
+TEST(CoreDiffuse, EachDepthIsSpawnedOncePerHitOfThePreviousDepth) {
+  EffectSettings s = small();
+  s.diffuse_bounces = 2;
+  const FrameRun run = cornell_run(s);
+  const uint64_t d1 = rays_of(run, RayType::Diffuse1), d2 = rays_of(run, RayType::Diffuse2);
+  EXPECT_GT(d1, 0u);
+  EXPECT_EQ(d1, hits_of(run, RayType::Primary));
+  EXPECT_EQ(d2, hits_of(run, RayType::Diffuse1));
+  EXPECT_EQ(rays_of(run, RayType::Diffuse3), 0u);  // deeper than asked
+  EXPECT_TRUE(run.plan.on(RayType::Diffuse2));
+  EXPECT_FALSE(run.plan.on(RayType::Diffuse3));
+  EXPECT_NE(run.plan.reason[ray_type_index(RayType::Diffuse3)].find("deeper than --diffuse-bounces 2"),
+            std::string::npos);
+  // Every diffuse ray is a closest-hit ray whose parent is the previous depth.
+  for (size_t i = 0; i < run.rays.size(); ++i) {
+    const uint32_t depth = diffuse_depth(run.rays[i].type);
+    if (depth == 0) continue;
+    ASSERT_NE(run.rays[i].parent, kNoParent);
+    const RayType parent = run.rays[run.rays[i].parent].type;
+    EXPECT_EQ(parent, depth == 1 ? RayType::Primary : diffuse_ray_type(depth - 1)) << i;
+    EXPECT_EQ(traversal_mode_for(run.rays[i].type), TraversalMode::ClosestHit);
+  }
+}
+
+TEST(CoreDiffuse, DirectionsAreCosineWeightedAboutTheParentsNormal) {
+  EffectSettings s = small();
+  s.diffuse_bounces = 1;
+  const FrameRun run = cornell_run(s);
+  static const Scene scene = make_procedural_scene("cornell");
+  double sum = 0.0, sum_sq = 0.0;
+  uint64_t n = 0;
+  for (size_t i = 0; i < run.rays.size(); ++i) {
+    const Ray& r = run.rays[i];
+    if (r.type != RayType::Diffuse1) continue;
+    const Ray& parent = run.rays[r.parent];
+    const SurfaceHit surface = surface_at(scene, parent, run.results[r.parent].hit);
+    const double c = glm::dot(glm::normalize(r.direction), surface.normal);
+    ASSERT_GT(c, 0.0) << "diffuse ray " << i << " leaves below its surface";
+    sum += c;
+    sum_sq += c * c;
+    ++n;
+  }
+  ASSERT_GT(n, 1000u);
+  // For a cosine-weighted hemisphere E[cos] = 2/3 and Var[cos] = 1/2 - 4/9 = 1/18.
+  const double mean = sum / double(n), se = std::sqrt((sum_sq / double(n) - mean * mean) / double(n));
+  EXPECT_NEAR(mean, 2.0 / 3.0, 5.0 * se);
+  EXPECT_NEAR(sum_sq / double(n) - mean * mean, 1.0 / 18.0, 0.01);
+}
+
+TEST(CoreDiffuse, RussianRouletteKeepsAboutTheAlbedoFractionOfDeeperBounces) {
+  EffectSettings s = small();
+  s.diffuse_bounces = 3;
+  const FrameRun all = cornell_run(s);
+  s.russian_roulette = true;
+  const FrameRun rr = cornell_run(s);
+  // The first bounce never plays roulette; the same keyed numbers give the same rays.
+  EXPECT_EQ(rays_of(rr, RayType::Diffuse1), rays_of(all, RayType::Diffuse1));
+  const uint64_t offered = hits_of(rr, RayType::Diffuse1), kept = rays_of(rr, RayType::Diffuse2);
+  ASSERT_GT(offered, 500u);
+  EXPECT_LT(kept, offered);
+  EXPECT_GT(kept, 0u);
+  // Each offered bounce survives with its surface's largest albedo channel (clamped
+  // to 0.05..0.95): the kept count is a sum of those Bernoulli trials.
+  static const Scene scene = make_procedural_scene("cornell");
+  double expected = 0.0, variance = 0.0;
+  for (size_t i = 0; i < rr.rays.size(); ++i) {
+    if (rr.rays[i].type != RayType::Diffuse1 || !rr.results[i].hit.hit()) continue;
+    const vec3 albedo = scene.materials[scene.material_ids[rr.results[i].hit.prim]].albedo;
+    const double keep = std::clamp(std::max({albedo.x, albedo.y, albedo.z}), 0.05f, 0.95f);
+    expected += keep;
+    variance += keep * (1.0 - keep);
+  }
+  EXPECT_NEAR(double(kept), expected, 5.0 * std::sqrt(variance));
+  EXPECT_LT(rays_of(rr, RayType::Diffuse3), rays_of(all, RayType::Diffuse3));
+}
+
+TEST(CoreDiffuse, SameRaysWhateverTheThreadCount) {
+  EffectSettings s = small();
+  s.diffuse_bounces = 3;
+  s.russian_roulette = true;
+  const FrameRun a = cornell_run(s, 1), b = cornell_run(s, 2);
+  ASSERT_EQ(a.rays.size(), b.rays.size());
+  for (size_t i = 0; i < a.rays.size(); ++i) {
+    ASSERT_EQ(a.rays[i].type, b.rays[i].type) << i;
+    ASSERT_EQ(a.rays[i].direction, b.rays[i].direction) << i;
+    ASSERT_EQ(a.results[i].hit.prim, b.results[i].hit.prim) << i;
+  }
+  EXPECT_EQ(a.total.ops(), b.total.ops());
 }
