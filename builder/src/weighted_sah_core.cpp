@@ -410,6 +410,43 @@ void count_candidate_rays(const RaySamples& rays, const std::vector<uint32_t>& i
   for (uint32_t i = m - 1; i > 0; --i) n_right[i - 1] += n_right[i];
 }
 
+// The running sums of one axis's candidate splits: for items 0..n-1 in order (bins,
+// or references sorted by centroid), candidate i puts items 0..i left and i+1..n-1
+// right. Sized for the small nodes on the stack, for larger ones on the heap.
+class CandidateScratch {
+ public:
+  struct RightSums {
+    float area, weight;
+    uint32_t count, visible;
+  };
+  CandidateScratch(uint32_t items, bool with_rays) {
+    if (items > kSmallItems) {
+      heap_.resize(items);
+      right = heap_.data();
+    }
+    if (with_rays) {  // RDH: each candidate's child boxes and their ray counts
+      left_boxes.resize(items);
+      right_boxes.resize(items);
+      rays_left.resize(items);
+      rays_right.resize(items);
+    }
+  }
+  RightSums* right = small_;
+  std::vector<Aabb> left_boxes, right_boxes;
+  std::vector<uint32_t> rays_left, rays_right;
+
+ private:
+  static constexpr uint32_t kSmallItems = std::max(kMaxBins, kSmallSweep);
+  RightSums small_[kSmallItems];
+  std::vector<RightSums> heap_;
+};
+
+// A partitioned node's children: their reference counts, and the slots the left
+// child may grow into (SBVH's reference budget; the right child has the rest).
+struct ChildRanges {
+  uint32_t left_count = 0, right_count = 0, left_capacity = 0;
+};
+
 struct TempNode {
   Aabb box;
   uint32_t left = ~0u, right = ~0u;  // ~0u: leaf
@@ -431,6 +468,10 @@ class Builder {
   float split_cost(float area_left, float weight_left, uint32_t visible_left, float area_right,
                    float weight_right, uint32_t visible_right, float node_area,
                    const NodeInfo& info, float mix, RayCounts rays = RayCounts{}) const;
+  template <class AddItem>
+  void evaluate_candidates(Split::Kind kind, int axis, uint32_t items, AddItem add_item, const NodeInfo& info,
+                           const std::vector<uint32_t>& rays, CandidateScratch& scratch, Split& best,
+                           VisibilitySearch search) const;
   Split find_object_split(uint32_t begin, uint32_t count, const NodeInfo& info,
                           const std::vector<uint32_t>& rays, VisibilitySearch search = {}) const;
   Split find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& info, SweepOrders& orders,
@@ -453,6 +494,12 @@ class Builder {
                          const NodeInfo& info, uint32_t* left_count, uint32_t* right_count,
                          uint32_t* left_capacity);
   uint32_t partition_median(uint32_t begin, uint32_t count, const NodeInfo& info);
+  std::vector<uint32_t> rays_meeting(const Aabb& box, const std::vector<uint32_t>* parent_rays);
+  ChildRanges partition_node(Split& best, const Split& object_fallback, uint32_t begin, uint32_t count,
+                             uint32_t capacity, uint32_t depth, const NodeInfo& info, const SweepOrders& orders,
+                             bool* by_split);
+  static void split_child_orders(const SweepOrders& orders, int axis, uint32_t count, uint32_t left_count,
+                                 SweepKey (&child_keys)[2][3][kSmallSweep], SweepOrders (&child_orders)[2]);
   static double need(const Ref* refs, uint32_t count);
   static uint32_t left_share(uint32_t spare, const Ref* left, uint32_t nl, const Ref* right,
                              uint32_t nr);
@@ -523,6 +570,63 @@ inline float Builder::split_cost(float area_left, float weight_left, uint32_t vi
   return 2.0f * config_.t1 + config_.t2 * (p_left * weight_left + p_right * weight_right);
 }
 
+// The one split evaluation of the binned and the exact (swept) object splits: the
+// items of one axis in order, add_item(sum, i) adding item i to a running sum.
+// Suffix sums first, then (RDH) every candidate's ray counts, then one prefix pass
+// pricing each candidate with both children non-empty, plainly and, when asked,
+// under OSAH's visibility-mixed probabilities.
+template <class AddItem>
+void Builder::evaluate_candidates(Split::Kind kind, int axis, uint32_t items, AddItem add_item,
+                                  const NodeInfo& info, const std::vector<uint32_t>& rays,
+                                  CandidateScratch& scratch, Split& best, VisibilitySearch search) const {
+  const float node_area = info.box.area();
+  const bool with_rays = !rays.empty();
+  CandidateScratch::RightSums* right = scratch.right;
+  Bin suffix;
+  for (uint32_t i = items - 1; i > 0; --i) {
+    add_item(suffix, i);
+    right[i] = {suffix.area(), suffix.weight, suffix.count, suffix.visible};
+    if (with_rays) scratch.right_boxes[i - 1] = suffix.box();
+  }
+  if (with_rays) {
+    Bin prefix;
+    for (uint32_t i = 0; i + 1 < items; ++i) {
+      add_item(prefix, i);
+      scratch.left_boxes[i] = prefix.box();
+    }
+    count_candidate_rays(*config_.rays, rays, scratch.left_boxes.data(), scratch.right_boxes.data(), items - 1,
+                         scratch.rays_left.data(), scratch.rays_right.data());
+  }
+  Bin left;
+  for (uint32_t i = 0; i + 1 < items; ++i) {
+    add_item(left, i);
+    const CandidateScratch::RightSums& r = right[i + 1];
+    if (left.count == 0 || r.count == 0) continue;  // empty bins at either end
+    const RayCounts counts = with_rays ? RayCounts{scratch.rays_left[i], scratch.rays_right[i], uint32_t(rays.size())}
+                                       : RayCounts{};
+    auto take = [&](Split& s, float cost) {
+      s.kind = kind;
+      s.axis = axis;
+      s.bin = i;
+      s.cost = cost;
+      s.left_count = left.count;
+      s.right_count = r.count;
+      s.left_visible = left.visible;
+      s.right_visible = r.visible;
+      s.left_box = left.box();
+    };
+    const float area = left.area();
+    const float cost =
+        split_cost(area, left.weight, left.visible, r.area, r.weight, r.visible, node_area, info, 0.0f, counts);
+    if (cost < best.cost) take(best, cost);
+    if (search.best) {
+      const float mixed = split_cost(area, left.weight, left.visible, r.area, r.weight, r.visible, node_area, info,
+                                     search.weight, counts);
+      if (mixed < search.best->cost) take(*search.best, mixed);
+    }
+  }
+}
+
 Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo& info,
                                  const std::vector<uint32_t>& rays, VisibilitySearch search) const {
   const uint32_t bins = config_.bins;
@@ -558,62 +662,12 @@ Split Builder::find_object_split(uint32_t begin, uint32_t count, const NodeInfo&
       for (uint32_t k = 0; k < 3 * bins; ++k) binned[k].add(partial[size_t(c) * 3 * bins + k]);
   }
 
-  const float node_area = info.box.area();
-  std::array<float, kMaxBins> right_area, right_weight;
-  std::array<uint32_t, kMaxBins> right_count, right_visible;
-  // RDH: candidate i's child boxes (bins 0..i and i+1..bins-1) and their ray counts.
-  std::array<Aabb, kMaxBins> left_boxes, right_boxes;
-  std::array<uint32_t, kMaxBins> rays_left, rays_right;
-  const bool with_rays = !rays.empty();
+  CandidateScratch scratch(bins, !rays.empty());
   for (int a = 0; a < 3; ++a) {
     if (!binning.usable(a)) continue;
     const Bin* axis_bins = binned + a * bins;
-    Bin acc;
-    for (uint32_t i = bins - 1; i > 0; --i) {
-      acc.add(axis_bins[i]);
-      right_area[i] = acc.area();
-      right_weight[i] = acc.weight;
-      right_count[i] = acc.count;
-      right_visible[i] = acc.visible;
-      if (with_rays) right_boxes[i - 1] = acc.box();
-    }
-    if (with_rays) {
-      Bin grow;
-      for (uint32_t i = 0; i + 1 < bins; ++i) {
-        grow.add(axis_bins[i]);
-        left_boxes[i] = grow.box();
-      }
-      count_candidate_rays(*config_.rays, rays, left_boxes.data(), right_boxes.data(), bins - 1,
-                           rays_left.data(), rays_right.data());
-    }
-    Bin left;
-    for (uint32_t i = 0; i + 1 < bins; ++i) {
-      left.add(axis_bins[i]);
-      if (left.count == 0 || right_count[i + 1] == 0) continue;
-      const RayCounts counts =
-          with_rays ? RayCounts{rays_left[i], rays_right[i], uint32_t(rays.size())} : RayCounts{};
-      auto take = [&](Split& s, float cost) {
-        s.kind = Split::Kind::Object;
-        s.axis = a;
-        s.bin = i;
-        s.cost = cost;
-        s.left_count = left.count;
-        s.right_count = right_count[i + 1];
-        s.left_visible = left.visible;
-        s.right_visible = right_visible[i + 1];
-        s.left_box = left.box();
-      };
-      const float cost = split_cost(left.area(), left.weight, left.visible, right_area[i + 1],
-                                    right_weight[i + 1], right_visible[i + 1], node_area, info,
-                                    0.0f, counts);
-      if (cost < best.cost) take(best, cost);
-      if (search.best) {
-        const float mixed = split_cost(left.area(), left.weight, left.visible, right_area[i + 1],
-                                       right_weight[i + 1], right_visible[i + 1], node_area, info,
-                                       search.weight, counts);
-        if (mixed < search.best->cost) take(*search.best, mixed);
-      }
-    }
+    evaluate_candidates(Split::Kind::Object, a, bins, [&](Bin& sum, uint32_t i) { sum.add(axis_bins[i]); },
+                        info, rays, scratch, best, search);
   }
   // The right box is needed by the SBVH overlap test only; recompute it here.
   for (Split* s : {&best, search.best}) {
@@ -650,77 +704,15 @@ Split Builder::find_sweep_split(uint32_t begin, uint32_t count, const NodeInfo& 
                                 const std::vector<uint32_t>& rays, VisibilitySearch search) const {
   Split best;
   if (count < 2) return best;
-  const float node_area = info.box.area();
-  // Small nodes (the vast majority) sweep on the stack; large ones on the heap.
-  float small_area[kSmallSweep], small_weight[kSmallSweep];
-  uint32_t small_visible[kSmallSweep];
-  std::vector<float> big_area, big_weight;
-  std::vector<uint32_t> big_visible;
-  float* right_area = small_area;
-  float* right_weight = small_weight;
-  uint32_t* right_visible = small_visible;
-  if (count > kSmallSweep) {
-    big_area.resize(count);
-    big_weight.resize(count);
-    big_visible.resize(count);
-    right_area = big_area.data();
-    right_weight = big_weight.data();
-    right_visible = big_visible.data();
-  }
   const Ref* refs = refs_.data() + begin;
-  // RDH: candidate i's child boxes (slots 0..i and i+1..count-1) and their ray counts.
-  const bool with_rays = !rays.empty();
-  std::vector<Aabb> left_boxes(with_rays ? count : 0), right_boxes(with_rays ? count : 0);
-  std::vector<uint32_t> rays_left(with_rays ? count : 0), rays_right(with_rays ? count : 0);
+  CandidateScratch scratch(count, !rays.empty());
   for (int a = 0; a < 3; ++a) {
     if (!(info.centroids.hi[a] > info.centroids.lo[a])) continue;
     SweepKey* keys = orders.keys[a];
     if (!orders.sorted[a]) sweep_order(scene_, refs, count, a, keys);
     orders.sorted[a] = true;
-    Bin acc;
-    for (uint32_t i = count - 1; i > 0; --i) {
-      acc.add(refs[keys[i].slot]);
-      right_area[i] = acc.area();
-      right_weight[i] = acc.weight;
-      right_visible[i] = acc.visible;
-      if (with_rays) right_boxes[i - 1] = acc.box();
-    }
-    if (with_rays) {
-      Aabb grow;
-      for (uint32_t i = 0; i + 1 < count; ++i) {
-        grow.extend(refs[keys[i].slot].box());
-        left_boxes[i] = grow;
-      }
-      count_candidate_rays(*config_.rays, rays, left_boxes.data(), right_boxes.data(), count - 1,
-                           rays_left.data(), rays_right.data());
-    }
-    Bin left;
-    for (uint32_t i = 0; i + 1 < count; ++i) {
-      left.add(refs[keys[i].slot]);
-      const RayCounts counts =
-          with_rays ? RayCounts{rays_left[i], rays_right[i], uint32_t(rays.size())} : RayCounts{};
-      auto take = [&](Split& s, float cost) {
-        s.kind = Split::Kind::Sweep;
-        s.axis = a;
-        s.bin = i;
-        s.cost = cost;
-        s.left_count = i + 1;
-        s.right_count = count - i - 1;
-        s.left_visible = left.visible;
-        s.right_visible = right_visible[i + 1];
-        s.left_box = left.box();
-      };
-      const float cost = split_cost(left.area(), left.weight, left.visible, right_area[i + 1],
-                                    right_weight[i + 1], right_visible[i + 1], node_area, info,
-                                    0.0f, counts);
-      if (cost < best.cost) take(best, cost);
-      if (search.best) {
-        const float mixed = split_cost(left.area(), left.weight, left.visible, right_area[i + 1],
-                                       right_weight[i + 1], right_visible[i + 1], node_area, info,
-                                       search.weight, counts);
-        if (mixed < search.best->cost) take(*search.best, mixed);
-      }
-    }
+    evaluate_candidates(Split::Kind::Sweep, a, count, [&](Bin& sum, uint32_t i) { sum.add(refs[keys[i].slot]); },
+                        info, rays, scratch, best, search);
   }
   if (config_.spatial_splits) {
     // The right box is needed by the SBVH overlap test only.
@@ -978,28 +970,105 @@ bool Builder::partition_spatial(const Split& split, uint32_t begin, uint32_t cou
   return true;
 }
 
+// RDH: the parent's sample rays whose segment meets this node's box, in the
+// parent's order (sequential: the same list for any thread count). The root
+// filters all rays.
+std::vector<uint32_t> Builder::rays_meeting(const Aabb& box, const std::vector<uint32_t>* parent_rays) {
+  const RaySamples& samples = *config_.rays;
+  std::vector<uint32_t> rays;
+  if (parent_rays) {
+    for (const uint32_t r : *parent_rays)
+      if (samples.hits(r, box)) rays.push_back(r);
+  } else {
+    for (uint32_t r = 0; r < uint32_t(samples.size()); ++r)
+      if (samples.hits(r, box)) rays.push_back(r);
+  }
+  ray_node_pairs_.fetch_add(rays.size());
+  return rays;
+}
+
+// Applies the chosen split to refs_, or a fallback where it cannot be used: a
+// spatial split whose children came out empty or over the budget takes the best
+// object split instead (refs_ is untouched then), as the authors' OSAH does; with no
+// usable split at all, the median. *by_split: false for the median.
+ChildRanges Builder::partition_node(Split& best, const Split& object_fallback, uint32_t begin, uint32_t count,
+                                    uint32_t capacity, uint32_t depth, const NodeInfo& info,
+                                    const SweepOrders& orders, bool* by_split) {
+  ChildRanges c;
+  bool partitioned = false;
+  auto partition_by_object = [&] {
+    c.left_count = partition_object(best, begin, count, info, orders.keys[best.axis]);
+    c.right_count = count - c.left_count;
+    partitioned = c.left_count > 0 && c.right_count > 0;
+  };
+  if (best.valid() && depth_allows(depth, best.left_count, best.right_count)) {
+    if (best.kind == Split::Kind::Spatial) {
+      partitioned = partition_spatial(best, begin, count, capacity, info, &c.left_count, &c.right_count,
+                                      &c.left_capacity);
+      if (partitioned && depth == 0) root_split_spatial_ = true;
+      if (partitioned && best.visibility) visibility_splits_.fetch_add(1);
+      if (!partitioned && object_fallback.valid() &&
+          depth_allows(depth, object_fallback.left_count, object_fallback.right_count)) {
+        best = object_fallback;
+        partition_by_object();
+      }
+    } else {
+      partition_by_object();
+      if (partitioned && best.visibility) visibility_splits_.fetch_add(1);
+    }
+  }
+  if (!partitioned) {
+    // No usable SAH split (all centroids in one bin, or the depth limit is near):
+    // a balanced split keeps both the leaf-size and the depth limits.
+    median_splits_.fetch_add(1);
+    c.left_count = partition_median(begin, count, info);
+    c.right_count = count - c.left_count;
+  }
+  if (c.left_capacity == 0) {
+    // Share the node's spare references (SBVH budget) by the children's needs.
+    const uint32_t spare = capacity - c.left_count - c.right_count;
+    c.left_capacity = c.left_count + left_share(spare, refs_.data() + begin, c.left_count,
+                                                refs_.data() + begin + c.left_count, c.right_count);
+    if (c.left_capacity > c.left_count) {
+      Ref* first = refs_.data() + begin;
+      std::move_backward(first + c.left_count, first + count, first + c.left_capacity + c.right_count);
+    }
+  }
+  *by_split = partitioned;
+  return c;
+}
+
+// A small swept node hands its children their parts of its orders: slot i of the
+// split axis's order is now slot i of the node, so each axis's order, read in turn,
+// is split into the left and the right child's, still sorted.
+void Builder::split_child_orders(const SweepOrders& orders, int axis, uint32_t count, uint32_t left_count,
+                                 SweepKey (&child_keys)[2][3][kSmallSweep], SweepOrders (&child_orders)[2]) {
+  uint8_t position[kSmallSweep];
+  const SweepKey* by_split_axis = orders.keys[axis];
+  for (uint32_t i = 0; i < count; ++i) position[by_split_axis[i].slot] = uint8_t(i);
+  for (int a = 0; a < 3; ++a) {
+    if (!orders.sorted[a]) continue;  // a flat axis: the children's are flat too
+    uint32_t nl = 0, nr = 0;
+    for (uint32_t i = 0; i < count; ++i) {
+      const uint32_t p = position[orders.keys[a][i].slot];
+      if (p < left_count) child_keys[0][a][nl++] = SweepKey{orders.keys[a][i].key, p};
+      else child_keys[1][a][nr++] = SweepKey{orders.keys[a][i].key, p - left_count};
+    }
+    for (int c = 0; c < 2; ++c) child_orders[c].sorted[a] = true;
+  }
+  for (int c = 0; c < 2; ++c)
+    for (int a = 0; a < 3; ++a) child_orders[c].keys[a] = child_keys[c][a];
+}
+
+// One node: its box, then leaf or split, partition, and the two children (in
+// parallel for large nodes).
 uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint32_t depth,
                         const std::vector<uint32_t>* parent_rays, const SweepOrders* presorted) {
   const NodeInfo info = node_info(begin, count);
   const uint32_t index = uint32_t(nodes_.emplace_back() - nodes_.begin());
   nodes_[index].box = info.box;
   nodes_[index].visible = info.visible;
-
-  // RDH: the parent's sample rays whose segment meets this node's box, in the
-  // parent's order (sequential: the same list for any thread count). The root
-  // filters all rays.
-  std::vector<uint32_t> rays;
-  if (config_.rays) {
-    const RaySamples& samples = *config_.rays;
-    if (parent_rays) {
-      for (const uint32_t r : *parent_rays)
-        if (samples.hits(r, info.box)) rays.push_back(r);
-    } else {
-      for (uint32_t r = 0; r < uint32_t(samples.size()); ++r)
-        if (samples.hits(r, info.box)) rays.push_back(r);
-    }
-    ray_node_pairs_.fetch_add(rays.size());
-  }
+  const std::vector<uint32_t> rays = config_.rays ? rays_meeting(info.box, parent_rays) : std::vector<uint32_t>{};
 
   auto make_leaf = [&] {
     nodes_[index].begin = begin;
@@ -1029,86 +1098,27 @@ uint32_t Builder::build(uint32_t begin, uint32_t count, uint32_t capacity, uint3
   if (fits_leaf && (!best.valid() || leaf_cost <= best.cost)) return make_leaf();
   if (!fits_leaf && best.valid() && leaf_cost <= best.cost) forced_splits_.fetch_add(1);
 
-  uint32_t left_count = 0, right_count = 0, left_capacity = 0;
-  bool partitioned = false;
-  if (best.valid() && depth_allows(depth, best.left_count, best.right_count)) {
-    if (best.kind == Split::Kind::Spatial) {
-      partitioned = partition_spatial(best, begin, count, capacity, info, &left_count,
-                                      &right_count, &left_capacity);
-      if (partitioned && depth == 0) root_split_spatial_ = true;
-      if (partitioned && best.visibility) visibility_splits_.fetch_add(1);
-      // A spatial split whose children came out empty or over the budget: the best
-      // object split instead (refs_ is untouched), as the authors' OSAH does.
-      if (!partitioned && object_fallback.valid() &&
-          depth_allows(depth, object_fallback.left_count, object_fallback.right_count)) {
-        best = object_fallback;
-        left_count = partition_object(best, begin, count, info, orders.keys[best.axis]);
-        right_count = count - left_count;
-        partitioned = left_count > 0 && right_count > 0;
-      }
-    } else {
-      left_count = partition_object(best, begin, count, info, orders.keys[best.axis]);
-      right_count = count - left_count;
-      partitioned = left_count > 0 && right_count > 0;
-      if (partitioned && best.visibility) visibility_splits_.fetch_add(1);
-    }
-  }
-  if (!partitioned) {
-    // No usable SAH split (all centroids in one bin, or the depth limit is near):
-    // a balanced split keeps both the leaf-size and the depth limits.
-    median_splits_.fetch_add(1);
-    left_count = partition_median(begin, count, info);
-    right_count = count - left_count;
-  }
-  if (left_capacity == 0) {
-    // Share the node's spare references (SBVH budget) by the children's needs.
-    const uint32_t spare = capacity - left_count - right_count;
-    left_capacity = left_count + left_share(spare, refs_.data() + begin, left_count,
-                                              refs_.data() + begin + left_count, right_count);
-    if (left_capacity > left_count) {
-      Ref* first = refs_.data() + begin;
-      std::move_backward(first + left_count, first + count, first + left_capacity + right_count);
-    }
-  }
-  const uint32_t right_begin = begin + left_capacity;
-  const uint32_t right_capacity = capacity - left_capacity;
-  uint32_t left_node = 0, right_node = 0;
+  bool by_split = false;
+  const ChildRanges c = partition_node(best, object_fallback, begin, count, capacity, depth, info, orders, &by_split);
+  const uint32_t right_begin = begin + c.left_capacity;
+  const uint32_t right_capacity = capacity - c.left_capacity;
   const std::vector<uint32_t>* child_rays = config_.rays ? &rays : nullptr;
-  // A small swept node hands its children their parts of its orders (slot i of the
-  // best axis's order is now slot i of the node); spatial splits change the
-  // references, so their children sort again.
+  // Spatial splits change the references, so their children sort again.
   SweepKey child_keys[2][3][kSmallSweep];
   SweepOrders child_orders[2];
-  const bool presort_children = partitioned && best.kind == Split::Kind::Sweep && !config_.spatial_splits &&
-                                count <= kSmallSweep && left_capacity == left_count;
-  if (presort_children) {
-    uint8_t position[kSmallSweep];
-    const SweepKey* by_best = orders.keys[best.axis];
-    for (uint32_t i = 0; i < count; ++i) position[by_best[i].slot] = uint8_t(i);
-    for (int a = 0; a < 3; ++a) {
-      if (!orders.sorted[a]) continue;  // a flat axis: the children's are flat too
-      uint32_t nl = 0, nr = 0;
-      for (uint32_t i = 0; i < count; ++i) {
-        const uint32_t p = position[orders.keys[a][i].slot];
-        if (p < left_count) child_keys[0][a][nl++] = SweepKey{orders.keys[a][i].key, p};
-        else child_keys[1][a][nr++] = SweepKey{orders.keys[a][i].key, p - left_count};
-      }
-      for (int c = 0; c < 2; ++c) child_orders[c].sorted[a] = true;
-    }
-    for (int c = 0; c < 2; ++c)
-      for (int a = 0; a < 3; ++a) child_orders[c].keys[a] = child_keys[c][a];
-  }
+  const bool presort_children = by_split && best.kind == Split::Kind::Sweep && !config_.spatial_splits &&
+                                count <= kSmallSweep && c.left_capacity == c.left_count;
+  if (presort_children) split_child_orders(orders, best.axis, count, c.left_count, child_keys, child_orders);
   const SweepOrders* left_sorted = presort_children ? &child_orders[0] : nullptr;
   const SweepOrders* right_sorted = presort_children ? &child_orders[1] : nullptr;
+  uint32_t left_node = 0, right_node = 0;
   if (count >= kParallelRecursion) {
     tbb::parallel_invoke(
-        [&] { left_node = build(begin, left_count, left_capacity, depth + 1, child_rays); },
-        [&] {
-          right_node = build(right_begin, right_count, right_capacity, depth + 1, child_rays);
-        });
+        [&] { left_node = build(begin, c.left_count, c.left_capacity, depth + 1, child_rays); },
+        [&] { right_node = build(right_begin, c.right_count, right_capacity, depth + 1, child_rays); });
   } else {
-    left_node = build(begin, left_count, left_capacity, depth + 1, child_rays, left_sorted);
-    right_node = build(right_begin, right_count, right_capacity, depth + 1, child_rays, right_sorted);
+    left_node = build(begin, c.left_count, c.left_capacity, depth + 1, child_rays, left_sorted);
+    right_node = build(right_begin, c.right_count, right_capacity, depth + 1, child_rays, right_sorted);
   }
   // The authors' OSAH puts the child holding more visible references first.
   if (config_.visible_first && nodes_[right_node].visible > nodes_[left_node].visible)
