@@ -14,15 +14,6 @@ namespace rtsim {
 
 namespace {
 
-// format_number keeps a fixed number of decimals below 1 (0.0012 -> "0.00"); small
-// times and errors need their significant digits.
-std::string num(double v, int digits = 4) {
-  if (v == 0 || std::fabs(v) >= 1 || !std::isfinite(v)) return format_number(v, digits);
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-  return buf;
-}
-std::string pct(double fraction) { return num(100.0 * fraction, 3) + "%"; }
 std::string res(uint32_t r) { return std::to_string(r) + "x" + std::to_string(r); }
 
 TextTable fidelity_table(const AccuracyReport& r) {
@@ -30,9 +21,9 @@ TextTable fidelity_table(const AccuracyReport& r) {
                "cycles",
                "cycle error", "DRAM bytes", "DRAM error", "ops/ray", "counts = cycle"});
   for (const FidelityPoint& p : r.fidelity)
-    t.add_row({p.level, res(p.resolution), std::to_string(p.rays), num(p.host_seconds, 3), num(p.cpu_seconds, 3),
-               num(p.process_seconds, 3), num(p.rays_per_host_second, 3), num(p.rays_per_cpu_second, 3), num(p.cycles, 7), pct(p.cycle_error),
-               num(p.dram_bytes, 7), pct(p.dram_error), num(p.ops_per_ray), p.counts_match_cycle ? "yes" : "NO"});
+    t.add_row({p.level, res(p.resolution), std::to_string(p.rays), format_significant(p.host_seconds, 3), format_significant(p.cpu_seconds, 3),
+               format_significant(p.process_seconds, 3), format_significant(p.rays_per_host_second, 3), format_significant(p.rays_per_cpu_second, 3), format_significant(p.cycles, 7), format_percent(p.cycle_error),
+               format_significant(p.dram_bytes, 7), format_percent(p.dram_error), format_significant(p.ops_per_ray), p.counts_match_cycle ? "yes" : "NO"});
   return t;
 }
 
@@ -40,11 +31,11 @@ TextTable knob_table(const AccuracyReport& r) {
   TextTable t({"knob", "setting", "estimate s", "build s", "CPU s", "SAH cost", "references", "ops/ray",
                "ops/ray vs reference", "occlusion RMSE", "occlusion max error", "weight RMSE"});
   for (const KnobPoint& k : r.knobs)
-    t.add_row({k.family, k.label + (k.reference ? " (reference)" : ""), num(k.estimate_seconds, 3),
-               num(k.build_seconds, 3), num(k.cpu_seconds, 3), num(k.sah_cost), std::to_string(k.references), num(k.ops_per_ray),
-               pct(k.ops_error), k.occlusion_rmse < 0 ? "-" : num(k.occlusion_rmse, 3),
-               k.occlusion_max_error < 0 ? "-" : num(k.occlusion_max_error, 3),
-               k.weight_rmse < 0 ? "-" : num(k.weight_rmse, 3)});
+    t.add_row({k.family, k.label + (k.reference ? " (reference)" : ""), format_significant(k.estimate_seconds, 3),
+               format_significant(k.build_seconds, 3), format_significant(k.cpu_seconds, 3), format_significant(k.sah_cost), std::to_string(k.references), format_significant(k.ops_per_ray),
+               format_percent(k.ops_error), k.occlusion_rmse < 0 ? "-" : format_significant(k.occlusion_rmse, 3),
+               k.occlusion_max_error < 0 ? "-" : format_significant(k.occlusion_max_error, 3),
+               k.weight_rmse < 0 ? "-" : format_significant(k.weight_rmse, 3)});
   return t;
 }
 
@@ -52,16 +43,16 @@ TextTable ao_table(const AccuracyReport& r) {
   TextTable t({"AO rays/pixel", "rays", "frame s", "CPU s", "image RMSE", "ops/ray", "AO ops/ray"});
   for (const AoSamplesPoint& p : r.ao)
     t.add_row({std::to_string(p.samples) + (p.reference ? " (reference)" : ""), std::to_string(p.rays),
-               num(p.seconds, 3), num(p.cpu_seconds, 3), p.reference ? "0 (reference)" : num(p.image_rmse, 3), num(p.ops_per_ray),
-               num(p.ao_ops_per_ray)});
+               format_significant(p.seconds, 3), format_significant(p.cpu_seconds, 3), p.reference ? "0 (reference)" : format_significant(p.image_rmse, 3), format_significant(p.ops_per_ray),
+               format_significant(p.ao_ops_per_ray)});
   return t;
 }
 
 TextTable resolution_table(const AccuracyReport& r) {
   TextTable t({"res", "seed", "rays", "frame s", "CPU s", "ops/ray", "vs highest-res mean"});
   for (const ResolutionPoint& p : r.resolution)
-    t.add_row({res(p.resolution), std::to_string(p.seed), std::to_string(p.rays), num(p.seconds, 3),
-               num(p.cpu_seconds, 3), num(p.ops_per_ray, 6), pct(p.error)});
+    t.add_row({res(p.resolution), std::to_string(p.seed), std::to_string(p.rays), format_significant(p.seconds, 3),
+               format_significant(p.cpu_seconds, 3), format_significant(p.ops_per_ray, 6), format_percent(p.error)});
   return t;
 }
 
@@ -70,12 +61,12 @@ TextTable traffic_table(const AccuracyReport& r) {
                "cycles/ray by frame", "CPU s"});
   const auto series = [](const std::vector<double>& v) {
     std::string out;
-    for (double x : v) out += (out.empty() ? "" : " / ") + num(x, 4);
+    for (double x : v) out += (out.empty() ? "" : " / ") + format_significant(x, 4);
     return out.empty() ? std::string("-") : out;
   };
   for (const TrafficPoint& p : r.traffic)
     t.add_row({p.scene, p.level, res(p.resolution), std::to_string(p.rays), series(p.dram_bytes_per_ray),
-               series(p.cycles_per_ray), num(p.cpu_seconds, 3)});
+               series(p.cycles_per_ray), format_significant(p.cpu_seconds, 3)});
   return t;
 }
 
@@ -93,7 +84,7 @@ std::string setup_text(const AccuracyReport& r) {
                 r.scene_name.c_str(), static_cast<unsigned long long>(r.triangles), r.camera.c_str(),
                 static_cast<unsigned long long>(o.seed), o.hardware.c_str(), o.quick ? ", quick sizes" : "",
                 o.builder.c_str(), r.scene_ao_samples, double(r.ao_length), res(o.knob_resolution).c_str(),
-                res(o.ao_image_resolution).c_str(), pct(o.tolerance).c_str(), pct(o.fidelity_tolerance).c_str(),
+                res(o.ao_image_resolution).c_str(), format_percent(o.tolerance).c_str(), format_percent(o.fidelity_tolerance).c_str(),
                 o.image_rmse_target, r.total_seconds);
   return buf;
 }
@@ -227,7 +218,7 @@ std::string to_csv(const AccuracyReport& r) {
   auto row = [&](const std::string& section, const std::string& setting, uint32_t resolution, uint64_t seed,
                  uint64_t rays, double seconds, double cpu, const std::string& metric, double error, double ops) {
     t.add_row({r.scene_name, section, setting, std::to_string(resolution), std::to_string(seed), std::to_string(rays),
-               num(seconds, 6), num(cpu, 6), metric, num(error, 6), num(ops, 6)});
+               format_significant(seconds, 6), format_significant(cpu, 6), metric, format_significant(error, 6), format_significant(ops, 6)});
   };
   for (const FidelityPoint& p : r.fidelity) {
     row("fidelity", p.level, p.resolution, r.options.seed, p.rays, p.host_seconds, p.cpu_seconds, "cycle_error", p.cycle_error,
@@ -291,8 +282,8 @@ void write_accuracy(const AccuracyReport& r) {
   md += "## 3. AO rays per pixel\n\n" + std::string(kAoNote) + "\n\n" + ao_table(r).markdown() +
         "\n![AO images](accuracy_ao_images.png)\n\n";
   md += "## 4. Resolution against the stability of ops/ray\n\n" + std::string(kResolutionNote) + "\n\n" +
-        resolution_table(r).markdown() + "\nReference " + num(r.resolution_reference_ops, 6) +
-        " ops/ray; within " + pct(r.options.tolerance) + " from " + res(r.resolution_needed) + " (" +
+        resolution_table(r).markdown() + "\nReference " + format_significant(r.resolution_reference_ops, 6) +
+        " ops/ray; within " + format_percent(r.options.tolerance) + " from " + res(r.resolution_needed) + " (" +
         std::to_string(r.rays_needed) + " rays per frame) on.\n";
   md += "\n## 5. Memory traffic against resolution and frames\n\n" + std::string(kTrafficNote) + "\n\n" +
         traffic_table(r).markdown() + "\n";

@@ -12,16 +12,7 @@ namespace rtsim {
 
 namespace {
 
-// format_number keeps a fixed number of decimals below 1 (0.0012 -> "0.00"); small
-// times and errors need their significant digits.
-std::string num(double v, int digits = 4) {
-  if (v == 0 || std::fabs(v) >= 1 || !std::isfinite(v)) return format_number(v, digits);
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-  return buf;
-}
-std::string pct(double fraction, int digits = 3) { return num(100.0 * fraction, digits) + "%"; }
-std::string secs(double s) { return num(s, 3) + " s"; }
+std::string secs(double s) { return format_significant(s, 3) + " s"; }
 std::string integer(double v) { return std::to_string(static_cast<long long>(std::llround(v))); }
 std::string alpha(double v) {
   char buf[32];
@@ -65,10 +56,10 @@ void fidelity_recommendations(const AccuracyReport& r, std::vector<Recommendatio
   if (counts_match) {
     counts.setting = "fidelity functional";
     counts.why = "TRV, IST and ray counts were identical at all three levels in every run (one functional "
-                 "core), and functional simulated " + num(functional->rays_per_cpu_second, 3) +
-                 " rays per CPU second against " + num(cycle->rays_per_cpu_second, 3) +
+                 "core), and functional simulated " + format_significant(functional->rays_per_cpu_second, 3) +
+                 " rays per CPU second against " + format_significant(cycle->rays_per_cpu_second, 3) +
                  " for cycle at " + std::to_string(largest) + "x" + std::to_string(largest) + " (" +
-                 num(speedup, 3) + "x faster).";
+                 format_significant(speedup, 3) + "x faster).";
   } else {
     counts.setting = "fidelity cycle";
     counts.why = "the counts differed between levels in at least one run (a model bug): only the cycle "
@@ -91,11 +82,11 @@ void fidelity_recommendations(const AccuracyReport& r, std::vector<Recommendatio
   timing.setting = "fidelity " + best;
   std::string errors;
   for (const char* level : {"functional", "lt"})
-    errors += std::string(errors.empty() ? "" : "; ") + level + ": worst cycle error " + pct(worst_cycles[level]) +
-              ", worst DRAM error " + pct(worst_dram[level]) + ", " +
-              num(at_largest[level] ? at_largest[level]->rays_per_cpu_second : 0, 3) + " rays per CPU second";
-  timing.why = "tolerance " + pct(r.options.fidelity_tolerance, 2) + " of the cycle level (" +
-               num(cycle->rays_per_cpu_second, 3) + " rays per CPU second at " + std::to_string(largest) + "x" +
+    errors += std::string(errors.empty() ? "" : "; ") + level + ": worst cycle error " + format_percent(worst_cycles[level]) +
+              ", worst DRAM error " + format_percent(worst_dram[level]) + ", " +
+              format_significant(at_largest[level] ? at_largest[level]->rays_per_cpu_second : 0, 3) + " rays per CPU second";
+  timing.why = "tolerance " + format_percent(r.options.fidelity_tolerance, 2) + " of the cycle level (" +
+               format_significant(cycle->rays_per_cpu_second, 3) + " rays per CPU second at " + std::to_string(largest) + "x" +
                std::to_string(largest) + "): " + errors + ". " +
                (best == "cycle" ? "No faster level stays inside the tolerance."
                                 : "The fastest level inside the tolerance wins; use cycle for final numbers "
@@ -128,13 +119,13 @@ void knob_recommendations(const AccuracyReport& r, std::vector<Recommendation>& 
     Recommendation rec;
     rec.topic = "AO-BVH rays per primitive (K)";
     rec.setting = "--ao-rays " + integer(chosen->value);
-    rec.why = "from K=" + integer(chosen->value) + " on, no tree costs more than " + pct(tol, 2) +
-              " ops/ray above K=" + integer(ref->value) + " (" + num(ref->ops_per_ray) + " ops/ray; K=" +
-              integer(chosen->value) + ": " + num(chosen->ops_per_ray) + ", " + pct(chosen->ops_error) +
-              ", occlusion RMSE " + num(chosen->occlusion_rmse, 3) + ") while estimating + building takes " +
+    rec.why = "from K=" + integer(chosen->value) + " on, no tree costs more than " + format_percent(tol, 2) +
+              " ops/ray above K=" + integer(ref->value) + " (" + format_significant(ref->ops_per_ray) + " ops/ray; K=" +
+              integer(chosen->value) + ": " + format_significant(chosen->ops_per_ray) + ", " + format_percent(chosen->ops_error) +
+              ", occlusion RMSE " + format_significant(chosen->occlusion_rmse, 3) + ") while estimating + building takes " +
               secs(chosen->cpu_seconds) + " of CPU instead of " + secs(ref->cpu_seconds) + ".";
     if (n >= 2)
-      rec.why += " The occlusion RMSE falls as K^" + num(slope, 2) +
+      rec.why += " The occlusion RMSE falls as K^" + format_significant(slope, 2) +
                  " (Monte Carlo: K^-0.5), the tree's ops/ray much sooner: the SAH only needs the weights' "
                  "ranking to be roughly right.";
     out.push_back(rec);
@@ -154,15 +145,15 @@ void knob_recommendations(const AccuracyReport& r, std::vector<Recommendation>& 
     rec.topic = "AO-BVH estimates shared by nearby triangles (G)";
     if (chosen) {
       rec.setting = "--ao-share " + integer(chosen->value);
-      rec.why = "up to G=" + integer(chosen->value) + " no tree costs more than " + pct(tol, 2) + " ops/ray above K=" +
+      rec.why = "up to G=" + integer(chosen->value) + " no tree costs more than " + format_percent(tol, 2) + " ops/ray above K=" +
                 integer(ref_k->value) + " per triangle (G=" + integer(chosen->value) + ": " +
-                num(chosen->ops_per_ray) + ", " + pct(chosen->ops_error) + ", occlusion RMSE " +
-                num(chosen->occlusion_rmse, 3) + ") while estimating + building takes " + secs(chosen->cpu_seconds) +
+                format_significant(chosen->ops_per_ray) + ", " + format_percent(chosen->ops_error) + ", occlusion RMSE " +
+                format_significant(chosen->occlusion_rmse, 3) + ") while estimating + building takes " + secs(chosen->cpu_seconds) +
                 " of CPU (G=" + integer(shares.front()->value) + ": " + secs(shares.front()->cpu_seconds) +
                 "). One seed: the tree's seed spread (docs/build-speed.md) is of the same size on some scenes.";
     } else {
       rec.setting = "--ao-share 1";
-      rec.why = "already G=" + integer(shares.front()->value) + " costs " + pct(shares.front()->ops_error) +
+      rec.why = "already G=" + integer(shares.front()->value) + " costs " + format_percent(shares.front()->ops_error) +
                 " ops/ray against K=" + integer(ref_k->value) + " per triangle.";
     }
     out.push_back(rec);
@@ -177,13 +168,13 @@ void knob_recommendations(const AccuracyReport& r, std::vector<Recommendation>& 
       rec.topic = "SAH split search";
       const bool good = binned->ops_error <= tol;
       rec.setting = good ? "--bins " + integer(binned->value) : "--bins 0 (full sweep)";
-      rec.why = binned->label + ": " + num(binned->ops_per_ray) + " ops/ray (" + pct(binned->ops_error) +
-                " against the full sweep's " + num(ref->ops_per_ray) + "), SAH cost " +
-                num(binned->sah_cost) + " vs " + num(ref->sah_cost) + ", build " +
+      rec.why = binned->label + ": " + format_significant(binned->ops_per_ray) + " ops/ray (" + format_percent(binned->ops_error) +
+                " against the full sweep's " + format_significant(ref->ops_per_ray) + "), SAH cost " +
+                format_significant(binned->sah_cost) + " vs " + format_significant(ref->sah_cost) + ", build " +
                 secs(binned->cpu_seconds) + " vs " + secs(ref->cpu_seconds) + " of CPU; " +
                 (good ? (binned->ops_error <= 0 ? std::string("binning is no worse here, and faster.")
-                                                : "at most " + pct(tol, 2) + " worse, so binning's speed is worth it.")
-                      : "more than " + pct(tol, 2) + " worse, so the full sweep is worth its time.");
+                                                : "at most " + format_percent(tol, 2) + " worse, so binning's speed is worth it.")
+                      : "more than " + format_percent(tol, 2) + " worse, so the full sweep is worth its time.");
       out.push_back(rec);
     }
   }
@@ -200,9 +191,9 @@ void knob_recommendations(const AccuracyReport& r, std::vector<Recommendation>& 
     Recommendation rec;
     rec.topic = "SBVH alpha";
     rec.setting = "--sbvh-alpha " + alpha(chosen->value);
-    rec.why = "the largest alpha whose ops/ray is at most " + pct(tol, 2) + " above alpha=" + alpha(ref->value) +
-              " (" + num(ref->ops_per_ray) + " ops/ray, " + std::to_string(ref->references) +
-              " references, build " + secs(ref->cpu_seconds) + " of CPU): " + num(chosen->ops_per_ray) +
+    rec.why = "the largest alpha whose ops/ray is at most " + format_percent(tol, 2) + " above alpha=" + alpha(ref->value) +
+              " (" + format_significant(ref->ops_per_ray) + " ops/ray, " + std::to_string(ref->references) +
+              " references, build " + secs(ref->cpu_seconds) + " of CPU): " + format_significant(chosen->ops_per_ray) +
               " ops/ray, " + std::to_string(chosen->references) + " references, build " +
               secs(chosen->cpu_seconds) + " of CPU.";
     out.push_back(rec);
@@ -224,16 +215,16 @@ void ao_recommendations(const AccuracyReport& r, std::vector<Recommendation>& ou
   const AoSamplesPoint& most = r.ao[r.ao.size() - 2];
   if (image_choice) {
     image.setting = "--ao " + std::to_string(image_choice->samples);
-    image.why = "the fewest AO rays whose image RMSE (" + num(image_choice->image_rmse, 3) +
-                ") is at most " + num(target, 3) + " against the " + std::to_string(ref.samples) +
+    image.why = "the fewest AO rays whose image RMSE (" + format_significant(image_choice->image_rmse, 3) +
+                ") is at most " + format_significant(target, 3) + " against the " + std::to_string(ref.samples) +
                 "-ray reference; the frame took " + secs(image_choice->cpu_seconds) + " of CPU vs " +
                 secs(ref.cpu_seconds) + ".";
   } else {
     // Monte Carlo noise falls as 1/sqrt(n): extrapolate from the largest measured count.
     const uint32_t needed = uint32_t(std::ceil(most.samples * std::pow(most.image_rmse / target, 2.0)));
     image.setting = "--ao " + std::to_string(needed);
-    image.why = "no measured count reached RMSE " + num(target, 3) + " (" + std::to_string(most.samples) +
-                " rays: " + num(most.image_rmse, 3) + "); 1/sqrt(n) extrapolates to about " +
+    image.why = "no measured count reached RMSE " + format_significant(target, 3) + " (" + std::to_string(most.samples) +
+                " rays: " + format_significant(most.image_rmse, 3) + "); 1/sqrt(n) extrapolates to about " +
                 std::to_string(needed) + " rays (the nested reference makes this an underestimate near " +
                 std::to_string(ref.samples) + ").";
   }
@@ -249,8 +240,8 @@ void ao_recommendations(const AccuracyReport& r, std::vector<Recommendation>& ou
   counts.topic = "AO rays per pixel, for ops/ray";
   counts.setting = "--ao " + std::to_string(counts_choice->samples);
   counts.why = "from " + std::to_string(counts_choice->samples) + " AO rays per pixel on, the AO rays' ops/ray (" +
-               num(counts_choice->ao_ops_per_ray) + ") stays within " + pct(r.options.tolerance, 2) +
-               " of the " + std::to_string(ref.samples) + "-ray value (" + num(ref.ao_ops_per_ray) +
+               format_significant(counts_choice->ao_ops_per_ray) + ") stays within " + format_percent(r.options.tolerance, 2) +
+               " of the " + std::to_string(ref.samples) + "-ray value (" + format_significant(ref.ao_ops_per_ray) +
                "); more rays only cost time. The combined ops/ray mixes primary and AO rays in the ratio 1:n, "
                "so compare it only at one AO count.";
   out.push_back(counts);
@@ -271,10 +262,10 @@ void resolution_recommendation(const AccuracyReport& r, std::vector<Recommendati
   rec.setting = "--res " + std::to_string(r.resolution_needed) + "x" + std::to_string(r.resolution_needed);
   rec.why = std::to_string(r.resolution_needed) + "x" + std::to_string(r.resolution_needed) + " (" +
             std::to_string(r.rays_needed) + " rays per frame) is the smallest resolution from which every seed (" +
-            std::to_string(r.options.seeds.size()) + " seeds) stays within " + pct(r.options.tolerance, 2) +
+            std::to_string(r.options.seeds.size()) + " seeds) stays within " + format_percent(r.options.tolerance, 2) +
             " of the " + std::to_string(highest) + "x" + std::to_string(highest) + " mean (" +
-            num(r.resolution_reference_ops) + " ops/ray); worst there " + pct(worst) +
-            ", seeds spread " + num(spread_lo) + ".." + num(spread_hi) + " ops/ray." +
+            format_significant(r.resolution_reference_ops) + " ops/ray); worst there " + format_percent(worst) +
+            ", seeds spread " + format_significant(spread_lo) + ".." + format_significant(spread_hi) + " ops/ray." +
             (r.resolution_needed == highest ? " Only the highest resolution qualified: the answer is a lower bound."
                                             : "");
   out.push_back(rec);

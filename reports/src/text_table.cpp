@@ -83,4 +83,13 @@ std::string format_number(double value, int digits) {
   return buf;
 }
 
+std::string format_significant(double value, int digits) {
+  if (value == 0 || std::fabs(value) >= 1 || !std::isfinite(value)) return format_number(value, digits);
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, value);
+  return buf;
+}
+
+std::string format_percent(double fraction, int digits) { return format_significant(100.0 * fraction, digits) + "%"; }
+
 }  // namespace rtsim

@@ -17,6 +17,19 @@ TEST(FormatNumber, KeepsSignificantDigitsAtEveryMagnitude) {
   EXPECT_NE(format_number(1e-7, 3).find('e'), std::string::npos);
 }
 
+// The accuracy report's formatter (its two files share it): below 1e-3 no zeros
+// padding the mantissa, and format_number's output from 1e-3 up.
+TEST(FormatSignificant, KeepsSmallValuesShortAndAgreesWithFormatNumberElsewhere) {
+  EXPECT_EQ(rtsim::format_significant(0.00001, 3), "1e-05");
+  EXPECT_EQ(format_number(0.00001, 3), "1.00e-05");
+  EXPECT_EQ(rtsim::format_significant(0.0000123, 3), "1.23e-05");
+  for (double v : {0.0, 0.0012345, 0.5, 1.0, 24.0123, 1234.6, 5e9, -0.25})
+    EXPECT_EQ(rtsim::format_significant(v, 4), format_number(v, 4)) << v;
+  EXPECT_EQ(rtsim::format_significant(NAN), "nan");
+  EXPECT_EQ(rtsim::format_percent(0.0123), "1.23%");
+  EXPECT_EQ(rtsim::format_percent(-0.5, 2), "-50%");
+}
+
 TEST(TextTable, CsvQuotesAndMarkdownAligns) {
   rtsim::TextTable t({"a", "b"});
   t.add_row({"x,y", "say \"hi\""});
