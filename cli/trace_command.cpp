@@ -115,15 +115,11 @@ nlohmann::json trace_one_ray(const sim::RayTarget& target, const TraversalContex
   return sim::ray_trace_json(probe, target, image, context, one_unit.clock_period_ps(), 0, false);
 }
 
-void run_trace(const TraceOptions& o) {
-  EffectSettings settings;
-  parse_resolution(o.resolution, settings.width, settings.height);
-  if (!(o.heat_max > 0.0f)) throw InputError("--heat-max", "must be > 0");
-  if (o.stack_limit < 1) throw InputError("--stack-limit", "must be at least 1");
-  sim::HardwareConfig hardware = sim::load_hardware_config(o.config);
+// --node-format, or the old --node-layout and its names (bvh2-64 | single-32, and
+// before them wide | single) with a deprecation warning.
+std::string node_format_from_flags(const TraceOptions& o, const std::string& hardware_format) {
   std::string format = o.node_format;
   if (!o.node_layout.empty()) {
-    // The old flag and its names: bvh2-64 | single-32, and before them wide | single.
     const std::string& old = o.node_layout;
     const std::string now = old == "wide" || old == "bvh2-64" ? "bvh2-64"
                             : old == "single" || old == "single-32" ? "bvh2-32" : "";
@@ -133,69 +129,44 @@ void run_trace(const TraceOptions& o) {
     warn_deprecated("--node-layout " + old, "--node-format " + now);
     if (format.empty()) format = now;
   }
-  hardware.node_format = node_format_flag(format, hardware.node_format);
+  return node_format_flag(format, hardware_format);
+}
+
+// The frame the flags ask for (run_trace checks their combination).
+EffectSettings frame_settings(const TraceOptions& o) {
+  EffectSettings settings;
+  parse_resolution(o.resolution, settings.width, settings.height);
+  if (!(o.heat_max > 0.0f)) throw InputError("--heat-max", "must be > 0");
+  if (o.stack_limit < 1) throw InputError("--stack-limit", "must be at least 1");
   settings.spp = o.spp;
   settings.seed = o.seed;
   settings.ao_samples = o.ao;
   settings.max_depth = o.bounces;
   settings.diffuse_bounces = o.diffuse_bounces;
   settings.russian_roulette = o.russian_roulette;
-  check_frame_flags(settings);
-  if (!o.rays_in.empty()) refuse_with_rays_in(o.ray_making_flags);
-  std::optional<sim::RayTarget> target;
-  if (!o.trace_ray.empty()) target = sim::parse_ray_target(o.trace_ray, settings.width, settings.height);
-  // Output paths first: a wrong one must not cost a build and a trace.
-  OutputFolder pictures;
-  if (!o.out_dir.empty()) pictures.prepare(o.out_dir, "--out-dir");
-  if (!o.rays_out.empty()) check_output_file(o.rays_out, "--rays-out");
+  return settings;
+}
 
-  Workload workload;
-  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, o.threads,
-                hardware.node_format, {}, -1, o.builder_flag->count() > 0, [&](const Scene& loaded) {
-                  if (o.rays_in.empty()) check_frame_memory(loaded, settings);
-                });
+// The run's figures as trace --json prints them (without validate and ray_trace).
+nlohmann::json trace_json(const TraceOptions& o, const Workload& workload, const sim::HardwareConfig& hardware,
+                          const EffectSettings& settings, const MemoryImage& image, const FrameRun& run,
+                          const sim::FunctionalMemory& memory) {
   const Scene& scene = workload.scene;
-  const Camera& camera = *workload.camera;
-  const Bvh& bvh = workload.bvh;
   const BuildReport& build_report = workload.report;
-  const MemoryImage image(scene, bvh, sim::memory_layout_for(hardware));
-  TraversalConfig traversal = sim::traversal_config_for(hardware);
-  traversal.stack_limit = o.stack_limit;
-  const TraversalContext context(scene, bvh, image, traversal);
-
-  // The hardware's memory hierarchy as one core of one TRV and one IST unit with one
-  // ray in flight (the L2 keeps its slices).
-  sim::HardwareConfig one_unit = hardware;
-  one_unit.cores = one_unit.trv_units = one_unit.ist_units = 1;
-  sim::FunctionalMemory memory(one_unit);
-  sim::FunctionalMemorySink caches(memory);
-  FrameRun run;
-  std::vector<Ray> replayed;  // the ray file's rays (--trace-ray looks among them)
-  if (!o.rays_in.empty()) {
-    RaySet set = read_ray_file(o.rays_in);
-    if (set.scene_hash != 0 && set.scene_hash != scene.content_hash())
-      throw InputError(o.rays_in, "scene hash: the rays were made for another scene");
-    if (target) replayed = set.rays;
-    run = run_rays(context, std::move(set.rays), settings.width, settings.height, &caches, o.threads);
-  } else {
-    run = run_frame(context, camera, settings, &caches, o.threads);
-  }
-  if (!o.rays_out.empty()) write_ray_file(o.rays_out, RaySet{run.rays, scene.content_hash()});
-
   nlohmann::json j;
   j["scene"] = scene.name;
   j["triangles"] = scene.triangle_count();
   j["builder"] = workload.params.builder;
-  j["camera"] = camera.name;
+  j["camera"] = workload.camera->name;
   j["resolution"] = {settings.width, settings.height};
   j["spp"] = settings.spp;
   j["seed"] = settings.seed;
   j["node_format"] = hardware.node_format;
-  j["bvh_width"] = bvh.width();
+  j["bvh_width"] = workload.bvh.width();
   j["config"] = o.config;
   j["node_bytes"] = image.node_bytes();
   j["triangle_bytes"] = image.triangle_bytes();
-  j["bvh_nodes"] = bvh.nodes.size();
+  j["bvh_nodes"] = workload.bvh.nodes.size();
   j["build_seconds"] = build_report.build_seconds + build_report.estimate_seconds;
   j["waves"] = run.waves;
   j["trace_seconds"] = run.trace_seconds;
@@ -213,96 +184,153 @@ void run_trace(const TraceOptions& o) {
                  {"dram_bytes", dram_bytes},
                  {"dram_bytes_per_ray", run.total.per_ray(dram_bytes)}};
   j["memory_bytes"] = image.footprint().total_bytes();
-  if (target)
-    j["ray_trace"] = trace_one_ray(*target, context, camera, settings, run, replayed, one_unit, image, o.threads);
+  return j;
+}
 
-  if (!o.out_dir.empty()) {
-    const std::filesystem::path dir(o.out_dir);
-    std::filesystem::create_directories(dir);
-    write_png(dir / "ops_heatmap.png", heatmap(ops_per_pixel(run), run.width, run.height, o.heat_max));
-    if (run.per_type[ray_type_index(RayType::Ao)].rays) write_png(dir / "ao.png", ao_image(run));
-    write_png(dir / "shaded.png", shaded_image(scene, run));
-    j["pictures"] = {{"dir", dir.string()}, {"heat_max_ops", o.heat_max}};
-    pictures.keep();
+// ops_heatmap.png, ao.png (when AO ran) and shaded.png in --out-dir.
+void write_trace_pictures(const TraceOptions& o, const Scene& scene, const FrameRun& run, OutputFolder& pictures,
+                          nlohmann::json& j) {
+  const std::filesystem::path dir(o.out_dir);
+  std::filesystem::create_directories(dir);
+  write_png(dir / "ops_heatmap.png", heatmap(ops_per_pixel(run), run.width, run.height, o.heat_max));
+  if (run.per_type[ray_type_index(RayType::Ao)].rays) write_png(dir / "ao.png", ao_image(run));
+  write_png(dir / "shaded.png", shaded_image(scene, run));
+  j["pictures"] = {{"dir", dir.string()}, {"heat_max_ops", o.heat_max}};
+  pictures.keep();
+}
+
+// Every ray against Embree, disagreements decided by the exact referee; returns
+// the rays the core got wrong.
+uint64_t validate_trace(const Scene& scene, const FrameRun& run, uint32_t threads, nlohmann::json& j) {
+  EmbreeScene embree(scene);
+  ValidationRule rule;
+  rule.absolute_bound = 1e-6f * scene.diagonal();
+  const ValidationResult v = validate_against_embree(embree, run.rays, run.results, rule, threads, &scene);
+  j["validate"] = {{"rays", v.rays},
+                   {"disagreements", v.disagreements},
+                   {"embree_wrong", v.embree_wrong},
+                   {"core_wrong", v.core_wrong},
+                   {"both_admissible", v.both_admissible},
+                   {"hit_miss", v.hit_miss},
+                   {"distance", v.distance},
+                   {"prim_tied_allowed", v.prim_tied},
+                   {"endpoint_ties_allowed", v.endpoint_ties},
+                   {"relative_bound", rule.relative_bound},
+                   {"absolute_bound", rule.absolute_bound},
+                   {"examples", v.examples}};
+  return v.failures();
+}
+
+// The terminal summary: per ray type, effects, caches, throughput, validation.
+void print_trace_summary(const TraceOptions& o, const nlohmann::json& j, const Workload& workload,
+                         const sim::HardwareConfig& hardware, const EffectSettings& settings,
+                         const MemoryImage& image, const FrameRun& run, const sim::FunctionalMemory& memory) {
+  const Scene& scene = workload.scene;
+  std::printf("scene %s (%zu triangles), builder %s (%zu nodes), camera %s, %ux%u x %u spp, %s nodes (%u B)\n",
+              scene.name.c_str(), scene.triangle_count(), workload.params.builder.c_str(), workload.bvh.nodes.size(),
+              workload.camera->name.c_str(), settings.width, settings.height, settings.spp,
+              hardware.node_format.c_str(), image.node_bytes());
+  std::printf("\n%-11s %9s %9s %8s %8s %8s %9s %9s %9s %7s\n", "ray type", "rays", "ops/ray",
+              "TRV/ray", "IST/ray", "box/ray", "node f/r", "tri f/r", "bytes/r", "share");
+  auto row = [&](const char* name, const CounterTotals& t) {
+    std::printf("%-11s %9llu %9.2f %8.2f %8.2f %8.2f %9.2f %9.2f %9.1f %6.1f%%\n", name,
+                (unsigned long long)t.rays, t.per_ray(t.ops()), t.per_ray(t.trv_ops),
+                t.per_ray(t.ist_ops), t.per_ray(t.box_tests), t.per_ray(t.node_fetches),
+                t.per_ray(t.triangle_fetches), t.per_ray(t.bytes()),
+                run.total.ops() ? 100.0 * double(t.ops()) / double(run.total.ops()) : 0.0);
+  };
+  for (RayType t : kAllRayTypes)
+    if (run.per_type[ray_type_index(t)].rays) row(ray_type_name(t), run.per_type[ray_type_index(t)]);
+  row("total", run.total);
+  std::printf("\neffects:\n");
+  for (RayType t : kAllRayTypes) {
+    const bool on = run.plan.enabled[ray_type_index(t)];
+    // Diffuse depths past the asked ones are off for one reason: diffuse1's line (or
+    // the first depth not asked) says it once.
+    if (!on && diffuse_depth(t) > std::max(1u, run.plan.diffuse_bounces + 1)) continue;
+    std::printf("  %-11s %-4s %s\n", ray_type_name(t), on ? "on" : "off", run.plan.reason[ray_type_index(t)].c_str());
   }
-
-  uint64_t disagreements = 0;
+  std::printf("\ncaches (%s, one ray in flight):  L1 node %.1f%%  L1 triangle %.1f%%  L2 %.1f%%  DRAM %.1f B/ray\n",
+              o.config.c_str(), 100 * hit_rate(memory.l1_node),
+              100 * hit_rate(memory.l1_triangle), 100 * hit_rate(memory.l2),
+              run.total.per_ray(memory.dram.counters().bytes));
+  std::printf("max stack depth %u, stack overflows %llu\n", run.total.max_stack_depth,
+              (unsigned long long)run.total.stack_overflows);
+  std::printf("throughput: %.3f M rays/s (%.3f s for %llu rays in %u waves, with cache simulation)\n",
+              j["rays_per_second"].get<double>() * 1e-6, run.trace_seconds,
+              (unsigned long long)run.total.rays, run.waves);
+  if (!o.out_dir.empty())
+    std::printf("pictures in %s (heatmap scale 0..%g ops/pixel)\n", o.out_dir.c_str(), o.heat_max);
   if (o.validate) {
-    EmbreeScene embree(scene);
-    ValidationRule rule;
-    rule.absolute_bound = 1e-6f * scene.diagonal();
-    const ValidationResult v =
-        validate_against_embree(embree, run.rays, run.results, rule, o.threads, &scene);
-    disagreements = v.failures();
-    j["validate"] = {{"rays", v.rays},
-                     {"disagreements", v.disagreements},
-                     {"embree_wrong", v.embree_wrong},
-                     {"core_wrong", v.core_wrong},
-                     {"both_admissible", v.both_admissible},
-                     {"hit_miss", v.hit_miss},
-                     {"distance", v.distance},
-                     {"prim_tied_allowed", v.prim_tied},
-                     {"endpoint_ties_allowed", v.endpoint_ties},
-                     {"relative_bound", rule.relative_bound},
-                     {"absolute_bound", rule.absolute_bound},
-                     {"examples", v.examples}};
+    const auto& v = j["validate"];
+    std::printf("validate vs Embree: %llu disagreements in %llu rays, decided by the exact referee: "
+                "%llu Embree wrong, %llu core wrong, %llu both admissible\n"
+                "  (|dt| <= %g x t + %g; allowed: %llu different prims at tied distance, %llu one-sided "
+                "hits at tmin/tmax)\n",
+                (unsigned long long)v["disagreements"].get<uint64_t>(), (unsigned long long)run.rays.size(),
+                (unsigned long long)v["embree_wrong"].get<uint64_t>(),
+                (unsigned long long)v["core_wrong"].get<uint64_t>(),
+                (unsigned long long)v["both_admissible"].get<uint64_t>(),
+                v["relative_bound"].get<double>(), v["absolute_bound"].get<double>(),
+                (unsigned long long)v["prim_tied_allowed"].get<uint64_t>(),
+                (unsigned long long)v["endpoint_ties_allowed"].get<uint64_t>());
+    for (const auto& e : v["examples"]) std::printf("  %s\n", e.get<std::string>().c_str());
   }
+  if (j.contains("ray_trace")) std::printf("\n%s", sim::ray_trace_text(j["ray_trace"]).c_str());
+}
 
-  if (o.json) {
-    std::cout << j.dump(2) << "\n";
+void run_trace(const TraceOptions& o) {
+  const EffectSettings settings = frame_settings(o);
+  sim::HardwareConfig hardware = sim::load_hardware_config(o.config);
+  hardware.node_format = node_format_from_flags(o, hardware.node_format);
+  check_frame_flags(settings);
+  if (!o.rays_in.empty()) refuse_with_rays_in(o.ray_making_flags);
+  std::optional<sim::RayTarget> target;
+  if (!o.trace_ray.empty()) target = sim::parse_ray_target(o.trace_ray, settings.width, settings.height);
+  // Output paths first: a wrong one must not cost a build and a trace.
+  OutputFolder pictures;
+  if (!o.out_dir.empty()) pictures.prepare(o.out_dir, "--out-dir");
+  if (!o.rays_out.empty()) check_output_file(o.rays_out, "--rays-out");
+
+  Workload workload;
+  load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, o.threads,
+                hardware.node_format, {}, -1, o.builder_flag->count() > 0, [&](const Scene& loaded) {
+                  if (o.rays_in.empty()) check_frame_memory(loaded, settings);
+                });
+  const Scene& scene = workload.scene;
+  const MemoryImage image(scene, workload.bvh, sim::memory_layout_for(hardware));
+  TraversalConfig traversal = sim::traversal_config_for(hardware);
+  traversal.stack_limit = o.stack_limit;
+  const TraversalContext context(scene, workload.bvh, image, traversal);
+
+  // The hardware's memory hierarchy as one core of one TRV and one IST unit with one
+  // ray in flight (the L2 keeps its slices).
+  sim::HardwareConfig one_unit = hardware;
+  one_unit.cores = one_unit.trv_units = one_unit.ist_units = 1;
+  sim::FunctionalMemory memory(one_unit);
+  sim::FunctionalMemorySink caches(memory);
+  FrameRun run;
+  std::vector<Ray> replayed;  // the ray file's rays (--trace-ray looks among them)
+  if (!o.rays_in.empty()) {
+    RaySet set = read_ray_file(o.rays_in);
+    if (set.scene_hash != 0 && set.scene_hash != scene.content_hash())
+      throw InputError(o.rays_in, "scene hash: the rays were made for another scene");
+    if (target) replayed = set.rays;
+    run = run_rays(context, std::move(set.rays), settings.width, settings.height, &caches, o.threads);
   } else {
-    std::printf("scene %s (%zu triangles), builder %s (%zu nodes), camera %s, %ux%u x %u spp, %s nodes (%u B)\n",
-                scene.name.c_str(), scene.triangle_count(), workload.params.builder.c_str(), bvh.nodes.size(),
-                camera.name.c_str(), settings.width, settings.height, settings.spp,
-                hardware.node_format.c_str(), image.node_bytes());
-    std::printf("\n%-11s %9s %9s %8s %8s %8s %9s %9s %9s %7s\n", "ray type", "rays", "ops/ray",
-                "TRV/ray", "IST/ray", "box/ray", "node f/r", "tri f/r", "bytes/r", "share");
-    auto row = [&](const char* name, const CounterTotals& t) {
-      std::printf("%-11s %9llu %9.2f %8.2f %8.2f %8.2f %9.2f %9.2f %9.1f %6.1f%%\n", name,
-                  (unsigned long long)t.rays, t.per_ray(t.ops()), t.per_ray(t.trv_ops),
-                  t.per_ray(t.ist_ops), t.per_ray(t.box_tests), t.per_ray(t.node_fetches),
-                  t.per_ray(t.triangle_fetches), t.per_ray(t.bytes()),
-                  run.total.ops() ? 100.0 * double(t.ops()) / double(run.total.ops()) : 0.0);
-    };
-    for (RayType t : kAllRayTypes)
-      if (run.per_type[ray_type_index(t)].rays) row(ray_type_name(t), run.per_type[ray_type_index(t)]);
-    row("total", run.total);
-    std::printf("\neffects:\n");
-    for (RayType t : kAllRayTypes) {
-      const bool on = run.plan.enabled[ray_type_index(t)];
-      // Diffuse depths past the asked ones are off for one reason: diffuse1's line (or
-      // the first depth not asked) says it once.
-      if (!on && diffuse_depth(t) > std::max(1u, run.plan.diffuse_bounces + 1)) continue;
-      std::printf("  %-11s %-4s %s\n", ray_type_name(t), on ? "on" : "off", run.plan.reason[ray_type_index(t)].c_str());
-    }
-    std::printf("\ncaches (%s, one ray in flight):  L1 node %.1f%%  L1 triangle %.1f%%  L2 %.1f%%  DRAM %.1f B/ray\n",
-                o.config.c_str(), 100 * hit_rate(memory.l1_node),
-                100 * hit_rate(memory.l1_triangle), 100 * hit_rate(memory.l2),
-                run.total.per_ray(dram_bytes));
-    std::printf("max stack depth %u, stack overflows %llu\n", run.total.max_stack_depth,
-                (unsigned long long)run.total.stack_overflows);
-    std::printf("throughput: %.3f M rays/s (%.3f s for %llu rays in %u waves, with cache simulation)\n",
-                j["rays_per_second"].get<double>() * 1e-6, run.trace_seconds,
-                (unsigned long long)run.total.rays, run.waves);
-    if (!o.out_dir.empty())
-      std::printf("pictures in %s (heatmap scale 0..%g ops/pixel)\n", o.out_dir.c_str(), o.heat_max);
-    if (o.validate) {
-      const auto& v = j["validate"];
-      std::printf("validate vs Embree: %llu disagreements in %llu rays, decided by the exact referee: "
-                  "%llu Embree wrong, %llu core wrong, %llu both admissible\n"
-                  "  (|dt| <= %g x t + %g; allowed: %llu different prims at tied distance, %llu one-sided "
-                  "hits at tmin/tmax)\n",
-                  (unsigned long long)v["disagreements"].get<uint64_t>(), (unsigned long long)run.rays.size(),
-                  (unsigned long long)v["embree_wrong"].get<uint64_t>(),
-                  (unsigned long long)v["core_wrong"].get<uint64_t>(),
-                  (unsigned long long)v["both_admissible"].get<uint64_t>(),
-                  v["relative_bound"].get<double>(), v["absolute_bound"].get<double>(),
-                  (unsigned long long)v["prim_tied_allowed"].get<uint64_t>(),
-                  (unsigned long long)v["endpoint_ties_allowed"].get<uint64_t>());
-      for (const auto& e : v["examples"]) std::printf("  %s\n", e.get<std::string>().c_str());
-    }
-    if (target) std::printf("\n%s", sim::ray_trace_text(j["ray_trace"]).c_str());
+    run = run_frame(context, *workload.camera, settings, &caches, o.threads);
   }
+  if (!o.rays_out.empty()) write_ray_file(o.rays_out, RaySet{run.rays, scene.content_hash()});
+
+  nlohmann::json j = trace_json(o, workload, hardware, settings, image, run, memory);
+  if (target)
+    j["ray_trace"] =
+        trace_one_ray(*target, context, *workload.camera, settings, run, replayed, one_unit, image, o.threads);
+  if (!o.out_dir.empty()) write_trace_pictures(o, scene, run, pictures, j);
+  const uint64_t disagreements = o.validate ? validate_trace(scene, run, o.threads, j) : 0;
+
+  if (o.json) std::cout << j.dump(2) << "\n";
+  else print_trace_summary(o, j, workload, hardware, settings, image, run, memory);
   if (disagreements > 0)
     throw ExitStatus(1, "validation: the exact referee found the core wrong on " +
                             std::to_string(disagreements) + " rays");
