@@ -440,74 +440,85 @@ DramModel::Choice DramModel::decide(Channel& ch, bool requests) {
 DramModel::Choice DramModel::decide_until(Channel& ch, bool requests, uint64_t refresh_horizon,
                                           uint64_t timeout_horizon) {
   Choice best;
-  const uint32_t banks = config_.banks;
   if (++ch.stamp == 0) {  // wrapped: forget all marks
     for (auto* marks : {&ch.active_hit_mark, &ch.any_hit_mark, &ch.column_mark, &ch.row_mark})
       std::fill(marks->begin(), marks->end(), 0);
     ch.stamp = 1;
   }
   const uint32_t stamp = ch.stamp;
-  if (requests && !ch.queue.empty()) {
-    update_drain_mode(ch);
-    const bool writes = ch.draining_writes;
-    // Banks with a queued hit on their open row: of the serviced direction (their row
-    // stays open for it), of any direction (the page policies keep the row).
-    for (const Pending& p : ch.queue) {
-      const size_t b = size_t(p.where.rank) * banks + p.where.bank;
-      if (ch.banks[b].open_row != int64_t(p.where.row)) continue;
-      ch.any_hit_mark[b] = stamp;
-      if (p.request.write == writes) ch.active_hit_mark[b] = stamp;
-    }
-    for (size_t i = 0; i < ch.queue.size(); ++i) {
-      const Pending& p = ch.queue[i];
-      const uint32_t r = p.where.rank, bank = p.where.bank;
-      const size_t b = size_t(r) * banks + bank;
-      if (p.request.write != writes) {
-        // A row activated for a request of the other direction is finished first: its
-        // column command goes (the bus turns for it) rather than the row being closed
-        // unused by the direction now served, which would cost the activate again.
-        const Bank& k = ch.banks[b];
-        if (k.opened_for != int8_t(p.request.write) || k.open_row != int64_t(p.where.row) ||
-            ch.column_mark[b] == stamp)
-          continue;
-        ch.column_mark[b] = stamp;
-        Choice c;
-        c.age = i, c.rank = r, c.bank = bank;
-        c.time_ps = earliest_column(ch, r, bank, p.request.write, p.ready_ps);
-        if (c.time_ps >= ch.ranks[r].refresh_due_ps) continue;
-        c.priority = 1, c.action = Action::Column;
-        consider(best, c);
+  if (requests && !ch.queue.empty()) consider_requests(ch, stamp, best);
+  consider_refreshes(ch, refresh_horizon, best);
+  if (policy_ == PagePolicy::Timeout) consider_page_timeouts(ch, stamp, timeout_horizon, best);
+  return best;
+}
+
+// FR-FCFS over the queue in the direction being served: row hits first (each bank's
+// oldest), then row commands for each bank's oldest request.
+void DramModel::consider_requests(Channel& ch, uint32_t stamp, Choice& best) {
+  const uint32_t banks = config_.banks;
+  update_drain_mode(ch);
+  const bool writes = ch.draining_writes;
+  // Banks with a queued hit on their open row: of the serviced direction (their row
+  // stays open for it), of any direction (the page policies keep the row).
+  for (const Pending& p : ch.queue) {
+    const size_t b = size_t(p.where.rank) * banks + p.where.bank;
+    if (ch.banks[b].open_row != int64_t(p.where.row)) continue;
+    ch.any_hit_mark[b] = stamp;
+    if (p.request.write == writes) ch.active_hit_mark[b] = stamp;
+  }
+  for (size_t i = 0; i < ch.queue.size(); ++i) {
+    const Pending& p = ch.queue[i];
+    const uint32_t r = p.where.rank, bank = p.where.bank;
+    const size_t b = size_t(r) * banks + bank;
+    if (p.request.write != writes) {
+      // A row activated for a request of the other direction is finished first: its
+      // column command goes (the bus turns for it) rather than the row being closed
+      // unused by the direction now served, which would cost the activate again.
+      const Bank& k = ch.banks[b];
+      if (k.opened_for != int8_t(p.request.write) || k.open_row != int64_t(p.where.row) ||
+          ch.column_mark[b] == stamp)
         continue;
-      }
-      const uint64_t due = ch.ranks[r].refresh_due_ps;  // nothing new for the rank from then
+      ch.column_mark[b] = stamp;
       Choice c;
       c.age = i, c.rank = r, c.bank = bank;
-      if (ch.banks[b].open_row == int64_t(p.where.row)) {
-        if (ch.column_mark[b] == stamp) continue;  // an older hit to this bank goes first
-        ch.column_mark[b] = stamp;
-        c.time_ps = earliest_column(ch, r, bank, p.request.write, p.ready_ps);
-        if (c.time_ps >= due) continue;
-        c.priority = 1, c.action = Action::Column;
-      } else {
-        if (ch.row_mark[b] == stamp) continue;  // row commands serve the bank's oldest
-        ch.row_mark[b] = stamp;
-        if (ch.active_hit_mark[b] == stamp) continue;  // hits first
-        if (ch.banks[b].opened_for == int8_t(!writes)) continue;  // committed to the other direction
-        if (ch.banks[b].open_row >= 0) {
-          c.time_ps = earliest_precharge(ch, r, bank, p.ready_ps);
-          c.action = Action::Precharge, c.conflict = true;
-        } else {
-          c.time_ps = earliest_activate(ch, r, bank, p.ready_ps);
-          if (c.time_ps >= due) continue;
-          c.action = Action::Activate;
-        }
-        c.priority = 2;
-      }
+      c.time_ps = earliest_column(ch, r, bank, p.request.write, p.ready_ps);
+      if (c.time_ps >= ch.ranks[r].refresh_due_ps) continue;
+      c.priority = 1, c.action = Action::Column;
       consider(best, c);
+      continue;
     }
+    const uint64_t due = ch.ranks[r].refresh_due_ps;  // nothing new for the rank from then
+    Choice c;
+    c.age = i, c.rank = r, c.bank = bank;
+    if (ch.banks[b].open_row == int64_t(p.where.row)) {
+      if (ch.column_mark[b] == stamp) continue;  // an older hit to this bank goes first
+      ch.column_mark[b] = stamp;
+      c.time_ps = earliest_column(ch, r, bank, p.request.write, p.ready_ps);
+      if (c.time_ps >= due) continue;
+      c.priority = 1, c.action = Action::Column;
+    } else {
+      if (ch.row_mark[b] == stamp) continue;  // row commands serve the bank's oldest
+      ch.row_mark[b] = stamp;
+      if (ch.active_hit_mark[b] == stamp) continue;  // hits first
+      if (ch.banks[b].opened_for == int8_t(!writes)) continue;  // committed to the other direction
+      if (ch.banks[b].open_row >= 0) {
+        c.time_ps = earliest_precharge(ch, r, bank, p.ready_ps);
+        c.action = Action::Precharge, c.conflict = true;
+      } else {
+        c.time_ps = earliest_activate(ch, r, bank, p.ready_ps);
+        if (c.time_ps >= due) continue;
+        c.action = Action::Activate;
+      }
+      c.priority = 2;
+    }
+    consider(best, c);
   }
-  // Refresh: a rank whose refresh is due closes its banks, then refreshes. Its
-  // commands come no earlier than the due time, so a later one cannot compete.
+}
+
+// Refresh: a rank whose refresh is due closes its banks, then refreshes. Its
+// commands come no earlier than the due time, so a later one cannot compete.
+void DramModel::consider_refreshes(Channel& ch, uint64_t refresh_horizon, Choice& best) {
+  const uint32_t banks = config_.banks;
   for (uint32_t r = 0; r < config_.ranks; ++r) {
     const uint64_t due = ch.ranks[r].refresh_due_ps;
     if (due == UINT64_MAX || due > refresh_horizon || due > best.time_ps) continue;
@@ -527,21 +538,24 @@ DramModel::Choice DramModel::decide_until(Channel& ch, bool requests, uint64_t r
       consider(best, c);
     }
   }
-  if (policy_ == PagePolicy::Timeout) {
-    for (uint32_t r = 0; r < config_.ranks; ++r)
-      for (uint32_t bank = 0; bank < banks; ++bank) {
-        const size_t b = size_t(r) * banks + bank;
-        const Bank& k = ch.banks[b];
-        if (k.open_row < 0 || ch.any_hit_mark[b] == stamp) continue;
-        const uint64_t deadline = k.last_use_ps + page_timeout_;
-        if (deadline > timeout_horizon || deadline > best.time_ps) continue;
-        Choice c;
-        c.time_ps = earliest_precharge(ch, r, bank, deadline);
-        c.priority = 3, c.action = Action::Precharge, c.rank = r, c.bank = bank;
-        consider(best, c);
-      }
-  }
-  return best;
+}
+
+// The timeout page policy: an open row unused for page_timeout_ closes, unless a
+// queued request hits it.
+void DramModel::consider_page_timeouts(Channel& ch, uint32_t stamp, uint64_t timeout_horizon, Choice& best) {
+  const uint32_t banks = config_.banks;
+  for (uint32_t r = 0; r < config_.ranks; ++r)
+    for (uint32_t bank = 0; bank < banks; ++bank) {
+      const size_t b = size_t(r) * banks + bank;
+      const Bank& k = ch.banks[b];
+      if (k.open_row < 0 || ch.any_hit_mark[b] == stamp) continue;
+      const uint64_t deadline = k.last_use_ps + page_timeout_;
+      if (deadline > timeout_horizon || deadline > best.time_ps) continue;
+      Choice c;
+      c.time_ps = earliest_precharge(ch, r, bank, deadline);
+      c.priority = 3, c.action = Action::Precharge, c.rank = r, c.bank = bank;
+      consider(best, c);
+    }
 }
 
 void DramModel::count_request(bool write, RowOutcome outcome, uint64_t latency) {

@@ -310,6 +310,12 @@ class DramModel {
   Choice decide_until(Channel& ch, bool requests, uint64_t refresh_horizon,
                       uint64_t timeout_horizon);
   void consider(Choice& best, const Choice& c) const;
+  // decide_until's three kinds of candidate, each offered to `best`: the queued
+  // requests' column and row commands (FR-FCFS), the refreshes due, and the
+  // timeout policy's precharges. `stamp` marks the banks seen this decision.
+  void consider_requests(Channel& ch, uint32_t stamp, Choice& best);
+  void consider_refreshes(Channel& ch, uint64_t refresh_horizon, Choice& best);
+  void consider_page_timeouts(Channel& ch, uint32_t stamp, uint64_t timeout_horizon, Choice& best);
   void execute(Channel& ch, const Choice& c, std::vector<DramCompletion>& issued);
   // Makes the decisions due before `until` (inclusive).
   void run(Channel& ch, uint64_t until, std::vector<DramCompletion>& issued);
