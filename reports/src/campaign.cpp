@@ -316,10 +316,369 @@ Campaign load_campaign(const fs::path& file, const std::string& revision) {
   return parse_campaign(parse_config_file(file), file, revision);
 }
 
-Campaign parse_campaign(const json& document, const fs::path& file_in,
-                        const std::string& revision) {
+namespace {
+
+// The name is a folder's (rtsim-campaigns/<name>): "." and ".." would put the
+// campaign beside its file or above, and a name past what a file system takes in
+// one path component fails every command.
+void check_campaign_name(const std::string& name, const std::string& fname) {
+  constexpr size_t kMaxCampaignName = 200;
+  const bool control = std::any_of(name.begin(), name.end(),
+                                   [](char ch) { return static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f; });
+  if (name.empty() || control || name == "." || name == ".." ||
+      name.find_first_of("/\\ \t\n'\"") != std::string::npos)
+    throw InputError(fname + ": key 'campaign.name'",
+                     "must be a non-empty name without spaces, quotes, slashes or control characters, "
+                     "and not . or ..");
+  if (name.size() > kMaxCampaignName)
+    throw InputError(fname + ": key 'campaign.name'",
+                     "is " + std::to_string(name.size()) + " characters long; at most " +
+                         std::to_string(kMaxCampaignName) + " (it names a folder)");
+}
+
+// [sweep] over the defaults, then each [[group]] over [sweep]; one group "default"
+// when there are none.
+std::vector<std::pair<std::string, Sweep>> read_groups(ConfigTable& root) {
+  Sweep base;
+  base.axes["preset"] = {json("mobile")};
+  base.axes["fidelity"] = {json("functional")};
+  base.axes["seed"] = {json(1)};
+  {
+    ConfigTable sweep = root.table("sweep");
+    read_sweep(sweep, "sweep", base);
+    sweep.finish();
+  }
+  std::vector<std::pair<std::string, Sweep>> groups;
+  for (ConfigTable& g : root.array_of_tables("group")) {
+    Sweep s = base;
+    const std::string name = g.string("name");
+    if (name.empty()) throw InputError(g.where("name"), "must not be empty");
+    for (const auto& [n, _] : groups)
+      if (n == name) throw InputError(g.where("name"), "group '" + name + "' is defined twice");
+    read_sweep(g, "group", s);
+    g.finish();
+    groups.emplace_back(name, std::move(s));
+  }
+  if (groups.empty()) groups.emplace_back("default", base);
+  return groups;
+}
+
+// A group's dimensions: every axis, override ("set:" key) and builder parameter
+// ("build:" key) with its values, the named axes in the order people read labels.
+using SweepDim = std::pair<std::string, const std::vector<json>*>;
+std::vector<SweepDim> sweep_dims(const Sweep& sweep) {
+  std::vector<SweepDim> dims;
+  for (const auto& [k, v] : sweep.axes) dims.emplace_back(k, &v);
+  for (const auto& [k, v] : sweep.overrides) dims.emplace_back("set:" + k, &v);
+  for (const auto& [k, v] : sweep.build) dims.emplace_back("build:" + k, &v);
+  auto rank = [](const std::string& k) {
+    for (size_t i = 0; i < std::size(kAxes); ++i)
+      if (k == kAxes[i]) return i;
+    return std::size(kAxes);
+  };
+  std::stable_sort(dims.begin(), dims.end(),
+                   [&](const auto& a, const auto& b) { return rank(a.first) < rank(b.first); });
+  return dims;
+}
+
+std::string job_label(const CampaignJob& job) {
+  std::string label = job.scene + "/" + job.builder + (job.camera.empty() ? "" : "/" + job.camera) + "/" +
+                      job.preset + "/" + job.fidelity + "/seed" + std::to_string(job.seed);
+  if (!job.resolution.empty()) label += "/" + job.resolution;
+  if (job.ao_rays >= 0) label += "/ao" + std::to_string(job.ao_rays);
+  if (!job.ao_cutoff.empty()) label += "/aocut" + job.ao_cutoff;
+  if (job.frames > 0) label += "/frames" + std::to_string(job.frames);
+  if (!job.node_format.empty()) label += "/" + job.node_format;
+  for (const auto& [k, v] : job.overrides) label += "/" + k + "=" + v;
+  for (const auto& [k, v] : job.build_settings) label += "/build." + k + "=" + v;
+  return label;
+}
+
+// Expands the groups into jobs. The hashes of the inputs and the checked hardware
+// configurations are shared by all of a campaign's jobs.
+class JobExpander {
+ public:
+  JobExpander(const std::string& fname, const fs::path& base_dir, const std::string& revision)
+      : fname_(fname), base_dir_(base_dir), revision_(revision) {}
+
+  void expand_group(const std::string& group_name, const Sweep& sweep, Campaign& campaign);
+  const std::map<std::string, std::string>& unknown_scenes() const { return unknown_scenes_; }
+
+ private:
+  // A job being made, with its values as its key sees them.
+  struct Draft {
+    CampaignJob job;
+    json resolved = json::object(), overrides = json::object(), build = json::object();
+    std::map<std::string, json> typed_overrides;
+  };
+  std::string resolve_input(const std::string& value, const std::string& where, fs::path& path, bool must_be_file);
+  const json& hardware_for(CampaignJob& job, const std::map<std::string, json>& values, const std::string& where);
+  std::string scene_hash(const CampaignJob& job);
+  void apply_value(Draft& draft, const std::string& name, const json& value, const std::string& where);
+  void drop_plain_values(Draft& draft, const std::string& where);
+  void identify(Draft& draft, const std::string& where);
+
+  const std::string fname_;
+  const fs::path base_dir_;
+  const std::string revision_;
+  std::map<std::string, std::string> input_hash_;  // inputs named by path: an edited preset file changes the keys
+  std::map<std::string, json> checked_;            // merged TOML -> resolved hardware configuration
+  std::map<std::string, std::string> scene_hashes_;
+  std::map<std::string, std::string> unknown_scenes_;  // scene -> why, refused after the expansion, once
+  std::set<std::string> seen_;
+};
+
+std::string JobExpander::resolve_input(const std::string& value, const std::string& where, fs::path& path,
+                                       bool must_be_file) {
+  if (!must_be_file && !looks_like_path(value)) return "";
+  fs::path p = fs::path(value).is_absolute() ? fs::path(value) : base_dir_ / value;
+  if (!is_file(p)) {
+    if (!must_be_file) return "";
+    throw InputError(where, "'" + value + "' is not a file (relative paths start at " + base_dir_.string() + ")");
+  }
+  path = fs::absolute(p).lexically_normal();
+  auto [it, fresh] = input_hash_.emplace(path.string(), "");
+  if (fresh) it->second = file_hash_hex(path);
+  return it->second;
+}
+
+// The hardware configuration of a job: its preset (a name or a file) merged with the
+// overrides, checked once per distinct combination against the model's parameter
+// table, so a misspelt key stops the campaign before any job runs.
+const json& JobExpander::hardware_for(CampaignJob& job, const std::map<std::string, json>& values,
+                                      const std::string& where) {
+  json merged = json::object();
+  if (!job.preset_path.empty()) merged = parse_config_file(job.preset_path);
+  else merged["preset"] = job.preset;
+  for (const auto& [key, value] : values) {
+    json* node = &merged;
+    size_t start = 0;
+    for (;;) {
+      const size_t dot = key.find('.', start);
+      const std::string part = key.substr(start, dot == std::string::npos ? dot : dot - start);
+      if (node->is_null()) *node = json::object();
+      if (!node->is_object()) throw InputError(where, "override '" + key + "' descends into a value, not a table");
+      if (dot == std::string::npos) {
+        (*node)[part] = value;
+        break;
+      }
+      node = &(*node)[part];
+      start = dot + 1;
+    }
+  }
+  const std::string text = json_to_toml(merged);
+  auto it = checked_.find(text);
+  if (it == checked_.end()) {
+    try {
+      const sim::HardwareConfig config =
+          values.empty()
+              ? sim::load_hardware_config(job.preset_path.empty() ? job.preset : job.preset_path.string())
+              : sim::parse_hardware_config(text, "hardware overrides");
+      it = checked_.emplace(text, json::parse(sim::to_json(config))).first;
+    } catch (const InputError& e) {
+      throw InputError(where + ", preset '" + job.preset + "'", e.what());
+    }
+  }
+  job.hardware_toml = values.empty() ? std::string() : text;
+  return it->second;
+}
+
+// The content hash of each distinct scene (scene_registry.h); a scene that cannot
+// be found is noted, and refused after the expansion.
+std::string JobExpander::scene_hash(const CampaignJob& job) {
+  const std::string lookup = job.scene_path.empty() ? job.scene : job.scene_path.string();
+  auto it = scene_hashes_.find(lookup);
+  if (it != scene_hashes_.end()) return it->second;
+  std::string h;
+  try {
+    h = scene_files_hash(lookup);
+  } catch (const InputError& e) {
+    unknown_scenes_.emplace(job.scene, e.what());
+  }
+  return scene_hashes_.emplace(lookup, h).first->second;
+}
+
+// One dimension's value into the job: an override, a builder parameter, or a named
+// axis, each checked where it is read.
+void JobExpander::apply_value(Draft& draft, const std::string& name, const json& v, const std::string& w) {
+  CampaignJob& job = draft.job;
+  const std::string value = scalar_text(v, w);
+  if (name.rfind("set:", 0) == 0) {
+    job.overrides[name.substr(4)] = value;
+    draft.overrides[name.substr(4)] = value;
+    draft.typed_overrides[name.substr(4)] = v;
+    return;
+  }
+  if (name.rfind("build:", 0) == 0) {
+    const std::string key = name.substr(6);
+    BuildParams check;  // the value must parse and lie in range
+    set_build_parameter(check, key, value, fname_ + ": key 'build.");
+    job.build_settings[key] = value;
+    draft.build[key] = value;
+    return;
+  }
+  draft.resolved[name] = value;
+  if (name == "scene") {
+    job.scene = value;
+    resolve_input(value, w, job.scene_path, false);
+    if (job.scene_path.empty() && looks_like_path(value)) {  // a scene folder (scene.toml inside)
+      const fs::path p = fs::path(value).is_absolute() ? fs::path(value) : base_dir_ / value;
+      if (is_folder(p)) job.scene_path = fs::absolute(p).lexically_normal();
+    }
+    // Every file the scene is read from, by content: an edited mesh makes new keys.
+    const std::string h = scene_hash(job);
+    if (!h.empty()) draft.resolved["scene_files_hash"] = h;
+  } else if (name == "builder") {
+    job.builder = value;
+  } else if (name == "camera") {
+    job.camera = value;
+  } else if (name == "preset") {
+    job.preset = value;
+    const std::string h = resolve_input(value, w, job.preset_path, false);
+    if (!h.empty()) draft.resolved["preset_file_hash"] = h;
+  } else if (name == "fidelity") {
+    if (value != "functional" && value != "lt" && value != "cycle")
+      throw InputError(w, "'" + value + "' is not a fidelity level (functional, lt, cycle)");
+    job.fidelity = value;
+  } else if (name == "seed") {
+    if (!v.is_number_integer() || v.get<int64_t>() < 0) throw InputError(w, "seeds must be integers >= 0");
+    job.seed = v.get<uint64_t>();
+  } else if (name == "resolution") {
+    uint32_t wdt = 0, hgt = 0;
+    if (!parse_resolution_text(value, wdt, hgt))
+      throw InputError(w, "'" + value + "' is not a resolution WxH (1..16384)");
+    job.resolution = value;
+  } else if (name == "ao") {
+    if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > 1024)
+      throw InputError(w, "AO ray counts must be integers in [0, 1024]");
+    job.ao_rays = v.get<int64_t>();
+  } else if (name == "node_format") {
+    node_format(value, w);  // names the formats when unknown
+    job.node_format = value;
+    // The tree and the memory image both follow it: part of the hardware.
+    draft.typed_overrides["memory.node_format"] = json(value);
+  } else if (name == "ao_cutoff") {
+    if (!v.is_number() || !(v.get<double>() > 0) || v.get<double>() > AoSettings::kMaxCutoffRelative)
+      throw InputError(w, "AO ray lengths must be numbers in (0, 10] (x scene diagonal)");
+    job.ao_cutoff = value;
+  } else if (name == "frames") {
+    if (!v.is_number_integer() || v.get<int64_t>() < 1 || v.get<int64_t>() > 1000)
+      throw InputError(w, "frames must be integers in [1, 1000]");
+    job.frames = v.get<int64_t>();
+  }
+}
+
+// A value equal to the default is the plain run: an override at the preset's value,
+// a node format that is the preset's, a builder parameter at the builder's default.
+// The job is the same (its key does not change), and now it says so: reports count
+// it as the plain run and find it in every sweep.
+void JobExpander::drop_plain_values(Draft& draft, const std::string& where) {
+  CampaignJob& job = draft.job;
+  const json& preset_hardware = hardware_for(job, {}, where);
+  for (auto it = draft.typed_overrides.begin(); it != draft.typed_overrides.end();) {
+    const json* at_preset = json_at_path(preset_hardware, it->first);
+    if (!at_preset || *at_preset != it->second) {
+      ++it;
+      continue;
+    }
+    if (it->first == "memory.node_format") draft.resolved.erase("node_format");
+    job.overrides.erase(it->first);
+    draft.overrides.erase(it->first);
+    it = draft.typed_overrides.erase(it);
+  }
+  for (auto it = job.build_settings.begin(); it != job.build_settings.end();) {
+    // The builder's seed defaults to the workload's and its camera to the
+    // workload's: those are not constants to compare with.
+    if (it->first == "seed" || it->first == "camera") {
+      ++it;
+      continue;
+    }
+    BuildParams plain, set;
+    plain.builder = set.builder = job.builder;
+    set_build_parameter(set, it->first, it->second);
+    if (build_params_json(plain) == build_params_json(set)) {
+      draft.build.erase(it->first);
+      it = job.build_settings.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+
+// The job's identity is its resolved configuration: the full hardware configuration
+// (preset and overrides applied), not how it was spelt, so "mobile" with
+// l2.size_bytes at its preset value is the same job as plain "mobile".
+void JobExpander::identify(Draft& draft, const std::string& where) {
+  CampaignJob& job = draft.job;
+  // A format set as an override builds the tree for it too, as the axis does.
+  if (job.node_format.empty() && job.overrides.count("memory.node_format"))
+    job.node_format = job.overrides.at("memory.node_format");
+  draft.resolved["set"] = draft.overrides;
+  if (!draft.build.empty()) draft.resolved["build"] = draft.build;  // absent: old campaigns keep their keys
+  json identity = draft.resolved;
+  for (const char* spelling : {"preset", "preset_file_hash", "set"}) identity.erase(spelling);
+  identity["hardware"] = hardware_for(job, draft.typed_overrides, where);
+  // A preset with a wide node format builds its trees for that width too (the
+  // job's key already holds the format, through the hardware).
+  if (job.node_format.empty()) {
+    const std::string format = identity["hardware"].at("memory").at("node_format");
+    if (format != sim::HardwareConfig{}.node_format) job.node_format = format;
+  }
+  job.resolved = draft.resolved;
+  // json objects keep keys sorted, so dump() is canonical.
+  job.config_hash = content_hash_hex(identity.dump());
+  job.key = content_hash_hex(identity.dump() + "\nrevision=" + revision_);
+  job.label = job_label(job);
+}
+
+void JobExpander::expand_group(const std::string& group_name, const Sweep& sweep, Campaign& campaign) {
+  const std::string where = fname_ + ": group '" + group_name + "'";
+  if (!sweep.axes.count("scene") || !sweep.axes.count("builder"))
+    throw InputError(where, "needs 'scene' and 'builder' (in [sweep] or the group)");
+  const std::vector<SweepDim> dims = sweep_dims(sweep);
+  double total = 1;
+  for (const auto& d : dims) total *= double(d.second->size());
+  if (total + double(campaign.jobs.size()) > double(kMaxJobs))
+    throw InputError(where, "expands to more than " + std::to_string(kMaxJobs) + " jobs");
+
+  // A mixed-radix counter over the dimensions, the last one fastest.
+  std::vector<size_t> index(dims.size(), 0);
+  for (bool done = false; !done;) {
+    Draft draft;
+    draft.job.group = group_name;
+    for (size_t d = 0; d < dims.size(); ++d)
+      apply_value(draft, dims[d].first, (*dims[d].second)[index[d]], fname_ + ": key '" + dims[d].first + "'");
+    // The AO ray length is the workload's and, for the builders that cast AO rays,
+    // the tree's (unless the campaign sets the builder's own cutoff).
+    CampaignJob& job = draft.job;
+    if (!job.ao_cutoff.empty() && !job.build_settings.count("ao_cutoff_relative") &&
+        parameter_used_by(*find_builder_parameter("ao_cutoff_relative"), job.builder)) {
+      job.build_settings["ao_cutoff_relative"] = job.ao_cutoff;
+      draft.build["ao_cutoff_relative"] = job.ao_cutoff;
+    }
+    drop_plain_values(draft, where);
+    identify(draft, where);
+    if (seen_.insert(job.key).second) campaign.jobs.push_back(std::move(job));
+
+    // Advance the odometer; when every digit wraps, the group is complete.
+    size_t d = dims.size();
+    for (;;) {
+      if (d == 0) {
+        done = true;
+        break;
+      }
+      --d;
+      if (++index[d] < dims[d].second->size()) break;
+      index[d] = 0;
+    }
+  }
+  campaign.groups.push_back(group_name);
+}
+
+}  // namespace
+
+Campaign parse_campaign(const json& document, const fs::path& file_in, const std::string& revision) {
   const fs::path file = fs::absolute(file_in).lexically_normal();
-  const fs::path base_dir = file.parent_path();
   const std::string fname = file_in.string();
   Campaign campaign;
   campaign.file = file;
@@ -332,313 +691,13 @@ Campaign parse_campaign(const json& document, const fs::path& file_in,
     campaign.description = meta.string("description", "");
     meta.finish();
   }
-  // The name is a folder's (rtsim-campaigns/<name>): "." and ".." would put the
-  // campaign beside its file or above, and a name past what a file system takes in
-  // one path component fails every command.
-  constexpr size_t kMaxCampaignName = 200;
-  const bool control = std::any_of(campaign.name.begin(), campaign.name.end(),
-                                   [](char ch) { return static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f; });
-  if (campaign.name.empty() || control || campaign.name == "." || campaign.name == ".." ||
-      campaign.name.find_first_of("/\\ \t\n'\"") != std::string::npos)
-    throw InputError(fname + ": key 'campaign.name'",
-                     "must be a non-empty name without spaces, quotes, slashes or control characters, "
-                     "and not . or ..");
-  if (campaign.name.size() > kMaxCampaignName)
-    throw InputError(fname + ": key 'campaign.name'",
-                     "is " + std::to_string(campaign.name.size()) + " characters long; at most " +
-                         std::to_string(kMaxCampaignName) + " (it names a folder)");
-
-  Sweep base;
-  base.axes["preset"] = {json("mobile")};
-  base.axes["fidelity"] = {json("functional")};
-  base.axes["seed"] = {json(1)};
-  {
-    ConfigTable sweep = root.table("sweep");
-    read_sweep(sweep, "sweep", base);
-    sweep.finish();
-  }
-
-  std::vector<std::pair<std::string, Sweep>> groups;
-  for (ConfigTable& g : root.array_of_tables("group")) {
-    Sweep s = base;
-    const std::string name = g.string("name");
-    if (name.empty()) throw InputError(g.where("name"), "must not be empty");
-    for (const auto& [n, _] : groups)
-      if (n == name) throw InputError(g.where("name"), "group '" + name + "' is defined twice");
-    read_sweep(g, "group", s);
-    g.finish();
-    groups.emplace_back(name, std::move(s));
-  }
+  check_campaign_name(campaign.name, fname);
+  const std::vector<std::pair<std::string, Sweep>> groups = read_groups(root);
   root.finish();
-  if (groups.empty()) groups.emplace_back("default", base);
 
-  // Hashes of inputs named by path, so that editing a preset file changes the keys.
-  std::map<std::string, std::string> input_hash;
-  auto resolve_input = [&](const std::string& value, const std::string& where, fs::path& path,
-                           bool must_be_file) -> std::string {
-    if (!must_be_file && !looks_like_path(value)) return "";
-    fs::path p = fs::path(value).is_absolute() ? fs::path(value) : base_dir / value;
-    if (!is_file(p)) {
-      if (!must_be_file) return "";
-      throw InputError(where, "'" + value + "' is not a file (relative paths start at " +
-                                  base_dir.string() + ")");
-    }
-    path = fs::absolute(p).lexically_normal();
-    auto [it, fresh] = input_hash.emplace(path.string(), "");
-    if (fresh) it->second = file_hash_hex(path);
-    return it->second;
-  };
-
-  // The hardware configuration of a job: its preset (a name or a file) merged with the
-  // overrides, checked once per distinct combination against the model's parameter
-  // table, so a misspelt key stops the campaign before any job runs.
-  std::map<std::string, json> checked;  // merged TOML -> resolved hardware configuration
-  auto hardware_for = [&](CampaignJob& job, const std::map<std::string, json>& values,
-                          const std::string& where) -> json {
-    json merged = json::object();
-    if (!job.preset_path.empty()) merged = parse_config_file(job.preset_path);
-    else merged["preset"] = job.preset;
-    for (const auto& [key, value] : values) {
-      json* node = &merged;
-      size_t start = 0;
-      for (;;) {
-        const size_t dot = key.find('.', start);
-        const std::string part = key.substr(start, dot == std::string::npos ? dot : dot - start);
-        if (node->is_null()) *node = json::object();
-        if (!node->is_object())
-          throw InputError(where, "override '" + key + "' descends into a value, not a table");
-        if (dot == std::string::npos) {
-          (*node)[part] = value;
-          break;
-        }
-        node = &(*node)[part];
-        start = dot + 1;
-      }
-    }
-    const std::string text = json_to_toml(merged);
-    auto it = checked.find(text);
-    if (it == checked.end()) {
-      try {
-        const sim::HardwareConfig config =
-            values.empty() ? sim::load_hardware_config(job.preset_path.empty()
-                                                           ? job.preset
-                                                           : job.preset_path.string())
-                           : sim::parse_hardware_config(text, "hardware overrides");
-        it = checked.emplace(text, json::parse(sim::to_json(config))).first;
-      } catch (const InputError& e) {
-        throw InputError(where + ", preset '" + job.preset + "'", e.what());
-      }
-    }
-    job.hardware_toml = values.empty() ? std::string() : text;
-    return it->second;
-  };
-
-  // The content hash of each distinct scene (scene_registry.h); a scene that
-  // cannot be found is noted and refused after the expansion, once.
-  std::map<std::string, std::string> scene_hashes;
-  std::map<std::string, std::string> unknown_scenes;  // scene -> why
-  auto scene_hash = [&](const CampaignJob& job) -> std::string {
-    const std::string lookup = job.scene_path.empty() ? job.scene : job.scene_path.string();
-    auto it = scene_hashes.find(lookup);
-    if (it != scene_hashes.end()) return it->second;
-    std::string h;
-    try {
-      h = scene_files_hash(lookup);
-    } catch (const InputError& e) {
-      unknown_scenes.emplace(job.scene, e.what());
-    }
-    return scene_hashes.emplace(lookup, h).first->second;
-  };
-
-  std::set<std::string> seen;
-  for (const auto& [group_name, sweep] : groups) {
-    const std::string where = fname + ": group '" + group_name + "'";
-    if (!sweep.axes.count("scene") || !sweep.axes.count("builder"))
-      throw InputError(where, "needs 'scene' and 'builder' (in [sweep] or the group)");
-    // Mixed-radix counter over every axis and override, last one fastest.
-    std::vector<std::pair<std::string, const std::vector<json>*>> dims;
-    for (const auto& [k, v] : sweep.axes) dims.emplace_back(k, &v);
-    for (const auto& [k, v] : sweep.overrides) dims.emplace_back("set:" + k, &v);
-    for (const auto& [k, v] : sweep.build) dims.emplace_back("build:" + k, &v);
-    // Order the named axes the way people read labels.
-    auto rank = [](const std::string& k) {
-      for (size_t i = 0; i < std::size(kAxes); ++i)
-        if (k == kAxes[i]) return i;
-      return std::size(kAxes);
-    };
-    std::stable_sort(dims.begin(), dims.end(),
-                     [&](const auto& a, const auto& b) { return rank(a.first) < rank(b.first); });
-    double total = 1;
-    for (const auto& d : dims) total *= double(d.second->size());
-    if (total + double(campaign.jobs.size()) > double(kMaxJobs))
-      throw InputError(where, "expands to more than " + std::to_string(kMaxJobs) + " jobs");
-
-    std::vector<size_t> index(dims.size(), 0);
-    bool done = false;
-    while (!done) {
-      CampaignJob job;
-      job.group = group_name;
-      json resolved = json::object();
-      json overrides = json::object();
-      json build = json::object();
-      std::map<std::string, json> typed_overrides;
-      for (size_t d = 0; d < dims.size(); ++d) {
-        const std::string& name = dims[d].first;
-        const std::string w = fname + ": key '" + name + "'";
-        const std::string value = scalar_text((*dims[d].second)[index[d]], w);
-        if (name.rfind("set:", 0) == 0) {
-          job.overrides[name.substr(4)] = value;
-          overrides[name.substr(4)] = value;
-          typed_overrides[name.substr(4)] = (*dims[d].second)[index[d]];
-          continue;
-        }
-        if (name.rfind("build:", 0) == 0) {
-          const std::string key = name.substr(6);
-          BuildParams check;  // the value must parse and lie in range
-          set_build_parameter(check, key, value, fname + ": key 'build.");
-          job.build_settings[key] = value;
-          build[key] = value;
-          continue;
-        }
-        resolved[name] = value;
-        if (name == "scene") {
-          job.scene = value;
-          resolve_input(value, w, job.scene_path, false);
-          if (job.scene_path.empty() && looks_like_path(value)) {  // a scene folder (scene.toml inside)
-            const fs::path p = fs::path(value).is_absolute() ? fs::path(value) : base_dir / value;
-            if (is_folder(p)) job.scene_path = fs::absolute(p).lexically_normal();
-          }
-          // Every file the scene is read from, by content: an edited mesh makes new keys.
-          const std::string h = scene_hash(job);
-          if (!h.empty()) resolved["scene_files_hash"] = h;
-        } else if (name == "builder") {
-          job.builder = value;
-        } else if (name == "camera") {
-          job.camera = value;
-        } else if (name == "preset") {
-          job.preset = value;
-          const std::string h = resolve_input(value, w, job.preset_path, false);
-          if (!h.empty()) resolved["preset_file_hash"] = h;
-        } else if (name == "fidelity") {
-          if (value != "functional" && value != "lt" && value != "cycle")
-            throw InputError(w, "'" + value + "' is not a fidelity level (functional, lt, cycle)");
-          job.fidelity = value;
-        } else if (name == "seed") {
-          const json& v = (*dims[d].second)[index[d]];
-          if (!v.is_number_integer() || v.get<int64_t>() < 0)
-            throw InputError(w, "seeds must be integers >= 0");
-          job.seed = v.get<uint64_t>();
-        } else if (name == "resolution") {
-          uint32_t wdt = 0, hgt = 0;
-          if (!parse_resolution_text(value, wdt, hgt))
-            throw InputError(w, "'" + value + "' is not a resolution WxH (1..16384)");
-          job.resolution = value;
-        } else if (name == "ao") {
-          const json& v = (*dims[d].second)[index[d]];
-          if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > 1024)
-            throw InputError(w, "AO ray counts must be integers in [0, 1024]");
-          job.ao_rays = v.get<int64_t>();
-        } else if (name == "node_format") {
-          node_format(value, w);  // names the formats when unknown
-          job.node_format = value;
-          // The tree and the memory image both follow it: part of the hardware.
-          typed_overrides["memory.node_format"] = json(value);
-        } else if (name == "ao_cutoff") {
-          const json& v = (*dims[d].second)[index[d]];
-          if (!v.is_number() || !(v.get<double>() > 0) || v.get<double>() > AoSettings::kMaxCutoffRelative)
-            throw InputError(w, "AO ray lengths must be numbers in (0, 10] (x scene diagonal)");
-          job.ao_cutoff = value;
-        } else if (name == "frames") {
-          const json& v = (*dims[d].second)[index[d]];
-          if (!v.is_number_integer() || v.get<int64_t>() < 1 || v.get<int64_t>() > 1000)
-            throw InputError(w, "frames must be integers in [1, 1000]");
-          job.frames = v.get<int64_t>();
-        }
-      }
-      // The AO ray length is the workload's and, for the builders that cast AO rays,
-      // the tree's (unless the campaign sets the builder's own cutoff).
-      if (!job.ao_cutoff.empty() && !job.build_settings.count("ao_cutoff_relative") &&
-          parameter_used_by(*find_builder_parameter("ao_cutoff_relative"), job.builder)) {
-        job.build_settings["ao_cutoff_relative"] = job.ao_cutoff;
-        build["ao_cutoff_relative"] = job.ao_cutoff;
-      }
-      // A value equal to the default is the plain run: an override at the preset's
-      // value, a node format that is the preset's, a builder parameter at the
-      // builder's default. The job is the same (its key does not change), and now it
-      // says so: reports count it as the plain run and find it in every sweep.
-      const json& preset_hardware = hardware_for(job, {}, where);
-      for (auto it = typed_overrides.begin(); it != typed_overrides.end();) {
-        const json* at_preset = json_at_path(preset_hardware, it->first);
-        if (!at_preset || *at_preset != it->second) {
-          ++it;
-          continue;
-        }
-        if (it->first == "memory.node_format") resolved.erase("node_format");
-        job.overrides.erase(it->first);
-        overrides.erase(it->first);
-        it = typed_overrides.erase(it);
-      }
-      for (auto it = job.build_settings.begin(); it != job.build_settings.end();) {
-        // The builder's seed defaults to the workload's and its camera to the
-        // workload's: those are not constants to compare with.
-        if (it->first == "seed" || it->first == "camera") {
-          ++it;
-          continue;
-        }
-        BuildParams plain, set;
-        plain.builder = set.builder = job.builder;
-        set_build_parameter(set, it->first, it->second);
-        if (build_params_json(plain) == build_params_json(set)) {
-          build.erase(it->first);
-          it = job.build_settings.erase(it);
-        } else {
-          ++it;
-        }
-      }
-      // A format set as an override builds the tree for it too, as the axis does.
-      if (job.node_format.empty() && job.overrides.count("memory.node_format"))
-        job.node_format = job.overrides.at("memory.node_format");
-      resolved["set"] = overrides;
-      if (!build.empty()) resolved["build"] = build;  // absent: old campaigns keep their keys
-      // The identity is the resolved configuration: the full hardware configuration
-      // (preset and overrides applied), not how it was spelt, so "mobile" with
-      // l2.size_bytes at its preset value is the same job as plain "mobile".
-      json identity = resolved;
-      for (const char* spelling : {"preset", "preset_file_hash", "set"}) identity.erase(spelling);
-      identity["hardware"] = hardware_for(job, typed_overrides, where);
-      // A preset with a wide node format builds its trees for that width too (the
-      // job's key already holds the format, through the hardware).
-      if (job.node_format.empty()) {
-        const std::string format = identity["hardware"].at("memory").at("node_format");
-        if (format != sim::HardwareConfig{}.node_format) job.node_format = format;
-      }
-      job.resolved = resolved;
-      // json objects keep keys sorted, so dump() is canonical.
-      job.config_hash = content_hash_hex(identity.dump());
-      job.key = content_hash_hex(identity.dump() + "\nrevision=" + revision);
-      job.label = job.scene + "/" + job.builder + (job.camera.empty() ? "" : "/" + job.camera) +
-                  "/" + job.preset + "/" + job.fidelity + "/seed" + std::to_string(job.seed);
-      if (!job.resolution.empty()) job.label += "/" + job.resolution;
-      if (job.ao_rays >= 0) job.label += "/ao" + std::to_string(job.ao_rays);
-      if (!job.ao_cutoff.empty()) job.label += "/aocut" + job.ao_cutoff;
-      if (job.frames > 0) job.label += "/frames" + std::to_string(job.frames);
-      if (!job.node_format.empty()) job.label += "/" + job.node_format;
-      for (const auto& [k, v] : job.overrides) job.label += "/" + k + "=" + v;
-      for (const auto& [k, v] : job.build_settings) job.label += "/build." + k + "=" + v;
-      if (seen.insert(job.key).second) campaign.jobs.push_back(std::move(job));
-
-      // Advance the odometer; when every digit wraps, the group is complete.
-      size_t d = dims.size();
-      for (;;) {
-        if (d == 0) { done = true; break; }
-        --d;
-        if (++index[d] < dims[d].second->size()) break;
-        index[d] = 0;
-      }
-    }
-    campaign.groups.push_back(group_name);
-  }
-  check_names(campaign, unknown_scenes, fname);
+  JobExpander expander(fname, file.parent_path(), revision);
+  for (const auto& [group_name, sweep] : groups) expander.expand_group(group_name, sweep, campaign);
+  check_names(campaign, expander.unknown_scenes(), fname);
   return campaign;
 }
 
