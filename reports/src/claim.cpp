@@ -348,31 +348,27 @@ std::string claim_campaign_json(const ClaimOptions& o) {
   return doc.dump(2) + "\n";
 }
 
-ClaimSummary run_claim(const ClaimOptions& o) {
-  const auto start = std::chrono::steady_clock::now();
-  const std::string document = claim_campaign_json(o);  // bad options stop here, before any file
-  fs::create_directories(o.out_dir);
-  const fs::path campaign_file = fs::absolute(o.out_dir) / "claim-campaign.json";
-  write_file_atomic(campaign_file, document);
-  const std::string revision = binary_revision(o.rtsim_binary);
-  const Campaign campaign = load_campaign(campaign_file, revision);
-  const CampaignPaths paths = campaign_paths(campaign, fs::absolute(o.out_dir) / "campaign", {});
-  RunOptions run;
-  run.parallel = o.jobs;
-  run.binary = o.rtsim_binary;
-  run.progress = o.progress;
-  run.tree_cache = o.tree_cache;
-  run.retry_failed = o.retry_failed;
-  const RunSummary ran = run_campaign(campaign, paths, run);
-  ClaimSummary summary;
-  if (ran.interrupted) {
-    summary.interrupted = true;
-    return summary;
-  }
-  summary.jobs = campaign.jobs.size();
-  summary.ran = ran.ran;
+namespace {
 
-  // ---- the figures of every ok job, by (scene, camera, condition, builder) -> replicate
+// A tree's costs (from the tree cache's reports) and its measured figures, for the
+// correlations.
+struct TreePoint {
+  std::string builder, condition;
+  double sah = NAN, weighted = NAN, epo = NAN;
+  Figures measured;
+};
+using TreePoints = std::map<std::tuple<std::string, std::string, std::string>, std::vector<TreePoint>>;
+
+// The figures of every ok job, by (scene, camera, condition) -> builder -> replicate.
+struct ClaimFigures {
+  FiguresByWhere figures;
+  TreePoints tree_points;      // by (scene, camera, seed)
+  BuildSeconds build_seconds;  // the default condition's trees and the tree-only ones
+  size_t failed = 0;           // jobs without an ok result
+};
+
+ClaimFigures collect_figures(const ClaimOptions& o, const Campaign& campaign, const CampaignPaths& paths,
+                             const std::map<Condition, std::string>& names) {
   ResultsStore store(paths.database, ResultsStore::Access::ReadOnly);
   std::map<std::string, json> stats_by_key;
   for (const json& row : store.rows(campaign.name)) {
@@ -380,28 +376,17 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     if (!row.contains("stats_json") || !row["stats_json"].is_string()) continue;
     stats_by_key[row["job_key"].get<std::string>()] = json::parse(row["stats_json"].get<std::string>());
   }
-  FiguresByWhere figures;
-  // Tree costs (from the cache's reports) and ops/ray, for the correlations.
-  struct TreePoint {
-    std::string builder, condition;
-    double sah = NAN, weighted = NAN, epo = NAN;
-    Figures measured;
-  };
-  std::map<std::tuple<std::string, std::string, std::string>, std::vector<TreePoint>> tree_points;
-  BuildSeconds build_seconds;  // the default condition's trees and the tree-only ones
-  const std::vector<Condition> conditions = star_conditions(o);
-  std::map<Condition, std::string> names;
-  for (const Condition& c : conditions) names[c] = condition_name(c, o);
+  ClaimFigures out;
   for (const CampaignJob& job : campaign.jobs) {
     auto it = stats_by_key.find(job.key);
     if (it == stats_by_key.end()) {
-      ++summary.failed;
+      ++out.failed;
       continue;
     }
     auto name = names.find(job_condition(job, o));
     if (name == names.end()) continue;
     const Figures f = figures_of(it->second);
-    figures[{job.scene, job.camera, name->second}][job.builder][job.seed] = f;
+    out.figures[{job.scene, job.camera, name->second}][job.builder][job.seed] = f;
     if (o.tree_cache.empty()) continue;
     const fs::path report = fs::path(cached_tree(o.tree_cache, campaign, job).string() + ".metrics.json");
     if (!fs::exists(report)) continue;
@@ -414,7 +399,7 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     p.weighted = m.value("weighted_cost", NAN);
     p.epo = m.value("epo", NAN);
     if (name->second == "default" || name->second == kSurfacesName)
-      build_seconds[{job.scene, job.builder, name->second}].push_back(m.value("build_seconds", NAN));
+      out.build_seconds[{job.scene, job.builder, name->second}].push_back(m.value("build_seconds", NAN));
     p.measured = f;
     // The costs are in units of T1 and T2: one cost scale only where T2/T1 = 1, and
     // one workload only at the default AO length.
@@ -423,11 +408,15 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     for (const ClaimFactor& fac : o.factors)
       if ((fac.name == "t2" || fac.name == "cutoff") && c.at(fac.name) != fac.centre) comparable = false;
     if (c.at(kTrees) != "") comparable = false;  // the default's trees, or costs for rays not traced
-    if (comparable) tree_points[{job.scene, job.camera, std::to_string(job.seed)}].push_back(p);
+    if (comparable) out.tree_points[{job.scene, job.camera, std::to_string(job.seed)}].push_back(p);
   }
+  return out;
+}
 
-  // The tree-only conditions have only the trees they rebuild; the others are the
-  // default condition's (the same trees and rays).
+// The tree-only conditions have only the trees they rebuild; the others are the
+// default condition's (the same trees and rays), copied in here. Returns each
+// tree-only condition's rebuilt builders.
+std::map<std::string, std::set<std::string>> borrow_default_trees(const ClaimOptions& o, FiguresByWhere& figures) {
   std::map<std::string, std::set<std::string>> rebuilt;  // tree-only condition name -> builders
   for (const TreeOnlyCondition& t : kTreeOnlyConditions)
     for (const std::string& b : condition_builders(o, t.level)) rebuilt[t.name].insert(b);
@@ -437,11 +426,54 @@ ClaimSummary run_claim(const ClaimOptions& o) {
     if (centre == figures.end()) continue;
     for (const auto& [builder, runs] : centre->second) by_builder.emplace(builder, runs);
   }
+  return rebuilt;
+}
 
-  // ---- the cells
-  const std::vector<Relation> rels = relations(o);
-  // In a tree-only condition a relation of trees it did not rebuild is the default's
-  // cell again: counting it twice would inflate the tallies.
+// One relation's cell: the paired per-replicate differences of tree a against b
+// (every a for all<median), and the verdict.
+Cell relation_cell(const Relation& rel, const std::vector<std::string>& as,
+                   const std::map<std::string, std::map<uint64_t, Figures>>& by_builder, const std::string& scene,
+                   const std::string& camera, const std::string& condition, size_t m, size_t x) {
+  Cell cell{rel.name, scene, camera, condition, kMetrics[m], kMixes[x], {}, ""};
+  std::vector<Interval> per_a;
+  for (const std::string& a : as) {
+    std::vector<double> d;
+    for (const auto& [seed, fb] : by_builder.at(rel.b)) {
+      auto fa = by_builder.at(a).find(seed);
+      if (fa == by_builder.at(a).end()) continue;
+      const double vb = fb.v[m][x], va = fa->second.v[m][x];
+      if (std::isfinite(va) && std::isfinite(vb) && vb > 0) d.push_back(100.0 * (va / vb - 1));
+    }
+    per_a.push_back(interval_of(d));
+  }
+  // all<median: holds if every tree holds; reverses if any reverses; the
+  // effect shown is the least favourable tree's.
+  size_t worst = 0;
+  for (size_t k = 1; k < per_a.size(); ++k)
+    if (per_a[k].mean > per_a[worst].mean) worst = k;
+  cell.effect = per_a[worst];
+  bool all_hold = true, any_reverse = false, any_na = false;
+  for (const Interval& i : per_a) {
+    const std::string v = verdict(i);
+    all_hold = all_hold && v == "holds";
+    any_reverse = any_reverse || v == "reverses";
+    any_na = any_na || v == "n/a";
+  }
+  cell.verdict = any_na ? "n/a" : all_hold ? "holds" : any_reverse ? "reverses" : "noise";
+  // DRAM bytes of a scene that fits the caches are ~0: no relation to read.
+  if (std::string(kMetrics[m]) == "dram_bytes") {
+    double b = 0;
+    for (const auto& [seed, fb] : by_builder.at(rel.b)) b = std::max(b, fb.v[m][x]);
+    if (!(b > 0.5)) cell.verdict = "n/a";
+  }
+  return cell;
+}
+
+// Every relation's cells where both its trees ran. In a tree-only condition a
+// relation of trees it did not rebuild is the default's cell again: counting it
+// twice would inflate the tallies.
+std::vector<Cell> claim_cells(const FiguresByWhere& figures, const std::vector<Relation>& rels,
+                              const std::map<std::string, std::set<std::string>>& rebuilt) {
   std::vector<Cell> cells;
   for (const auto& [where, by_builder] : figures) {
     const auto& [scene, camera, condition] = where;
@@ -453,80 +485,53 @@ ClaimSummary run_claim(const ClaimOptions& o) {
       for (const std::string& a : as) present = present && by_builder.count(a);
       if (!present) continue;
       if (rebuilt.count(condition)) {
-        bool involved = rebuilt[condition].count(rel.b) > 0;
-        for (const std::string& a : as) involved = involved || rebuilt[condition].count(a) > 0;
+        const std::set<std::string>& trees = rebuilt.at(condition);
+        bool involved = trees.count(rel.b) > 0;
+        for (const std::string& a : as) involved = involved || trees.count(a) > 0;
         if (!involved) continue;
       }
       for (size_t m = 0; m < kMetricCount; ++m)
-        for (size_t x = 0; x < kMixCount; ++x) {
-          Cell cell{rel.name, scene, camera, condition, kMetrics[m], kMixes[x], {}, ""};
-          std::vector<Interval> per_a;
-          for (const std::string& a : as) {
-            std::vector<double> d;
-            for (const auto& [seed, fb] : by_builder.at(rel.b)) {
-              auto fa = by_builder.at(a).find(seed);
-              if (fa == by_builder.at(a).end()) continue;
-              const double vb = fb.v[m][x], va = fa->second.v[m][x];
-              if (std::isfinite(va) && std::isfinite(vb) && vb > 0) d.push_back(100.0 * (va / vb - 1));
-            }
-            per_a.push_back(interval_of(d));
-          }
-          // all<median: holds if every tree holds; reverses if any reverses; the
-          // effect shown is the least favourable tree's.
-          size_t worst = 0;
-          for (size_t k = 1; k < per_a.size(); ++k)
-            if (per_a[k].mean > per_a[worst].mean) worst = k;
-          cell.effect = per_a[worst];
-          bool all_hold = true, any_reverse = false, any_na = false;
-          for (const Interval& i : per_a) {
-            const std::string v = verdict(i);
-            all_hold = all_hold && v == "holds";
-            any_reverse = any_reverse || v == "reverses";
-            any_na = any_na || v == "n/a";
-          }
-          cell.verdict = any_na ? "n/a" : all_hold ? "holds" : any_reverse ? "reverses" : "noise";
-          // DRAM bytes of a scene that fits the caches are ~0: no relation to read.
-          if (std::string(kMetrics[m]) == "dram_bytes") {
-            double b = 0;
-            for (const auto& [seed, fb] : by_builder.at(rel.b)) b = std::max(b, fb.v[m][x]);
-            if (!(b > 0.5)) cell.verdict = "n/a";
-          }
-          cells.push_back(cell);
-        }
+        for (size_t x = 0; x < kMixCount; ++x)
+          cells.push_back(relation_cell(rel, as, by_builder, scene, camera, condition, m, x));
     }
   }
-  summary.cells = cells.size();
+  return cells;
+}
 
-  // ---- correlations: per scene, camera, mix; replicate-averaged points
-  // Two sets of trees: every tree of the map (leaf sizes and formats spread the costs
-  // wide), and the default condition's trees without the median BVH (does the cost
-  // rank the good trees?).
+// Per scene, camera and mix, over replicate-averaged points, for two sets of trees:
+// every tree of the map (leaf sizes and formats spread the costs wide), and the
+// default condition's trees without the median BVH (does the cost rank the good
+// trees?).
+std::vector<Correlation> claim_correlations(const TreePoints& tree_points) {
   std::vector<Correlation> correlations;
-  {
-    std::map<std::pair<std::string, std::string>, std::map<std::pair<std::string, std::string>, std::vector<const TreePoint*>>> grouped;
-    for (const auto& [k, pts] : tree_points)
-      for (const TreePoint& p : pts) grouped[{std::get<0>(k), std::get<1>(k)}][{p.builder, p.condition}].push_back(&p);
-    for (const bool all_trees : {true, false})
-      for (const auto& [sc, trees] : grouped)
-        for (size_t x = 0; x < kMixCount; ++x) {
-          std::vector<double> sah, weighted, epo, ops;
-          for (const auto& [tree, pts] : trees) {
-            if (!all_trees && (tree.first == "median" || tree.second != "default")) continue;
-            double s = 0, w = 0, e = 0, v = 0;
-            for (const TreePoint* p : pts) s += p->sah, w += p->weighted, e += p->epo, v += p->measured.v[0][x];
-            const double n = double(pts.size());
-            if (!std::isfinite(v)) continue;
-            sah.push_back(s / n), weighted.push_back(w / n), epo.push_back(e / n), ops.push_back(v / n);
-          }
-          Correlation c{sc.first, sc.second, kMixes[x], all_trees ? "all" : "default, no median", ops.size(),
-                        spearman(sah, ops), spearman(weighted, ops), NAN};
-          bool have_epo = std::all_of(epo.begin(), epo.end(), [](double d) { return std::isfinite(d); });
-          if (have_epo) c.epo = spearman(epo, ops);
-          correlations.push_back(c);
+  std::map<std::pair<std::string, std::string>, std::map<std::pair<std::string, std::string>, std::vector<const TreePoint*>>> grouped;
+  for (const auto& [k, pts] : tree_points)
+    for (const TreePoint& p : pts) grouped[{std::get<0>(k), std::get<1>(k)}][{p.builder, p.condition}].push_back(&p);
+  for (const bool all_trees : {true, false})
+    for (const auto& [sc, trees] : grouped)
+      for (size_t x = 0; x < kMixCount; ++x) {
+        std::vector<double> sah, weighted, epo, ops;
+        for (const auto& [tree, pts] : trees) {
+          if (!all_trees && (tree.first == "median" || tree.second != "default")) continue;
+          double s = 0, w = 0, e = 0, v = 0;
+          for (const TreePoint* p : pts) s += p->sah, w += p->weighted, e += p->epo, v += p->measured.v[0][x];
+          const double n = double(pts.size());
+          if (!std::isfinite(v)) continue;
+          sah.push_back(s / n), weighted.push_back(w / n), epo.push_back(e / n), ops.push_back(v / n);
         }
-  }
+        Correlation c{sc.first, sc.second, kMixes[x], all_trees ? "all" : "default, no median", ops.size(),
+                      spearman(sah, ops), spearman(weighted, ops), NAN};
+        bool have_epo = std::all_of(epo.begin(), epo.end(), [](double d) { return std::isfinite(d); });
+        if (have_epo) c.epo = spearman(epo, ops);
+        correlations.push_back(c);
+      }
+  return correlations;
+}
 
-  // ---- sentences: per relation and metric, where it holds and where it reverses
+// Per relation, metric and mix: where it holds and where it reverses, in words.
+// Adds the cells that hold and reverse to *holds and *reverses.
+std::vector<std::string> claim_sentences(const std::vector<Relation>& rels, const std::vector<Cell>& cells,
+                                         size_t* holds_total, size_t* reverses_total) {
   std::vector<std::string> sentences;
   for (const Relation& rel : rels) {
     for (size_t m = 0; m < kMetricCount; ++m)
@@ -567,13 +572,53 @@ ClaimSummary run_claim(const ClaimOptions& o) {
         if (!always.empty()) s << " Holds in every condition on " << always << ".";
         if (!never.empty()) s << " Reverses in every condition on " << never << ".";
         sentences.push_back(s.str());
-        summary.holds += holds;
-        summary.reverses += reverses;
+        *holds_total += holds;
+        *reverses_total += reverses;
       }
   }
+  return sentences;
+}
 
-  // ---- outputs
-  ClaimAnalysis analysis{rels, {}, std::move(figures), std::move(build_seconds), std::move(cells),
+}  // namespace
+
+ClaimSummary run_claim(const ClaimOptions& o) {
+  const auto start = std::chrono::steady_clock::now();
+  const std::string document = claim_campaign_json(o);  // bad options stop here, before any file
+  fs::create_directories(o.out_dir);
+  const fs::path campaign_file = fs::absolute(o.out_dir) / "claim-campaign.json";
+  write_file_atomic(campaign_file, document);
+  const std::string revision = binary_revision(o.rtsim_binary);
+  const Campaign campaign = load_campaign(campaign_file, revision);
+  const CampaignPaths paths = campaign_paths(campaign, fs::absolute(o.out_dir) / "campaign", {});
+  RunOptions run;
+  run.parallel = o.jobs;
+  run.binary = o.rtsim_binary;
+  run.progress = o.progress;
+  run.tree_cache = o.tree_cache;
+  run.retry_failed = o.retry_failed;
+  const RunSummary ran = run_campaign(campaign, paths, run);
+  ClaimSummary summary;
+  if (ran.interrupted) {
+    summary.interrupted = true;
+    return summary;
+  }
+  summary.jobs = campaign.jobs.size();
+  summary.ran = ran.ran;
+
+  const std::vector<Condition> conditions = star_conditions(o);
+  std::map<Condition, std::string> names;
+  for (const Condition& c : conditions) names[c] = condition_name(c, o);
+  ClaimFigures collected = collect_figures(o, campaign, paths, names);
+  summary.failed = collected.failed;
+  const auto rebuilt = borrow_default_trees(o, collected.figures);
+  const std::vector<Relation> rels = relations(o);
+  std::vector<Cell> cells = claim_cells(collected.figures, rels, rebuilt);
+  summary.cells = cells.size();
+  std::vector<Correlation> correlations = claim_correlations(collected.tree_points);
+  const std::vector<std::string> sentences = claim_sentences(rels, cells, &summary.holds, &summary.reverses);
+
+  // The report, and the summary printed
+  ClaimAnalysis analysis{rels, {}, std::move(collected.figures), std::move(collected.build_seconds), std::move(cells),
                          std::move(correlations), sentences};
   for (const Condition& c : conditions) analysis.conditions.push_back(names[c]);
   const std::string plot_note =
