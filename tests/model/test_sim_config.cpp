@@ -111,3 +111,32 @@ TEST(SimStats, HierarchicalSortedJson) {
   EXPECT_LT(text.find("dram"), text.find("trv"));
   EXPECT_LT(text.find("unit0"), text.find("unit1"));
 }
+
+// The DRAM parts table: each part's burst must carry what its data rate and channel
+// width say (a typo in tCK, the burst length or the bus would break it), and the
+// names are the ones dram.part accepts.
+TEST(DramParts, EachBurstCarriesItsDataRateOverItsChannelWidth) {
+  ASSERT_FALSE(dram_parts().empty());
+  for (const DramPart& p : dram_parts()) {
+    SCOPED_TRACE(p.name);
+    const double transfers = double(p.data_rate_mtps) * 1e6 * double(p.burst_cycles) * double(p.tck_ps) * 1e-12;
+    EXPECT_NEAR(double(p.channel_bits) / 8.0 * transfers, double(p.burst_bytes), 0.01 * p.burst_bytes);
+    EXPECT_EQ(p.row_bytes & (p.row_bytes - 1), 0u) << "rows are a power of two bytes";
+    EXPECT_EQ(p.banks % p.bank_groups, 0u);
+    EXPECT_GT(std::string(p.timing_source).size(), 10u);
+    EXPECT_GT(std::string(p.energy_source).size(), 10u);
+    DramConfig d;
+    apply_dram_part(d, p.name);
+    EXPECT_EQ(d.part, p.name);
+    EXPECT_EQ(d.tck_ps, p.tck_ps);
+    EXPECT_EQ(d.burst_bytes, p.burst_bytes);
+  }
+  EXPECT_EQ(dram_part_names().size(), dram_parts().size());
+  DramConfig d;
+  try {
+    apply_dram_part(d, "ddr9");
+    ADD_FAILURE() << "an unknown part was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("lpddr5"), std::string::npos) << e.what();
+  }
+}

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -326,117 +327,133 @@ double process_energy_factor(uint32_t from_nm, uint32_t to_nm, double vdd) {
   return scaled_energy(to, vdd > 0 ? vdd : to.nominal_vdd) / scaled_energy(from, from.nominal_vdd);
 }
 
+namespace {
+
+// Timings in tCK as public DRAM simulators configure these parts (values are
+// JEDEC-class facts; nothing of those simulators' code is used):
+// - lpddr4-3200: DRAMSys (tukl-msd/DRAMSys)
+//   DRAMSys/library/resources/configs/memspecs/JEDEC_8Gb_LPDDR4-3200_16bit.json:
+//   tCK 0.625 ns, RL 28, WL 14, tRCD 29, tRPpb 29, tRAS 68, tRRD 16, tFAW 64, tCCD 8,
+//   tWTR 16, tWR 29, tRTP 12, tRTRS 1, tREFI 6246, tRFCab 448 (280 ns, 8 Gb per channel),
+//   8 banks, 1024 columns of 16 bits. The same speed bin in Ramulator
+//   (CMU-SAFARI/ramulator src/LPDDR4.h, LPDDR4_3200) has tRCD 29, tRAS 68, tRRD 16,
+//   tFAW 64, tWTR 16. The channel is 32 data bits of two x16 dies in lockstep, so a
+//   BL16 burst (8 tCK) carries 64 bytes and a row is two dies' 2 KiB pages = 4 KiB.
+//   No bank groups: tRRD, tCCD and tWTR are the same for S and L.
+// - ddr4-2400: DRAMsim3 (umd-memsys/DRAMsim3) configs/DDR4_8Gb_x8_2400.ini: tCK 0.83 ns
+//   (833 ps for 2400 MT/s), CL 17, CWL 12, tRCD 17, tRP 17, tRAS 39, tRRD_S 4, tRRD_L 6,
+//   tFAW 26, tCCD_S 4, tCCD_L 6, tWTR_S 3, tWTR_L 9, tWR 18, tRTP 9, tRTRS 1, tREFI 9360,
+//   tRFC 420, BL8 = 4 tCK on a 64-bit channel (64 B per burst), 4 bank groups x 4 banks,
+//   1024 columns x 8 devices x 8 bits = 8 KiB rows.
+// - gddr6: Ramulator2 (CMU-SAFARI/ramulator2) python/ramulator/dram/gddr6.py, timing
+//   preset GDDR6_14000_1350mV_double and organisation GDDR6_8Gb_x16: 14 Gb/s per pin,
+//   tCK 0.57 ns, nBL 2 (BL16 on a x16 channel = 32 B per burst), CL 24, CWL 6,
+//   tRCDRD 27, tRCDWR 16, tRP 27, tRAS 53, tRRD_S/L 8/8, tFAW 29, tCCD_S/L 2/4,
+//   tWTR_S/L 9/11, tWR 27, tRTP 4, tREFI 3333, tRFCab 211, 4 bank groups x 4 banks,
+//   1024 columns of 16 bits = 2 KiB rows. DRAMsim3 configs/GDDR6_8Gb_x16.ini agrees on
+//   the row timings' scale (tRP 24, tRAS 54; the earlier 15/32 matched neither) and
+//   gives tRTRS 1.
+// - lpddr5: LPDDR5-6400, Ramulator2 python/ramulator/dram/lpddr5.py, timing preset
+//   LPDDR5_6400 and organisation LPDDR5_8Gb_x16 (bank-group mode): tCK 1.25 ns (CK
+//   800 MHz, WCK 4:1), nBL_min 2 (BL16 on a x16 channel = 32 B per burst), CL 17, CWL 9,
+//   tRCD 15, tRPpb 15, tRAS 34, tWR 28, tRTP 8, tCCD_S/L 2/4, tWTR_S/L 5/10, and the
+//   secondary timings that file derives: tRRD_S/L 4/4 (5 ns), tFAW 16 (20 ns), tREFI 3125
+//   (3906 ns), tRFCab 168 (210 ns, 8 Gb); its read-to-write rule CL + BL + 2 - CWL gives
+//   tRTRS 2. 4 bank groups x 4 banks, 1024 columns of 16 bits = 2 KiB rows.
+// Read-to-write follows from the data bus (DRAMsim3's RL + BL - WL + tRTRS), write-to-read
+// is WL + BL + tWTR, write-to-precharge WL + BL + tWR, as both simulators derive them.
+//
+// Energy per command of one channel: DRAM core energy (no I/O, no termination)
+// from the parts' IDD currents with DRAMPower's formulas, E_act = (IDD0 tRC - IDD3N
+// tRAS - IDD2N tRP) VDD, E_rd = (IDD4R - IDD3N) VDD tBURST, E_wr likewise with
+// IDD4W, E_ref = (IDD5B - IDD3N) VDD tRFC:
+// - lpddr4-3200: DRAMSys configs/memspec/JEDEC_8Gb_LPDDR4-3200_16bit.json currents,
+//   per x16 die ACT 1.2 nJ, 32 B read 1.35 nJ, write 0.99 nJ, REF 22 nJ; a channel
+//   is two dies in lockstep.
+// - ddr4-2400: DRAMSys configs/memspec/MICRON_4Gb_DDR4-2400_8bit_A.json, per x8 chip
+//   ACT 1.0 nJ, 8 B read 0.56 nJ, write 0.50 nJ, REF 23 nJ; eight chips a rank.
+// - gddr6: Arches (Haydelj/arches-v2 units/ramulator/unit-GDDR6.cpp, VDD 1.35 V,
+//   IDD0 71, IDD2N 60, IDD3N 61, IDD4R 248, IDD4W 231, IDD5B 286 mA) with the timings
+//   below: ACT 0.67 nJ, 32 B read 0.29 nJ, write 0.26 nJ, REF 36 nJ per x16 channel.
+//   With I/O GDDR6 is quoted at about 7.5 pJ/bit, 6.8 times this core figure.
+// - lpddr5: no public LPDDR5 current set was found; the LPDDR4-3200 die's figures
+//   stand in (per x16 channel), which likely overstates LPDDR5.
+// Background: precharge standby, IDD2N x VDD of the channel's devices, from the same
+// current sets (a floor: with a row open the device draws IDD3N, 3-15% more):
+// - lpddr4-3200: per die IDD2N 2.0 mA at VDD1 1.8 V, 27 mA at VDD2 1.1 V, 0.75 mA at
+//   VDDQ 1.1 V = 34.1 mW; two dies = 68.3 mW.
+// - ddr4-2400: 38.25 mA at 1.2 V per x8 chip, eight chips = 367 mW.
+// - gddr6: 60 mA at 1.35 V = 81 mW per x16 channel.
+// - lpddr5: one LPDDR4 die per x16 channel, 34.1 mW (no LPDDR5 currents found).
+const std::vector<DramPart> kDramParts = {
+    // name, MT/s, channel bits,
+    //   tCK ps, CL, CWL, tRCD, tRCD write, tRP, tRAS,
+    //   tRRD_S, tRRD_L, tFAW, tCCD_S, tCCD_L, tWTR_S, tWTR_L,
+    //   tWR, tRTP, tRTRS, tREFI, tRFC,
+    //   burst tCK, burst bytes, bank groups, banks, row bytes,
+    //   ACT, RD burst, WR burst, REF pJ, background mW, timing source, energy source
+    {"lpddr4-3200", 3200, 32,
+     625, 28, 14, 29, 29, 29, 68,
+     16, 16, 64, 8, 8, 16, 16,
+     29, 12, 1, 6246, 448,
+     8, 64, 1, 8, 4096,
+     2400, 2700, 1980, 44000, 68.3,
+     "DRAMSys memspec JEDEC_8Gb_LPDDR4-3200_16bit (two x16 dies in lockstep); Ramulator LPDDR4_3200 agrees",
+     "DRAMSys JEDEC_8Gb_LPDDR4-3200_16bit currents, DRAMPower's formulas"},
+    {"ddr4-2400", 2400, 64,
+     833, 17, 12, 17, 17, 17, 39,
+     4, 6, 26, 4, 6, 3, 9,
+     18, 9, 1, 9360, 420,
+     4, 64, 4, 16, 8192,
+     8100, 4480, 3990, 184000, 367,
+     "DRAMsim3 configs/DDR4_8Gb_x8_2400.ini",
+     "DRAMSys MICRON_4Gb_DDR4-2400_8bit_A currents (eight x8 chips), DRAMPower's formulas"},
+    {"gddr6", 14000, 16,
+     570, 24, 6, 27, 16, 27, 53,
+     8, 8, 29, 2, 4, 9, 11,
+     27, 4, 1, 3333, 211,
+     2, 32, 4, 16, 2048,
+     670, 290, 260, 36000, 81,
+     "Ramulator2 gddr6.py GDDR6_14000_1350mV_double, GDDR6_8Gb_x16; DRAMsim3 GDDR6_8Gb_x16 for tRTRS",
+     "Arches (Haydelj/arches-v2) GDDR6 IDD currents at 1.35 V, DRAMPower's formulas"},
+    {"lpddr5", 6400, 16,
+     1250, 17, 9, 15, 15, 15, 34,
+     4, 4, 16, 2, 4, 5, 10,
+     28, 8, 2, 3125, 168,
+     2, 32, 4, 16, 2048,
+     1200, 1350, 990, 22000, 34.1,
+     "Ramulator2 lpddr5.py LPDDR5_6400, LPDDR5_8Gb_x16 (bank-group mode)",
+     "none public: the LPDDR4-3200 die's figures per x16 channel (likely high)"},
+};
+
+}  // namespace
+
+const std::vector<DramPart>& dram_parts() { return kDramParts; }
+
 std::vector<std::string> dram_part_names() {
-  return {"lpddr4-3200", "ddr4-2400", "gddr6", "lpddr5"};
+  std::vector<std::string> names;
+  for (const DramPart& p : kDramParts) names.push_back(p.name);
+  return names;
 }
 
 void apply_dram_part(DramConfig& d, const std::string& part) {
-  // Timings in tCK as public DRAM simulators configure these parts (values are
-  // JEDEC-class facts; nothing of those simulators' code is used):
-  // - lpddr4-3200: DRAMSys (tukl-msd/DRAMSys)
-  //   DRAMSys/library/resources/configs/memspecs/JEDEC_8Gb_LPDDR4-3200_16bit.json:
-  //   tCK 0.625 ns, RL 28, WL 14, tRCD 29, tRPpb 29, tRAS 68, tRRD 16, tFAW 64, tCCD 8,
-  //   tWTR 16, tWR 29, tRTP 12, tRTRS 1, tREFI 6246, tRFCab 448 (280 ns, 8 Gb per channel),
-  //   8 banks, 1024 columns of 16 bits. The same speed bin in Ramulator
-  //   (CMU-SAFARI/ramulator src/LPDDR4.h, LPDDR4_3200) has tRCD 29, tRAS 68, tRRD 16,
-  //   tFAW 64, tWTR 16. The channel is 32 data bits of two x16 dies in lockstep, so a
-  //   BL16 burst (8 tCK) carries 64 bytes and a row is two dies' 2 KiB pages = 4 KiB.
-  //   No bank groups: tRRD, tCCD and tWTR are the same for S and L.
-  // - ddr4-2400: DRAMsim3 (umd-memsys/DRAMsim3) configs/DDR4_8Gb_x8_2400.ini: tCK 0.83 ns
-  //   (833 ps for 2400 MT/s), CL 17, CWL 12, tRCD 17, tRP 17, tRAS 39, tRRD_S 4, tRRD_L 6,
-  //   tFAW 26, tCCD_S 4, tCCD_L 6, tWTR_S 3, tWTR_L 9, tWR 18, tRTP 9, tRTRS 1, tREFI 9360,
-  //   tRFC 420, BL8 = 4 tCK on a 64-bit channel (64 B per burst), 4 bank groups x 4 banks,
-  //   1024 columns x 8 devices x 8 bits = 8 KiB rows.
-  // - gddr6: Ramulator2 (CMU-SAFARI/ramulator2) python/ramulator/dram/gddr6.py, timing
-  //   preset GDDR6_14000_1350mV_double and organisation GDDR6_8Gb_x16: 14 Gb/s per pin,
-  //   tCK 0.57 ns, nBL 2 (BL16 on a x16 channel = 32 B per burst), CL 24, CWL 6,
-  //   tRCDRD 27, tRCDWR 16, tRP 27, tRAS 53, tRRD_S/L 8/8, tFAW 29, tCCD_S/L 2/4,
-  //   tWTR_S/L 9/11, tWR 27, tRTP 4, tREFI 3333, tRFCab 211, 4 bank groups x 4 banks,
-  //   1024 columns of 16 bits = 2 KiB rows. DRAMsim3 configs/GDDR6_8Gb_x16.ini agrees on
-  //   the row timings' scale (tRP 24, tRAS 54; the earlier 15/32 matched neither) and
-  //   gives tRTRS 1.
-  // - lpddr5: LPDDR5-6400, Ramulator2 python/ramulator/dram/lpddr5.py, timing preset
-  //   LPDDR5_6400 and organisation LPDDR5_8Gb_x16 (bank-group mode): tCK 1.25 ns (CK
-  //   800 MHz, WCK 4:1), nBL_min 2 (BL16 on a x16 channel = 32 B per burst), CL 17, CWL 9,
-  //   tRCD 15, tRPpb 15, tRAS 34, tWR 28, tRTP 8, tCCD_S/L 2/4, tWTR_S/L 5/10, and the
-  //   secondary timings that file derives: tRRD_S/L 4/4 (5 ns), tFAW 16 (20 ns), tREFI 3125
-  //   (3906 ns), tRFCab 168 (210 ns, 8 Gb); its read-to-write rule CL + BL + 2 - CWL gives
-  //   tRTRS 2. 4 bank groups x 4 banks, 1024 columns of 16 bits = 2 KiB rows.
-  // Read-to-write follows from the data bus (DRAMsim3's RL + BL - WL + tRTRS), write-to-read
-  // is WL + BL + tWTR, write-to-precharge WL + BL + tWR, as both simulators derive them.
-  auto timing = [&d](uint32_t tck, uint32_t cl, uint32_t cwl, uint32_t rcd, uint32_t rcd_write,
-                     uint32_t rp, uint32_t ras) {
-    d.tck_ps = tck, d.tcl = cl, d.tcwl = cwl, d.trcd = rcd, d.trcd_write = rcd_write;
-    d.trp = rp, d.tras = ras;
-  };
-  auto spacing = [&d](uint32_t rrd_s, uint32_t rrd_l, uint32_t faw, uint32_t ccd_s,
-                      uint32_t ccd_l, uint32_t wtr_s, uint32_t wtr_l) {
-    d.trrd_s = rrd_s, d.trrd_l = rrd_l, d.tfaw = faw, d.tccd_s = ccd_s, d.tccd_l = ccd_l;
-    d.twtr_s = wtr_s, d.twtr_l = wtr_l;
-  };
-  auto recovery = [&d](uint32_t wr, uint32_t rtp, uint32_t rtrs, uint32_t refi, uint32_t rfc) {
-    d.twr = wr, d.trtp = rtp, d.trtrs = rtrs, d.trefi = refi, d.trfc = rfc;
-  };
-  // Energy per command of one channel: DRAM core energy (no I/O, no termination)
-  // from the parts' IDD currents with DRAMPower's formulas, E_act = (IDD0 tRC - IDD3N
-  // tRAS - IDD2N tRP) VDD, E_rd = (IDD4R - IDD3N) VDD tBURST, E_wr likewise with
-  // IDD4W, E_ref = (IDD5B - IDD3N) VDD tRFC:
-  // - lpddr4-3200: DRAMSys configs/memspec/JEDEC_8Gb_LPDDR4-3200_16bit.json currents,
-  //   per x16 die ACT 1.2 nJ, 32 B read 1.35 nJ, write 0.99 nJ, REF 22 nJ; a channel
-  //   is two dies in lockstep.
-  // - ddr4-2400: DRAMSys configs/memspec/MICRON_4Gb_DDR4-2400_8bit_A.json, per x8 chip
-  //   ACT 1.0 nJ, 8 B read 0.56 nJ, write 0.50 nJ, REF 23 nJ; eight chips a rank.
-  // - gddr6: Arches (Haydelj/arches-v2 units/ramulator/unit-GDDR6.cpp, VDD 1.35 V,
-  //   IDD0 71, IDD2N 60, IDD3N 61, IDD4R 248, IDD4W 231, IDD5B 286 mA) with the timings
-  //   below: ACT 0.67 nJ, 32 B read 0.29 nJ, write 0.26 nJ, REF 36 nJ per x16 channel.
-  //   With I/O GDDR6 is quoted at about 7.5 pJ/bit, 6.8 times this core figure.
-  // - lpddr5: no public LPDDR5 current set was found; the LPDDR4-3200 die's figures
-  //   stand in (per x16 channel), which likely overstates LPDDR5.
-  // Background: precharge standby, IDD2N x VDD of the channel's devices, from the same
-  // current sets (a floor: with a row open the device draws IDD3N, 3-15% more):
-  // - lpddr4-3200: per die IDD2N 2.0 mA at VDD1 1.8 V, 27 mA at VDD2 1.1 V, 0.75 mA at
-  //   VDDQ 1.1 V = 34.1 mW; two dies = 68.3 mW.
-  // - ddr4-2400: 38.25 mA at 1.2 V per x8 chip, eight chips = 367 mW.
-  // - gddr6: 60 mA at 1.35 V = 81 mW per x16 channel.
-  // - lpddr5: one LPDDR4 die per x16 channel, 34.1 mW (no LPDDR5 currents found).
-  auto energy = [&d](double act, double rd, double wr, double ref, double background_mw) {
-    d.activate_pj = act, d.read_burst_pj = rd, d.write_burst_pj = wr, d.refresh_pj = ref;
-    d.background_mw = background_mw;
-  };
-  auto shape = [&d](uint32_t burst_cycles, uint32_t burst_bytes, uint32_t groups,
-                    uint32_t banks, uint32_t row_bytes) {
-    d.burst_cycles = burst_cycles, d.burst_bytes = burst_bytes, d.bank_groups = groups;
-    d.banks = banks, d.row_bytes = row_bytes;
-  };
-  if (part == "lpddr4-3200") {
-    timing(625, 28, 14, 29, 29, 29, 68);
-    spacing(16, 16, 64, 8, 8, 16, 16);
-    recovery(29, 12, 1, 6246, 448);
-    shape(8, 64, 1, 8, 4096);
-    energy(2400, 2700, 1980, 44000, 68.3);
-  } else if (part == "ddr4-2400") {
-    timing(833, 17, 12, 17, 17, 17, 39);
-    spacing(4, 6, 26, 4, 6, 3, 9);
-    recovery(18, 9, 1, 9360, 420);
-    shape(4, 64, 4, 16, 8192);
-    energy(8100, 4480, 3990, 184000, 367);
-  } else if (part == "gddr6") {
-    timing(570, 24, 6, 27, 16, 27, 53);
-    spacing(8, 8, 29, 2, 4, 9, 11);
-    recovery(27, 4, 1, 3333, 211);
-    shape(2, 32, 4, 16, 2048);
-    energy(670, 290, 260, 36000, 81);
-  } else if (part == "lpddr5") {
-    timing(1250, 17, 9, 15, 15, 15, 34);
-    spacing(4, 4, 16, 2, 4, 5, 10);
-    recovery(28, 8, 2, 3125, 168);
-    shape(2, 32, 4, 16, 2048);
-    energy(1200, 1350, 990, 22000, 34.1);
-  } else {
+  const auto row = std::find_if(kDramParts.begin(), kDramParts.end(),
+                                [&](const DramPart& p) { return part == p.name; });
+  if (row == kDramParts.end()) {
     std::string all;
     for (auto& n : dram_part_names()) all += (all.empty() ? "" : " | ") + n;
     throw InputError("dram.part", "unknown DRAM part '" + part + "' (" + all + ")");
   }
+  const DramPart& p = *row;
+  d.tck_ps = p.tck_ps, d.tcl = p.tcl, d.tcwl = p.tcwl, d.trcd = p.trcd, d.trcd_write = p.trcd_write;
+  d.trp = p.trp, d.tras = p.tras;
+  d.trrd_s = p.trrd_s, d.trrd_l = p.trrd_l, d.tfaw = p.tfaw, d.tccd_s = p.tccd_s, d.tccd_l = p.tccd_l;
+  d.twtr_s = p.twtr_s, d.twtr_l = p.twtr_l;
+  d.twr = p.twr, d.trtp = p.trtp, d.trtrs = p.trtrs, d.trefi = p.trefi, d.trfc = p.trfc;
+  d.burst_cycles = p.burst_cycles, d.burst_bytes = p.burst_bytes, d.bank_groups = p.bank_groups;
+  d.banks = p.banks, d.row_bytes = p.row_bytes;
+  d.activate_pj = p.activate_pj, d.read_burst_pj = p.read_burst_pj, d.write_burst_pj = p.write_burst_pj;
+  d.refresh_pj = p.refresh_pj, d.background_mw = p.background_mw;
   d.part = part;
 }
 

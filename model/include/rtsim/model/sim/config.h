@@ -214,6 +214,21 @@ std::vector<std::string> preset_names();  // "mobile", "desktop", "mobile-gpu", 
 HardwareConfig preset(const std::string& name);  // throws InputError
 // Where a preset's numbers come from (the head of model/presets/<name>.toml).
 std::string preset_sources(const std::string& name);
+// One DRAM part: its timings (tCK), shape and energy as DramConfig holds them, its
+// data rate and channel width (which its burst must carry), and where the numbers
+// come from. The rows are dram_parts(); apply_dram_part copies one into a DramConfig.
+struct DramPart {
+  const char* name;
+  uint32_t data_rate_mtps, channel_bits;  // transfers per second per pin; data bits per channel
+  uint32_t tck_ps, tcl, tcwl, trcd, trcd_write, trp, tras;
+  uint32_t trrd_s, trrd_l, tfaw, tccd_s, tccd_l, twtr_s, twtr_l;
+  uint32_t twr, trtp, trtrs, trefi, trfc;
+  uint32_t burst_cycles, burst_bytes, bank_groups, banks, row_bytes;
+  double activate_pj, read_burst_pj, write_burst_pj, refresh_pj, background_mw;
+  const char* timing_source;
+  const char* energy_source;
+};
+const std::vector<DramPart>& dram_parts();
 std::vector<std::string> dram_part_names();  // "lpddr4-3200", "ddr4-2400", "gddr6", "lpddr5"
 void apply_dram_part(DramConfig& dram, const std::string& part);  // throws InputError
 
