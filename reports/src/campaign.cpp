@@ -5,6 +5,7 @@
 #include <rtsim/builder/build.h>
 #include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/bvh_file.h>
+#include <rtsim/model/core/ray.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/workloads/config_reader.h>
 #include <rtsim/workloads/procedural.h>
@@ -31,8 +32,8 @@ namespace {
 constexpr size_t kMaxValuesPerAxis = 10000;
 constexpr size_t kMaxJobs = 200000;
 
-const char* const kAxes[] = {"scene", "builder",    "node_format", "camera", "preset", "fidelity",
-                             "seed",  "resolution", "ao",          "ao_cutoff", "frames"};
+const char* const kAxes[] = {"scene",      "builder", "node_format", "camera", "preset", "fidelity", "seed",
+                             "resolution", "ao",      "ao_cutoff",   "frames", "diffuse_bounces"};
 
 // One axis value as the text passed on the command line. Integers stay integers;
 // reals use the shortest text that reads back to the same double.
@@ -266,6 +267,7 @@ std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir
   job.ao_rays = ao_rays;
   job.ao_cutoff = ao_cutoff;
   job.frames = frames > 0 ? uint32_t(frames) : 0;
+  job.diffuse_bounces = diffuse_bounces;
   job.node_format = node_format;
   // With a hardware file the overrides are in it.
   if (hardware_file.empty()) job.overrides.assign(overrides.begin(), overrides.end());
@@ -388,6 +390,7 @@ std::string job_label(const CampaignJob& job) {
   if (job.ao_rays >= 0) label += "/ao" + std::to_string(job.ao_rays);
   if (!job.ao_cutoff.empty()) label += "/aocut" + job.ao_cutoff;
   if (job.frames > 0) label += "/frames" + std::to_string(job.frames);
+  if (job.diffuse_bounces >= 0) label += "/diffuse" + std::to_string(job.diffuse_bounces);
   if (!job.node_format.empty()) label += "/" + job.node_format;
   for (const auto& [k, v] : job.overrides) label += "/" + k + "=" + v;
   for (const auto& [k, v] : job.build_settings) label += "/build." + k + "=" + v;
@@ -565,6 +568,10 @@ void JobExpander::apply_value(Draft& draft, const std::string& name, const json&
     if (!v.is_number_integer() || v.get<int64_t>() < 1 || v.get<int64_t>() > 1000)
       throw InputError(w, "frames must be integers in [1, 1000]");
     job.frames = v.get<int64_t>();
+  } else if (name == "diffuse_bounces") {
+    if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > int64_t(kMaxDiffuseBounces))
+      throw InputError(w, "diffuse bounces must be integers in [0, " + std::to_string(kMaxDiffuseBounces) + "]");
+    job.diffuse_bounces = v.get<int64_t>();
   }
 }
 

@@ -226,6 +226,36 @@ preset = ["mobile", "desktop-gpu"]
   }
 }
 
+// The workload's diffuse bounces are an axis: each value its own job and label,
+// passed to simulate; a campaign without the axis keeps its keys (the axis is absent
+// from the resolved configuration, not 0).
+TEST(CampaignExpand, DiffuseBouncesAreAnAxisThatLeavesOldKeysAlone) {
+  const std::string plain = "[sweep]\nscene = \"interior\"\nbuilder = \"sah\"\n";
+  const Campaign before = parse(plain);
+  const Campaign c = parse(plain + "diffuse_bounces = [0, 3]\n");
+  ASSERT_EQ(before.jobs.size(), 1u);
+  ASSERT_EQ(c.jobs.size(), 2u);
+  std::set<std::string> keys = {before.jobs[0].key};
+  for (const CampaignJob& j : c.jobs) {
+    keys.insert(j.key);
+    const auto args = j.simulate_arguments("/o");
+    const auto flag = std::find(args.begin(), args.end(), "--diffuse-bounces");
+    ASSERT_NE(flag, args.end()) << j.label;
+    ASSERT_NE(flag + 1, args.end());
+    EXPECT_EQ(*(flag + 1), std::to_string(j.diffuse_bounces));
+    EXPECT_NE(j.label.find("/diffuse" + std::to_string(j.diffuse_bounces)), std::string::npos) << j.label;
+    EXPECT_EQ(j.resolved.at("diffuse_bounces"), std::to_string(j.diffuse_bounces));
+  }
+  EXPECT_EQ(keys.size(), 3u) << "0 bounces asked is its own job, beside the campaign that does not ask";
+  const auto old_args = before.jobs[0].simulate_arguments("/o");
+  EXPECT_EQ(std::count(old_args.begin(), old_args.end(), "--diffuse-bounces"), 0);
+  EXPECT_FALSE(before.jobs[0].resolved.contains("diffuse_bounces"));
+  const std::string bad = error_of(plain + "diffuse_bounces = 9\n");
+  EXPECT_NE(bad.find("key 'diffuse_bounces'"), std::string::npos) << bad;
+  EXPECT_NE(bad.find("[0, 8]"), std::string::npos) << bad;
+  EXPECT_NE(error_of(plain + "diffuse_bounces = 1.5\n").find("integers"), std::string::npos);
+}
+
 TEST(CampaignExpand, BadInputNamesFileAndKey) {
   EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\nbuildr = \"x\"\n")
                 .find("key 'sweep.buildr': is unknown"),

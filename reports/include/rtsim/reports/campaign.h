@@ -27,6 +27,7 @@ struct CampaignJob {
   int64_t ao_rays = -1;     // AO rays per primary hit, < 0: simulate's default
   std::string ao_cutoff;    // AO ray length x scene diagonal (--ao-cutoff); "" = the scene's
   int64_t frames = -1;      // frames of the same rays (stats of the last), < 1: simulate's default
+  int64_t diffuse_bounces = -1;  // diffuse path bounces per primary hit (--diffuse-bounces), < 0: none
   std::string node_format;  // node record format the tree is built for; "" = the preset's
   std::map<std::string, std::string> overrides;  // dotted hardware key -> value text
   // Builder parameters (builder_registry.h) -> value text: --build-set KEY=VALUE. A
