@@ -46,6 +46,12 @@ def lighten(hex_colour, amount):
     return "#%02x%02x%02x" % (mix(r), mix(g), mix(b))
 
 
+def type_lightness(ray_type, ray_types):
+    """How much lighter a ray type's segment is, by its place among the types drawn:
+    0 for the first, 0.15 apart up to five, and the range 0..0.6 shared beyond."""
+    return 0.6 * ray_types.index(ray_type) / max(4, len(ray_types) - 1)
+
+
 def finite(v):
     return v is not None and isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
@@ -159,6 +165,7 @@ def base_figures(base, scene, fidelity, names, figures):
     # 1. DRAM bytes per ray, stacked by (ray type, byte kind): the kinds the model writes.
     segments = [(t, k) for t in ray_types for k in kinds
                 if any(finite(r["stats"].get("%s.%s.%s" % (by_type, t, k))) for r in base)]
+    drawn_types = [t for t in ray_types if any(t == s for s, _ in segments)]
     fig, ax = plt.subplots(figsize=(max(7, 0.9 * len(positions) + 3), 4.8))
     drawn = []
     labelled = set()
@@ -172,7 +179,7 @@ def base_figures(base, scene, fidelity, names, figures):
             h = v / rays if finite(v) and finite(rays) and rays > 0 else 0.0
             label = "%s rays, %s data" % (t, k)
             ax.bar(x, h, width * 0.95, bottom=bottom,
-                   color=lighten(KIND_COLOURS[kinds.index(k) % len(KIND_COLOURS)], 0.6 * ray_types.index(t) / 4),
+                   color=lighten(KIND_COLOURS[kinds.index(k) % len(KIND_COLOURS)], type_lightness(t, drawn_types)),
                    hatch=HATCHES[bi % len(HATCHES)], edgecolor="white" if bi == 0 else "black", linewidth=0.4,
                    label=label if label not in labelled else None)
             labelled.add(label)

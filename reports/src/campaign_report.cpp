@@ -57,10 +57,11 @@ std::string html_escape(const std::string& s) {
 }
 
 // A swept axis of the campaign: a hardware key (an override, cores included), a
-// builder parameter (build.KEY) or the node format, with its unit.
+// builder parameter (build.KEY), the node format, or the workload's diffuse bounces
+// (its ray mix), with its unit.
 struct Coordinate {
   std::string key, unit;
-  enum Kind { Hardware, Build, NodeFormat } kind;
+  enum Kind { Hardware, Build, NodeFormat, Workload } kind;
 };
 
 std::string hardware_unit(const std::string& key) {
@@ -91,6 +92,8 @@ std::vector<Coordinate> swept_coordinates(const std::vector<json>& jobs) {
       found.emplace("build." + k, Coordinate{"build." + k, p ? p->unit : "", Coordinate::Build});
     }
     if (job.contains("node_format")) found.emplace("node_format", Coordinate{"node_format", "", Coordinate::NodeFormat});
+    if (job.contains("diffuse_bounces"))
+      found.emplace("diffuse_bounces", Coordinate{"diffuse_bounces", "bounces", Coordinate::Workload});
   }
   // The node format set as an override is the node format axis.
   if (found.count("memory.node_format")) {
@@ -113,6 +116,8 @@ json coordinate_values(const std::vector<Coordinate>& coordinates, const json& j
       if (const json* v = json_at_path(hardware, c.key)) value = *v;
     } else if (c.kind == Coordinate::NodeFormat) {
       if (const json* v = json_at_path(hardware, "memory.node_format")) value = *v;
+    } else if (c.kind == Coordinate::Workload) {
+      value = typed(job.value(c.key, json(0)));  // absent: no diffuse rays
     } else {
       const std::string key = c.key.substr(6);
       const json set = job.value("build", json::object());
@@ -207,8 +212,9 @@ CampaignReportFiles write_campaign_report(const CampaignReportOptions& options) 
     run["hardware"] = config.is_object() ? config.value("hardware", json::object()) : json::object();
     run["coordinates"] = coordinate_values(coordinates, job, run["hardware"], row.value("builder", std::string()));
     // The plain run: every coordinate at its default (the campaign drops values equal to it).
+    // No diffuse bounces is the plain workload (0 asked or the axis absent).
     run["plain"] = !job.contains("node_format") && job.value("set", json::object()).empty() &&
-                   job.value("build", json::object()).empty();
+                   job.value("build", json::object()).empty() && typed(job.value("diffuse_bounces", json(0))) == json(0);
     json headline = json::object();
     for (const auto& [name, unit] : ResultsStore::headline_columns()) headline[name] = row[name];
     headline["host_seconds"] = row["host_seconds"];

@@ -175,3 +175,44 @@ set.l2.size_bytes = [262144, 524288]
   }
   std::filesystem::remove_all(dir);
 }
+
+// Diffuse bounces are a workload axis: the report sweeps them (cycles and DRAM bytes
+// against the depth, each point the stat of its run), and 0 bounces is the plain run
+// the main figures show, not whichever depth came last.
+TEST(ReportFigures, DiffuseBouncesAreASweepAndNoBouncesIsThePlainRun) {
+  const auto dir = scratch_folder("report_figures", "diffuse");
+  const auto report = run_campaign(dir, R"(
+[campaign]
+name = "figures"
+[sweep]
+scene = "interior"
+builder = "sah"
+preset = "mobile"
+fidelity = "cycle"
+resolution = "16x16"
+diffuse_bounces = [2, 0]
+)");
+  const auto stats = stats_by_key(dir / "rtsim-campaigns" / "figures" / "results.sqlite");
+  const json data = read_json(report / "report-data.json");
+  std::string plain_key;
+  for (const json& r : data.at("runs"))
+    if (r.at("plain").get<bool>()) {
+      EXPECT_TRUE(plain_key.empty()) << "one plain run";
+      plain_key = r.at("job_key");
+      EXPECT_EQ(r.at("coordinates").at("diffuse_bounces"), 0) << r.dump();
+    }
+  ASSERT_FALSE(plain_key.empty());
+  EXPECT_EQ(stats.at(plain_key).count("per_type.diffuse1.rays"), 0u) << "the plain run has no diffuse rays";
+  const json dram = read_json(report / "dram_bytes_per_ray.data.json");
+  for (const json& d : dram.at("drawn")) EXPECT_EQ(d.at("job_key"), plain_key) << d.dump();
+
+  const json sweep = read_json(report / "sweep_diffuse_bounces.data.json");
+  std::vector<double> xs;
+  for (const json& d : sweep.at("drawn")) {
+    expect_close(d.at("value").get<double>(),
+                 d.at("scale").get<double>() * stat_of(stats.at(d.at("job_key")), d.at("stat")), d.dump());
+    if (d.at("metric") == "DRAM bytes per ray") xs.push_back(d.at("x").get<double>());
+  }
+  EXPECT_EQ(xs, (std::vector<double>{0, 2}));
+  std::filesystem::remove_all(dir);
+}
