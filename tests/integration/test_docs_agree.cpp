@@ -4,6 +4,7 @@
 // that subcommand under its current spelling (not a deprecated one).
 #include "commands.h"
 
+#include <rtsim/model/sim/config.h>
 #include <rtsim/reports/campaign.h>
 
 #include <gtest/gtest.h>
@@ -133,4 +134,54 @@ TEST(DocsAgree, EveryFlagTheDocsShowIsTheCommandsOwn) {
     }
   }
   EXPECT_GT(checked, 50u);
+}
+
+// docs/dram.md's table of parts gives the numbers the model's parts table holds:
+// each row's integers, part by part in the header's order.
+TEST(DocsAgree, TheDramPartsTableIsTheModels) {
+  const std::string doc = section(read_all(kSource / "docs" / "dram.md"), "## Parts and their sources");
+  ASSERT_FALSE(doc.empty());
+  auto cells = [&](const std::string& row_name) {
+    std::vector<std::string> out;
+    const size_t at = doc.find(row_name.empty() ? std::string("| |") : "| " + row_name + " |");
+    if (at == std::string::npos) return out;
+    std::string line = doc.substr(at, doc.find('\n', at) - at);
+    std::stringstream in(line);
+    std::string cell;
+    std::getline(in, cell, '|');  // before the first bar
+    std::getline(in, cell, '|');  // the row's name
+    while (std::getline(in, cell, '|'))
+      if (cell.find_first_not_of(' ') != std::string::npos) out.push_back(cell);
+    return out;
+  };
+  auto numbers = [](const std::string& text) {
+    std::vector<uint64_t> out;
+    static const std::regex integer(R"(\d+)");
+    for (std::sregex_iterator it(text.begin(), text.end(), integer), end; it != end; ++it)
+      out.push_back(std::stoull(it->str()));
+    return out;
+  };
+  const std::vector<std::string> header = cells("");
+  const auto& parts = rtsim::sim::dram_parts();
+  ASSERT_EQ(header.size(), parts.size()) << doc.substr(0, 400);
+  for (size_t i = 0; i < parts.size(); ++i) {
+    const rtsim::sim::DramPart& p = parts[i];
+    SCOPED_TRACE(p.name);
+    EXPECT_NE(header[i].find(p.name), std::string::npos) << header[i];
+    const std::map<std::string, std::vector<uint64_t>> rows = {
+        {"tCK (ps)", {p.tck_ps}},
+        {"bank groups x banks", {p.bank_groups, p.banks / p.bank_groups}},
+        {"CL / CWL", {p.tcl, p.tcwl}},
+        {"tRCD (write) / tRP / tRAS", {p.trcd, p.trcd_write, p.trp, p.tras}},
+        {"tRRD_S / tRRD_L / tFAW", {p.trrd_s, p.trrd_l, p.tfaw}},
+        {"tCCD_S / tCCD_L", {p.tccd_s, p.tccd_l}},
+        {"tWTR_S / tWTR_L / tWR / tRTP", {p.twtr_s, p.twtr_l, p.twr, p.trtp}},
+        {"tRTRS", {p.trtrs}},
+        {"tREFI / tRFC", {p.trefi, p.trfc}}};
+    for (const auto& [row, expected] : rows) {
+      const std::vector<std::string> c = cells(row);
+      ASSERT_EQ(c.size(), parts.size()) << row;
+      EXPECT_EQ(numbers(c[i]), expected) << row << ": " << c[i];
+    }
+  }
 }
