@@ -145,6 +145,11 @@ void add_table1_command(CLI::App& root) {
   cmd->add_option("--res", o->resolution, "Primary rays per camera, WxH")->capture_default_str();
   cmd->add_option("--ao", o->table.ao_samples, "AO rays per primary hit (-1: the scene's setting)")
       ->check(CLI::Range(-1, 1024))->capture_default_str();
+  cmd->add_option("--diffuse-bounces", o->table.diffuse_bounces,
+                  "Diffuse path bounces per primary hit (0..8; their rays count in the combined figures and "
+                  "have their own column)")
+      ->check(CLI::Range(0u, kMaxDiffuseBounces))
+      ->capture_default_str();
   cmd->add_option("--seed", o->table.seed, "Seed of every random choice (rays and builders)")
       ->capture_default_str();
   cmd->add_option("--config", o->table.hardware, "Hardware preset or TOML for the cycle-level runs")

@@ -141,7 +141,8 @@ TextTable camera_table(const Table1& table, const std::string& camera) {
   Columns c;
   c.column("builder"), c.column("ops/ray"), c.column("red. vs median", vs_median), c.column("red. vs SAH", vs_sah);
   c.column("TRV/ray"), c.column("IST/ray"), c.column("box tests/ray"), c.column("primary ops/ray");
-  c.column("AO ops/ray"), c.column("node fetches/ray"), c.column("fetch red. vs median", vs_median);
+  c.column("AO ops/ray"), c.column("diffuse ops/ray", table.options.diffuse_bounces > 0);
+  c.column("node fetches/ray"), c.column("fetch red. vs median", vs_median);
   c.column("fetch red. vs SAH", vs_sah), c.column("node B/tri"), c.column("DRAM B/ray cold/warm", cycle);
   c.column("cycles", cycle), c.column("pJ/ray", cycle), c.column("rays/J", cycle), c.column("build s");
   const Table1Row* median = table.find(camera, "median");
@@ -153,7 +154,8 @@ TextTable camera_table(const Table1& table, const std::string& camera) {
                       sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
                       num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
                       num(r.combined.box_tests_per_ray), ops_text(r.primary.ops_per_ray, r.ops_primary),
-                      ops_text(r.ao.ops_per_ray, r.ops_ao), num(r.combined.node_fetches_per_ray),
+                      ops_text(r.ao.ops_per_ray, r.ops_ao), ops_text(r.diffuse.ops_per_ray, r.ops_diffuse),
+                      num(r.combined.node_fetches_per_ray),
                       median ? pct(r.combined.node_fetches_per_ray, median->combined.node_fetches_per_ray) : "-",
                       sah ? pct(r.combined.node_fetches_per_ray, sah->combined.node_fetches_per_ray) : "-",
                       num(r.node_bytes_per_triangle, 3), dram_cold_warm(r),
@@ -293,6 +295,7 @@ void write_table1(const Table1& table) {
   json["counting_rule"] = table.counting_rule;
   json["resolution"] = {table.options.width, table.options.height};
   json["ao_samples"] = table.ao_samples;
+  json["diffuse_bounces"] = table.options.diffuse_bounces;
   json["ao_length"] = table.ao_length;
   json["hardware"] = table.options.hardware;
   json["node_format"] = table.options.node_format;
@@ -315,7 +318,8 @@ void write_table1(const Table1& table) {
                           {"ops_per_ray_spread",
                            {{"combined", interval_json(r.ops_combined)},
                             {"primary", interval_json(r.ops_primary)},
-                            {"ao", interval_json(r.ops_ao)}}},
+                            {"ao", interval_json(r.ops_ao)},
+                            {"diffuse", interval_json(r.ops_diffuse)}}},
                           {"cycles", r.cycles < 0 ? nlohmann::json(nullptr) : nlohmann::json(r.cycles)},
                           {"rays_per_joule", r.rays_per_joule < 0 ? nlohmann::json(nullptr)
                                                                   : nlohmann::json(r.rays_per_joule)},
@@ -332,12 +336,15 @@ void write_table1(const Table1& table) {
                           {"counts_match_cycle_level", r.counts_match_cycle_level},
                           {"combined", counts_json(r.combined)},
                           {"primary", counts_json(r.primary)},
-                          {"ao", counts_json(r.ao)}};
+                          {"ao", counts_json(r.ao)},
+                          {"diffuse", counts_json(r.diffuse)}};
     json["rows"].push_back(row);
     for (const auto& [type, c, spread] :
          {std::tuple<const char*, const Table1Counts*, const Interval*>{"combined", &r.combined, &r.ops_combined},
           {"primary", &r.primary, &r.ops_primary},
-          {"ao", &r.ao, &r.ops_ao}}) {
+          {"ao", &r.ao, &r.ops_ao},
+          {"diffuse", &r.diffuse, &r.ops_diffuse}}) {
+      if (c == &r.diffuse && table.options.diffuse_bounces == 0) continue;  // no such rays
       const bool has_spread = spread->n > 1 && std::isfinite(spread->lo);
       csv.add_row({table.scene_name, r.camera, r.builder, type, std::to_string(c->rays),
                    format_number(c->ops_per_ray, 6), format_number(c->trv_per_ray, 6),

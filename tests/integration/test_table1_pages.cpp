@@ -124,3 +124,42 @@ TEST(Table1Pages, TwoBuildersCompareAndNoCycleLevelDropsItsColumns) {
   }
   fs::remove_all(dir);
 }
+
+// Diffuse bounces as a ray mix: their rays are a column of their own (all depths),
+// counted in the combined figures, and the cycle level counts them alike; without
+// them the page has no such column and the JSON says 0.
+TEST(Table1Pages, DiffuseBouncesAreAColumnAndCountInTheCombinedFigures) {
+  const fs::path dir = fresh_folder("table1-pages-diffuse");
+  const CliResult r =
+      run_in(dir, "table1 --scene cornell --res 16x16 --builders sah --diffuse-bounces 2 --frames 1 --out-dir t");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string md = read(dir / "t" / "table1.md");
+  EXPECT_NE(md.find("diffuse ops/ray"), std::string::npos) << md;
+  const json table = json::parse(read(dir / "t" / "table1.json"));
+  EXPECT_EQ(table["diffuse_bounces"], 2);
+  for (const json& row : table["rows"]) {
+    const uint64_t primary = row["primary"]["rays"], ao = row["ao"]["rays"], diffuse = row["diffuse"]["rays"];
+    EXPECT_GT(diffuse, 0u) << row.dump();
+    EXPECT_LE(diffuse, 2 * primary) << "one depth-1 ray per primary hit, one depth-2 ray per depth-1 hit";
+    // cornell's lights and mirror add shadow and reflection rays to the combined figures.
+    EXPECT_GE(uint64_t(row["combined"]["rays"]), primary + ao + diffuse) << row.dump();
+    EXPECT_TRUE(row["counts_match_cycle_level"].get<bool>()) << row.dump();
+    // The diffuse rays and their DRAM bytes are those of the run's diffuse1 and diffuse2 rays.
+    const json stats = json::parse(read(dir / "t" / "runs" / (row["camera"].get<std::string>() + "-sah") / "stats.json"));
+    EXPECT_EQ(uint64_t(row["combined"]["rays"]), stats["rays"]["total"]["value"].get<uint64_t>());
+    double bytes = 0;
+    uint64_t rays = 0;
+    for (const char* type : {"diffuse1", "diffuse2"}) {
+      rays += stats["per_type"][type]["rays"]["value"].get<uint64_t>();
+      for (const auto& [kind, v] : stats["dram"]["bytes_by_type"][type].items()) bytes += v["value"].get<double>();
+    }
+    EXPECT_EQ(diffuse, rays);
+    EXPECT_NEAR(row["diffuse"]["dram_bytes_per_ray"].get<double>() * double(diffuse), bytes, 1e-6 * (1 + bytes));
+  }
+  const CliResult plain = run_in(dir, "table1 --scene cornell --res 16x16 --builders sah --no-cycle --out-dir p");
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  EXPECT_EQ(read(dir / "p" / "table1.md").find("diffuse ops/ray"), std::string::npos);
+  EXPECT_EQ(json::parse(read(dir / "p" / "table1.json"))["diffuse_bounces"], 0);
+  EXPECT_NE(run_in(dir, "table1 --diffuse-bounces 9 --out-dir q").exit_code, 0);
+  fs::remove_all(dir);
+}

@@ -27,6 +27,9 @@ struct Table1Options {
   uint32_t build_seeds = 5;
   uint32_t width = 256, height = 256;
   int ao_samples = -1;            // < 0: the scene's AO settings
+  // Diffuse path bounces per primary hit (0: none, the patent's workload): their rays
+  // count in the combined figures and have their own column, all depths together.
+  uint32_t diffuse_bounces = 0;
   uint64_t seed = 1;
   std::string hardware = "mobile";  // preset or TOML for the cycle-level runs
   bool cycle_level = true;        // run the cycle-level model for DRAM bytes and cycles
@@ -45,7 +48,7 @@ struct Table1Options {
   std::string patent_table_page;
 };
 
-// Per ray type (primary, AO) and combined.
+// Per ray type (primary, AO, the diffuse depths together) and combined.
 struct Table1Counts {
   uint64_t rays = 0;
   double ops_per_ray = 0, trv_per_ray = 0, ist_per_ray = 0, node_fetches_per_ray = 0;
@@ -58,9 +61,9 @@ struct Table1Row {
   std::string camera, builder;
   // Counts per ray (means over the seeds for a sampled builder), and their spread.
   Table1Counts combined;
-  Table1Counts primary, ao;
+  Table1Counts primary, ao, diffuse;
   uint32_t seeds = 1;                   // trees the counts are the mean of
-  Interval ops_combined, ops_primary, ops_ao;  // ops/ray over the seeds (n = seeds)
+  Interval ops_combined, ops_primary, ops_ao, ops_diffuse;  // ops/ray over the seeds (n = seeds)
   uint64_t first_trv_ops = 0, first_ist_ops = 0;  // the first seed's tree: what the cycle level runs
   double cycles = -1;                  // the last (steady-state) frame
   double rays_per_joule = -1;          // cycle level, dynamic energy
