@@ -86,6 +86,12 @@ std::filesystem::path run_campaign(const std::filesystem::path& dir, const std::
   return report;
 }
 
+// A campaign of one builder on interior at 16x16 on mobile, and `rest` of its sweep.
+std::string one_builder_campaign(const std::string& rest) {
+  return "[campaign]\nname = \"figures\"\n[sweep]\nscene = \"interior\"\nbuilder = \"sah\"\npreset = \"mobile\"\n"
+         "resolution = \"16x16\"\n" + rest;
+}
+
 }  // namespace
 
 TEST(ReportFigures, EveryDrawnValueIsTheStatItShows) {
@@ -151,17 +157,7 @@ TEST(ReportFigures, EveryDrawnValueIsTheStatItShows) {
 
 TEST(ReportFigures, AOneBuilderCampaignDrawsNoBuilderComparison) {
   const auto dir = scratch_folder("report_figures", "one");
-  const auto report = run_campaign(dir, R"(
-[campaign]
-name = "figures"
-[sweep]
-scene = "interior"
-builder = "sah"
-preset = "mobile"
-fidelity = "lt"
-resolution = "16x16"
-set.l2.size_bytes = [262144, 524288]
-)");
+  const auto report = run_campaign(dir, one_builder_campaign("fidelity = \"lt\"\nset.l2.size_bytes = [262144, 524288]\n"));
   std::ifstream md_in(report / "report.md");
   const std::string md((std::istreambuf_iterator<char>(md_in)), {});
   EXPECT_EQ(md.find("| builder"), std::string::npos) << md;
@@ -181,17 +177,7 @@ set.l2.size_bytes = [262144, 524288]
 // the main figures show, not whichever depth came last.
 TEST(ReportFigures, DiffuseBouncesAreASweepAndNoBouncesIsThePlainRun) {
   const auto dir = scratch_folder("report_figures", "diffuse");
-  const auto report = run_campaign(dir, R"(
-[campaign]
-name = "figures"
-[sweep]
-scene = "interior"
-builder = "sah"
-preset = "mobile"
-fidelity = "cycle"
-resolution = "16x16"
-diffuse_bounces = [2, 0]
-)");
+  const auto report = run_campaign(dir, one_builder_campaign("fidelity = \"cycle\"\ndiffuse_bounces = [2, 0]\n"));
   const auto stats = stats_by_key(dir / "rtsim-campaigns" / "figures" / "results.sqlite");
   const json data = read_json(report / "report-data.json");
   std::string plain_key;
