@@ -33,6 +33,9 @@ void add_accuracy_command(CLI::App& root) {
   cmd->add_option("--config", o->accuracy.hardware, "Hardware preset or TOML for the simulate runs")
       ->capture_default_str();
   cmd->add_option("--seed", o->accuracy.seed, "Seed of every random choice")->capture_default_str();
+  cmd->add_option("--fidelity-scenes", o->accuracy.fidelity_scenes,
+                  "Scenes the fidelity levels are compared on (default: --scene and, unless --quick, the fetched "
+                  "memory-bound dragon and black_forest)");
   cmd->add_option("--traffic-scenes", o->accuracy.traffic_scenes,
                   "Scenes of the memory-traffic section (default: --scene), e.g. dragon-small interior "
                   "black_forest");

@@ -45,19 +45,28 @@ def fidelity_panel(ax, data, x_key, x_label):
     points = data.get("fidelity", [])
     errors = [abs(p["cycle_error"]) * 100 for p in points] + [abs(p["dram_error"]) * 100 for p in points]
     floor = floor_of(errors, 1e-3)
+    # One line per level and scene: a line never joins two scenes' points.
+    scenes = []
+    for p in points:
+        if p.get("scene", "") not in scenes:
+            scenes.append(p.get("scene", ""))
     for level, (colour, marker) in LEVEL_STYLE.items():
-        mine = [p for p in points if p["level"] == level]
-        if not mine:
-            continue
-        xs = [p[x_key] for p in mine]
-        ax.plot(xs, [on_floor(abs(p["cycle_error"]) * 100, floor) for p in mine], marker=marker, color=colour)
-        ax.plot(xs, [on_floor(abs(p["dram_error"]) * 100, floor) for p in mine], marker=marker, color=colour,
-                linestyle="--", markerfacecolor="none")
-        for i, (p, x) in enumerate(zip(mine, xs)):
-            # The reference level sits on the floor line; stagger its labels upwards.
-            dy = 4 + (9 * i if level == "cycle" else 0)
-            ax.annotate("%d²" % p["resolution"], (x, on_floor(abs(p["cycle_error"]) * 100, floor)),
-                        textcoords="offset points", xytext=(4, dy), fontsize=7, color=colour)
+        for si, scene in enumerate(scenes):
+            mine = [p for p in points if p["level"] == level and p.get("scene", "") == scene]
+            if not mine:
+                continue
+            xs = [p[x_key] for p in mine]
+            ax.plot(xs, [on_floor(abs(p["cycle_error"]) * 100, floor) for p in mine], marker=marker, color=colour)
+            ax.plot(xs, [on_floor(abs(p["dram_error"]) * 100, floor) for p in mine], marker=marker, color=colour,
+                    linestyle="--", markerfacecolor="none")
+            for i, (p, x) in enumerate(zip(mine, xs)):
+                # The reference level sits on the floor line; stagger its labels upwards.
+                dy = 4 + (9 * (i + len(mine) * si) if level == "cycle" else 0)
+                label = "%d²" % p["resolution"]
+                if len(scenes) > 1 and (level != "cycle" or i == len(mine) - 1):
+                    label = "%s %s" % (scene, label)
+                ax.annotate(label, (x, on_floor(abs(p["cycle_error"]) * 100, floor)),
+                            textcoords="offset points", xytext=(4, dy), fontsize=7, color=colour)
     ax.axhline(floor, color="grey", linewidth=0.6, linestyle=":")
     ax.text(0.02, 0.02, "bottom line: error 0 (cycle is the reference)", transform=ax.transAxes,
             fontsize=7, color="grey")

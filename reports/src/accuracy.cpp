@@ -269,6 +269,7 @@ class AccuracyRun {
     if (o_.traffic_frames < 2 || o_.traffic_frames > 16)
       throw InputError("--traffic-frames", "must be 2..16 (the first frame is the cold one)");
     for (const std::string& s : o_.traffic_scenes) load_scene(s);  // an unknown scene fails now
+    for (const std::string& s : o_.fidelity_scenes) load_scene(s);
     check_resolutions(o_.resolutions, "resolutions");
     check_resolutions({o_.knob_resolution, o_.ao_image_resolution}, "resolution");
     for (uint32_t k : o_.ao_rays_per_primitive)
@@ -429,57 +430,79 @@ class AccuracyRun {
       report_.knobs.insert(report_.knobs.end(), list->begin(), list->end());
   }
 
+  // The report's scene, then (unless quick or named) the fetched memory-bound scenes.
+  std::vector<std::string> fidelity_scenes() const {
+    if (!o_.fidelity_scenes.empty()) return o_.fidelity_scenes;
+    std::vector<std::string> scenes = {o_.scene};
+    if (o_.quick) return scenes;
+    for (const char* s : {"dragon", "black_forest"})
+      if (s != scene_.name && std::filesystem::exists(scene_cache_dir() / s / "scene.toml")) scenes.push_back(s);
+    return scenes;
+  }
+
   void fidelity_levels() {
     const std::filesystem::path tree_file = o_.out_dir / "runs" / "tree.bvh";
     std::filesystem::create_directories(o_.out_dir / "runs");
     save_bvh(tree_file, *main_tree_, scene_, main_params_);
     const char* levels[] = {"functional", "lt", "cycle"};
-    Progress progress("accuracy: fidelity levels", o_.fidelity_resolutions.size() * 3, "runs");
-    for (uint32_t res : o_.fidelity_resolutions) {
-      std::vector<FidelityPoint> points;
-      std::vector<nlohmann::json> stats;
-      for (const char* level : levels) {
-        const std::string name = std::string(level) + "-" + std::to_string(res);
-        const std::filesystem::path dir = o_.out_dir / "runs" / name;
-        SimulationJob job;
-        job.scene = o_.scene;
-        job.bvh = tree_file;
-        job.camera = camera_.name;
-        job.fidelity = level;
-        job.config = o_.hardware;
-        job.resolution = std::to_string(res) + "x" + std::to_string(res);
-        job.ao_rays = int(report_.scene_ao_samples);
-        job.seed = o_.seed;
-        job.out_dir = dir;
-        const SimulationOutcome run = runner_.simulate(job, o_.out_dir / "runs" / (name + ".log"));
-        FidelityPoint p;
-        p.process_seconds = run.process_seconds;
-        p.level = level;
-        p.resolution = res;
-        const nlohmann::json &s = run.stats, &host = run.host;
-        p.rays = uint64_t(stat_value(s, {"rays", "total"}));
-        p.cycles = stat_value(s, {"time", "cycles"});
-        p.dram_bytes = stat_value(s, {"dram", "bytes"});
-        p.ops_per_ray = stat_value(s, {"ops", "per_ray"});
-        p.host_seconds = stat_value(host, {"host_seconds"});
-        p.cpu_seconds = stat_value(host, {"cpu_seconds"});
-        p.rays_per_host_second = stat_value(host, {"rays_per_host_second"});
-        p.rays_per_cpu_second = stat_value(host, {"rays_per_cpu_second"});
-        points.push_back(p);
-        stats.push_back(s);
-        progress.advance();
+    const std::vector<std::string> scenes = fidelity_scenes();
+    Progress progress("accuracy: fidelity levels", scenes.size() * o_.fidelity_resolutions.size() * 3, "runs");
+    for (const std::string& scene : scenes) {
+      // The report's scene replays its tree on its camera; another is built by the
+      // simulate run itself (same builder) and seen from its default camera.
+      const bool main_scene = scene == o_.scene;
+      const std::string scene_name = main_scene ? scene_.name : std::filesystem::path(scene).filename().string();
+      for (uint32_t res : o_.fidelity_resolutions) {
+        std::vector<FidelityPoint> points;
+        std::vector<nlohmann::json> stats;
+        for (const char* level : levels) {
+          const std::string name = (main_scene ? "" : scene_name + "-") + std::string(level) + "-" + std::to_string(res);
+          const std::filesystem::path dir = o_.out_dir / "runs" / name;
+          SimulationJob job;
+          job.scene = scene;
+          if (main_scene) {
+            job.bvh = tree_file;
+            job.camera = camera_.name;
+            job.ao_rays = int(report_.scene_ao_samples);
+          } else {
+            job.builder = o_.builder;
+          }
+          job.fidelity = level;
+          job.config = o_.hardware;
+          job.resolution = std::to_string(res) + "x" + std::to_string(res);
+          job.seed = o_.seed;
+          job.out_dir = dir;
+          const SimulationOutcome run = runner_.simulate(job, o_.out_dir / "runs" / (name + ".log"));
+          FidelityPoint p;
+          p.scene = scene_name;
+          p.process_seconds = run.process_seconds;
+          p.level = level;
+          p.resolution = res;
+          const nlohmann::json &s = run.stats, &host = run.host;
+          p.rays = uint64_t(stat_value(s, {"rays", "total"}));
+          p.cycles = stat_value(s, {"time", "cycles"});
+          p.dram_bytes = stat_value(s, {"dram", "bytes"});
+          p.ops_per_ray = stat_value(s, {"ops", "per_ray"});
+          p.host_seconds = stat_value(host, {"host_seconds"});
+          p.cpu_seconds = stat_value(host, {"cpu_seconds"});
+          p.rays_per_host_second = stat_value(host, {"rays_per_host_second"});
+          p.rays_per_cpu_second = stat_value(host, {"rays_per_cpu_second"});
+          points.push_back(p);
+          stats.push_back(s);
+          progress.advance();
+        }
+        const FidelityPoint& cycle = points.back();
+        const nlohmann::json& cs = stats.back();
+        for (size_t i = 0; i < points.size(); ++i) {
+          points[i].cycle_error = relative(points[i].cycles, cycle.cycles);
+          points[i].dram_error = relative(points[i].dram_bytes, cycle.dram_bytes);
+          // The model's invariant: one functional core, so the counts agree at every level.
+          points[i].counts_match_cycle = stat_value(stats[i], {"ops", "trv"}) == stat_value(cs, {"ops", "trv"}) &&
+                                         stat_value(stats[i], {"ops", "ist"}) == stat_value(cs, {"ops", "ist"}) &&
+                                         points[i].rays == cycle.rays;
+        }
+        report_.fidelity.insert(report_.fidelity.end(), points.begin(), points.end());
       }
-      const FidelityPoint& cycle = points.back();
-      const nlohmann::json& cs = stats.back();
-      for (size_t i = 0; i < points.size(); ++i) {
-        points[i].cycle_error = relative(points[i].cycles, cycle.cycles);
-        points[i].dram_error = relative(points[i].dram_bytes, cycle.dram_bytes);
-        // The model's invariant: one functional core, so the counts agree at every level.
-        points[i].counts_match_cycle = stat_value(stats[i], {"ops", "trv"}) == stat_value(cs, {"ops", "trv"}) &&
-                                       stat_value(stats[i], {"ops", "ist"}) == stat_value(cs, {"ops", "ist"}) &&
-                                       points[i].rays == cycle.rays;
-      }
-      report_.fidelity.insert(report_.fidelity.end(), points.begin(), points.end());
     }
   }
 

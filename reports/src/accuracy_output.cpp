@@ -17,11 +17,11 @@ namespace {
 std::string res(uint32_t r) { return std::to_string(r) + "x" + std::to_string(r); }
 
 TextTable fidelity_table(const AccuracyReport& r) {
-  TextTable t({"level", "res", "rays", "sim wall s", "sim CPU s", "process s", "rays/host s", "rays/CPU s",
+  TextTable t({"scene", "level", "res", "rays", "sim wall s", "sim CPU s", "process s", "rays/host s", "rays/CPU s",
                "cycles",
                "cycle error", "DRAM bytes", "DRAM error", "ops/ray", "counts = cycle"});
   for (const FidelityPoint& p : r.fidelity)
-    t.add_row({p.level, res(p.resolution), std::to_string(p.rays), format_significant(p.host_seconds, 3), format_significant(p.cpu_seconds, 3),
+    t.add_row({p.scene, p.level, res(p.resolution), std::to_string(p.rays), format_significant(p.host_seconds, 3), format_significant(p.cpu_seconds, 3),
                format_significant(p.process_seconds, 3), format_significant(p.rays_per_host_second, 3), format_significant(p.rays_per_cpu_second, 3), format_significant(p.cycles, 7), format_percent(p.cycle_error),
                format_significant(p.dram_bytes, 7), format_percent(p.dram_error), format_significant(p.ops_per_ray), p.counts_match_cycle ? "yes" : "NO"});
   return t;
@@ -129,7 +129,8 @@ nlohmann::json to_json(const AccuracyReport& r) {
   j["ao_image_resolution"] = o.ao_image_resolution;
   j["total_seconds"] = r.total_seconds;
   for (const FidelityPoint& p : r.fidelity)
-    j["fidelity"].push_back({{"level", p.level},
+    j["fidelity"].push_back({{"scene", p.scene},
+                             {"level", p.level},
                              {"resolution", p.resolution},
                              {"rays", p.rays},
                              {"host_seconds", p.host_seconds},
@@ -216,15 +217,16 @@ std::string to_csv(const AccuracyReport& r) {
   TextTable t({"scene", "section", "setting", "resolution", "seed", "rays", "seconds", "cpu_seconds",
                "error_metric", "error", "ops_per_ray"});
   auto row = [&](const std::string& section, const std::string& setting, uint32_t resolution, uint64_t seed,
-                 uint64_t rays, double seconds, double cpu, const std::string& metric, double error, double ops) {
-    t.add_row({r.scene_name, section, setting, std::to_string(resolution), std::to_string(seed), std::to_string(rays),
+                 uint64_t rays, double seconds, double cpu, const std::string& metric, double error, double ops,
+                 const std::string& scene = "") {
+    t.add_row({scene.empty() ? r.scene_name : scene, section, setting, std::to_string(resolution), std::to_string(seed), std::to_string(rays),
                format_significant(seconds, 6), format_significant(cpu, 6), metric, format_significant(error, 6), format_significant(ops, 6)});
   };
   for (const FidelityPoint& p : r.fidelity) {
     row("fidelity", p.level, p.resolution, r.options.seed, p.rays, p.host_seconds, p.cpu_seconds, "cycle_error", p.cycle_error,
-        p.ops_per_ray);
+        p.ops_per_ray, p.scene);
     row("fidelity", p.level, p.resolution, r.options.seed, p.rays, p.host_seconds, p.cpu_seconds, "dram_error", p.dram_error,
-        p.ops_per_ray);
+        p.ops_per_ray, p.scene);
   }
   for (const KnobPoint& k : r.knobs) {
     row(k.family, k.label, r.options.knob_resolution, r.options.seed, 0, k.total_seconds(), k.cpu_seconds, "ops_error",

@@ -156,3 +156,42 @@ TEST(Accuracy, BadSceneCameraOrHardwareExitsTwoAndNamesIt) {
   EXPECT_FALSE(std::filesystem::exists(dir / "accuracy.json"));
   std::filesystem::remove_all(dir);
 }
+
+// The fidelity levels are compared on every scene asked for, each against its own
+// cycle-level run, and the recommendation names the scenes it comes from and every
+// scene where a faster level leaves the tolerance.
+TEST(Accuracy, FidelityOverSeveralScenesSaysWhereALevelFails) {
+  const auto dir = std::filesystem::temp_directory_path() / "rtsim_accuracy_scenes";
+  std::filesystem::remove_all(dir);
+  const CliResult r =
+      run_rtsim("accuracy --quick --scene cornell --fidelity-scenes cornell interior --out-dir " + dir.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(read_text(dir / "accuracy.json"));
+  std::map<std::string, std::map<std::string, nlohmann::json>> by_scene;  // scene -> level -> point
+  for (const auto& p : j["fidelity"]) by_scene[p["scene"]][p["level"]] = p;
+  ASSERT_EQ(by_scene.size(), 2u) << j["fidelity"].dump();
+  const double tolerance = j["tolerances"]["cycles_and_dram"];
+  std::string why;
+  for (const auto& rec : j["recommendations"])
+    if (rec["topic"] == "cycles and DRAM bytes") why = rec["why"];
+  ASSERT_FALSE(why.empty());
+  EXPECT_NE(why.find("2 scenes (cornell, interior)"), std::string::npos) << why;
+  for (const auto& [scene, levels] : by_scene) {
+    ASSERT_EQ(levels.size(), 3u) << scene;
+    EXPECT_EQ(levels.at("cycle")["cycle_error"].get<double>(), 0.0) << scene << ": its own reference";
+    for (const char* level : {"functional", "lt"}) {
+      const double worst = std::max(std::fabs(levels.at(level)["cycle_error"].get<double>()),
+                                    std::fabs(levels.at(level)["dram_error"].get<double>()));
+      const bool named = why.find(std::string(level) + " on " + scene + " (") != std::string::npos;
+      EXPECT_EQ(named, worst > tolerance) << level << " on " << scene << ", worst " << worst << ": " << why;
+    }
+  }
+  // The fidelity rows of the CSV carry their own scene.
+  const std::string csv = read_text(dir / "accuracy.csv");
+  EXPECT_NE(csv.find("\ninterior,fidelity,"), std::string::npos) << csv.substr(0, 400);
+  std::filesystem::remove_all(dir);
+  const CliResult bad = run_rtsim("accuracy --quick --scene cornell --fidelity-scenes no-such-scene --out-dir " +
+                                  dir.string());
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("no-such-scene"), std::string::npos) << bad.output;
+}

@@ -31,8 +31,12 @@ struct AccuracyOptions {
   double fidelity_tolerance = 0.05;  // cycles / DRAM bytes within 5% of the cycle level
   double image_rmse_target = 0.05;   // AO image RMSE (AO in [0, 1]) at most 0.05
 
-  // 1. fidelity levels: square resolutions, each level once per resolution
+  // 1. fidelity levels: square resolutions, each level once per resolution and scene
   std::vector<uint32_t> fidelity_resolutions = {64, 128, 256};
+  // The scenes the levels are compared on. Empty: the report's scene and, unless
+  // quick, the memory-bound dragon and black_forest where they are fetched (a
+  // compute-bound scene alone would recommend a level that fails on them).
+  std::vector<std::string> fidelity_scenes;
   // 2. builder knobs, ops/ray traced at this square resolution
   uint32_t knob_resolution = 128;
   std::vector<uint32_t> ao_rays_per_primitive = {1, 4, 16, 64};
@@ -65,6 +69,7 @@ AccuracyOptions quick_accuracy_options(AccuracyOptions base);
 
 // 1. One fidelity level at one resolution (a child `rtsim simulate` process).
 struct FidelityPoint {
+  std::string scene;  // the scene's name
   std::string level;  // functional | lt | cycle
   uint32_t resolution = 0;
   uint64_t rays = 0;
