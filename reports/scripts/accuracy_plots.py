@@ -60,10 +60,14 @@ def fidelity_panel(ax, data, x_key, x_label):
             ax.plot(xs, [on_floor(abs(p["dram_error"]) * 100, floor) for p in mine], marker=marker, color=colour,
                     linestyle="--", markerfacecolor="none")
             for i, (p, x) in enumerate(zip(mine, xs)):
-                # The reference level sits on the floor line; stagger its labels upwards.
-                dy = 4 + (9 * (i + len(mine) * si) if level == "cycle" else 0)
+                # The reference level sits on the floor line: with one scene its labels
+                # are staggered upwards, with several only each scene's last point is
+                # named, one row a scene.
+                if level == "cycle" and len(scenes) > 1 and i != len(mine) - 1:
+                    continue
+                dy = 4 + 9 * (si if len(scenes) > 1 else i) if level == "cycle" else 4
                 label = "%d²" % p["resolution"]
-                if len(scenes) > 1 and (level != "cycle" or i == len(mine) - 1):
+                if len(scenes) > 1 and i == len(mine) - 1:
                     label = "%s %s" % (scene, label)
                 ax.annotate(label, (x, on_floor(abs(p["cycle_error"]) * 100, floor)),
                             textcoords="offset points", xytext=(4, dy), fontsize=7, color=colour)
