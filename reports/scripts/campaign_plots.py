@@ -485,7 +485,8 @@ def sweep_figure(runs, axis, all_axes, names, figures):
     name = "sweep_" + key.replace(".", "_")
     figures.save(fig, name, "Sweep of %s" % key,
                  "%s against %s%s, one line per scene, preset and level (and value of the other swept axes)%s; "
-                 "the run with no override (or one equal to the preset's value) is the point at the default. "
+                 "the run with no override (or one equal to the preset's value; a workload axis at "
+                 "simulate's default, else its smallest value) is the point at the default. "
                  "Energy is drawn for the lt and cycle levels only (the functional level counts no DRAM commands)."
                  % (", ".join(m[0] for m in metrics), axis_label(key, unit),
                     " (numerically sorted)" if numeric else "",

@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <set>
@@ -57,12 +58,26 @@ std::string html_escape(const std::string& s) {
 }
 
 // A swept axis of the campaign: a hardware key (an override, cores included), a
-// builder parameter (build.KEY), the node format, or the workload's diffuse bounces
-// (its ray mix), with its unit.
+// builder parameter (build.KEY), the node format, or an axis of the workload, with its
+// unit. A workload axis has a plain value: the run at it is the plain run.
 struct Coordinate {
   std::string key, unit;
   enum Kind { Hardware, Build, NodeFormat, Workload } kind;
+  json plain = nullptr;
 };
+
+// The workload's axes (campaign.cpp's), with simulate's default where it is a fixed
+// value (absent: the scene decides).
+struct WorkloadAxis {
+  const char* key;
+  const char* unit;
+  json absent;  // the value of a job that does not set it
+};
+const WorkloadAxis kWorkloadAxes[] = {{"ao", "AO rays per hit", nullptr},
+                                      {"ao_cutoff", "x scene diagonal", nullptr},
+                                      {"frames", "frames", 1},
+                                      {"diffuse_bounces", "bounces", 0},
+                                      {"resolution", "pixels", nullptr}};
 
 std::string hardware_unit(const std::string& key) {
   sim::HardwareConfig config;
@@ -80,6 +95,19 @@ json typed(const json& text) {
   return number.is_number() ? number : text;
 }
 
+// A job's value of a workload axis: a number (a resolution as its pixel count), or
+// the axis's value when the job leaves it out.
+json workload_value(const json& job, const WorkloadAxis& axis) {
+  if (!job.contains(axis.key)) return axis.absent;
+  const json text = job.at(axis.key);
+  if (std::string(axis.key) == "resolution" && text.is_string()) {
+    unsigned w = 0, h = 0;
+    char end = 0;
+    if (std::sscanf(text.get<std::string>().c_str(), "%ux%u%c", &w, &h, &end) == 2) return uint64_t(w) * h;
+  }
+  return typed(text);
+}
+
 // Every axis the campaign sweeps besides scene, builder, preset and fidelity.
 std::vector<Coordinate> swept_coordinates(const std::vector<json>& jobs) {
   std::map<std::string, Coordinate> found;
@@ -92,13 +120,22 @@ std::vector<Coordinate> swept_coordinates(const std::vector<json>& jobs) {
       found.emplace("build." + k, Coordinate{"build." + k, p ? p->unit : "", Coordinate::Build});
     }
     if (job.contains("node_format")) found.emplace("node_format", Coordinate{"node_format", "", Coordinate::NodeFormat});
-    if (job.contains("diffuse_bounces"))
-      found.emplace("diffuse_bounces", Coordinate{"diffuse_bounces", "bounces", Coordinate::Workload});
   }
   // The node format set as an override is the node format axis.
   if (found.count("memory.node_format")) {
     found.erase("memory.node_format");
     found.emplace("node_format", Coordinate{"node_format", "", Coordinate::NodeFormat});
+  }
+  // A workload axis with more than one value: the plain run is at simulate's default
+  // where some job has it, else at the axis's smallest value, so that the main figures
+  // show one run per builder and preset, not whichever value came last.
+  for (const WorkloadAxis& axis : kWorkloadAxes) {
+    std::set<json> values;
+    for (const json& job : jobs) values.insert(workload_value(job, axis));
+    if (values.size() < 2) continue;
+    Coordinate c{axis.key, axis.unit, Coordinate::Workload};
+    c.plain = values.count(axis.absent) ? axis.absent : *values.begin();
+    found.emplace(axis.key, c);
   }
   std::vector<Coordinate> out;
   for (auto& [k, c] : found) out.push_back(c);
@@ -117,7 +154,8 @@ json coordinate_values(const std::vector<Coordinate>& coordinates, const json& j
     } else if (c.kind == Coordinate::NodeFormat) {
       if (const json* v = json_at_path(hardware, "memory.node_format")) value = *v;
     } else if (c.kind == Coordinate::Workload) {
-      value = typed(job.value(c.key, json(0)));  // absent: no diffuse rays
+      for (const WorkloadAxis& axis : kWorkloadAxes)
+        if (c.key == axis.key) value = workload_value(job, axis);
     } else {
       const std::string key = c.key.substr(6);
       const json set = job.value("build", json::object());
@@ -212,9 +250,11 @@ CampaignReportFiles write_campaign_report(const CampaignReportOptions& options) 
     run["hardware"] = config.is_object() ? config.value("hardware", json::object()) : json::object();
     run["coordinates"] = coordinate_values(coordinates, job, run["hardware"], row.value("builder", std::string()));
     // The plain run: every coordinate at its default (the campaign drops values equal to it).
-    // No diffuse bounces is the plain workload (0 asked or the axis absent).
+    bool plain_workload = true;
+    for (const Coordinate& c : coordinates)
+      if (c.kind == Coordinate::Workload) plain_workload = plain_workload && run["coordinates"][c.key] == c.plain;
     run["plain"] = !job.contains("node_format") && job.value("set", json::object()).empty() &&
-                   job.value("build", json::object()).empty() && typed(job.value("diffuse_bounces", json(0))) == json(0);
+                   job.value("build", json::object()).empty() && plain_workload;
     json headline = json::object();
     for (const auto& [name, unit] : ResultsStore::headline_columns()) headline[name] = row[name];
     headline["host_seconds"] = row["host_seconds"];
@@ -322,8 +362,9 @@ CampaignReportFiles write_campaign_report(const CampaignReportOptions& options) 
     reading += "Each swept axis has its own figure: cycles, DRAM bytes, energy per ray and TRV "
                "utilisation against the axis's value" +
                std::string(builders.size() > 1 ? ", one column of panels per builder" : "") +
-               "; a run at the default value (no override, or one equal to the preset's) is the "
-               "plain run and a point of every sweep. ";
+               "; a run at the default value (no override, or one equal to the preset's; a workload "
+               "axis such as AO rays or diffuse bounces at simulate's default, else at its smallest "
+               "value) is the plain run and a point of every sweep. ";
   reading += "Every row's full config.json and stats.json are in the database.";
 
   std::ostringstream md;

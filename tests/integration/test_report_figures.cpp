@@ -202,3 +202,39 @@ TEST(ReportFigures, DiffuseBouncesAreASweepAndNoBouncesIsThePlainRun) {
   EXPECT_EQ(xs, (std::vector<double>{0, 2}));
   std::filesystem::remove_all(dir);
 }
+
+// Every workload axis a campaign sweeps is a coordinate (AO rays, and the resolution as
+// its pixel count), and the plain run is the one at simulate's default or, where no job
+// has it, at the smallest value: one plain run, where before every run was plain and the
+// main figures showed whichever came last.
+TEST(ReportFigures, SweptWorkloadAxesHaveOnePlainRun) {
+  const auto dir = scratch_folder("report_figures", "workload");
+  const auto report = run_campaign(dir, one_builder_campaign("fidelity = \"functional\"\nao = [4, 0]\n"
+                                                             "[[group]]\nname = \"small\"\n"
+                                                             "[[group]]\nname = \"large\"\nresolution = \"24x24\"\n"));
+  const auto stats = stats_by_key(dir / "rtsim-campaigns" / "figures" / "results.sqlite");
+  const json data = read_json(report / "report-data.json");
+  ASSERT_EQ(data.at("runs").size(), 4u);
+  std::string plain_key;
+  for (const json& r : data.at("runs"))
+    if (r.at("plain").get<bool>()) {
+      EXPECT_TRUE(plain_key.empty()) << "one plain run: " << data.at("runs").dump();
+      plain_key = r.at("job_key");
+      EXPECT_EQ(r.at("coordinates").at("ao"), 0) << r.dump();
+      EXPECT_EQ(r.at("coordinates").at("resolution"), 16 * 16) << r.dump();
+    }
+  ASSERT_FALSE(plain_key.empty());
+  for (const json& d : read_json(report / "dram_bytes_per_ray.data.json").at("drawn"))
+    EXPECT_EQ(d.at("job_key"), plain_key) << d.dump();
+  for (const char* axis : {"ao", "resolution"}) {
+    const json sweep = read_json(report / (std::string("sweep_") + axis + ".data.json"));
+    std::set<double> xs;
+    for (const json& d : sweep.at("drawn")) {
+      expect_close(d.at("value").get<double>(),
+                   d.at("scale").get<double>() * stat_of(stats.at(d.at("job_key")), d.at("stat")), d.dump());
+      xs.insert(d.at("x").get<double>());
+    }
+    EXPECT_EQ(xs, (std::string(axis) == "ao" ? std::set<double>{0, 4} : std::set<double>{256, 576})) << axis;
+  }
+  std::filesystem::remove_all(dir);
+}
