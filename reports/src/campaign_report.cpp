@@ -67,13 +67,16 @@ struct Coordinate {
 };
 
 // The workload's axes (campaign.cpp's), with simulate's default where it is a fixed
-// value (absent: the scene decides).
+// value (absent: the scene decides). Seeds are replicates: their plain run is seed 1
+// and their figure shows the spread.
 struct WorkloadAxis {
   const char* key;
   const char* unit;
   json absent;  // the value of a job that does not set it
 };
-const WorkloadAxis kWorkloadAxes[] = {{"ao", "AO rays per hit", nullptr},
+const WorkloadAxis kWorkloadAxes[] = {{"camera", "", nullptr},
+                                      {"seed", "", 1},
+                                      {"ao", "AO rays per hit", nullptr},
                                       {"ao_cutoff", "x scene diagonal", nullptr},
                                       {"frames", "frames", 1},
                                       {"diffuse_bounces", "bounces", 0},
