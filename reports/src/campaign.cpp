@@ -411,7 +411,7 @@ class JobExpander {
   // A job being made, with its values as its key sees them.
   struct Draft {
     CampaignJob job;
-    json resolved = json::object(), overrides = json::object(), build = json::object();
+    json resolved = json::object();
     std::map<std::string, json> typed_overrides;
   };
   std::string resolve_input(const std::string& value, const std::string& where, fs::path& path, bool must_be_file);
@@ -508,7 +508,6 @@ void JobExpander::apply_value(Draft& draft, const std::string& name, const json&
   const std::string value = scalar_text(v, w);
   if (name.rfind("set:", 0) == 0) {
     job.overrides[name.substr(4)] = value;
-    draft.overrides[name.substr(4)] = value;
     draft.typed_overrides[name.substr(4)] = v;
     return;
   }
@@ -517,7 +516,6 @@ void JobExpander::apply_value(Draft& draft, const std::string& name, const json&
     BuildParams check;  // the value must parse and lie in range
     set_build_parameter(check, key, value, fname_ + ": key 'build.");
     job.build_settings[key] = value;
-    draft.build[key] = value;
     return;
   }
   draft.resolved[name] = value;
@@ -590,7 +588,6 @@ void JobExpander::drop_plain_values(Draft& draft, const std::string& where) {
     }
     if (it->first == "memory.node_format") draft.resolved.erase("node_format");
     job.overrides.erase(it->first);
-    draft.overrides.erase(it->first);
     it = draft.typed_overrides.erase(it);
   }
   for (auto it = job.build_settings.begin(); it != job.build_settings.end();) {
@@ -604,7 +601,6 @@ void JobExpander::drop_plain_values(Draft& draft, const std::string& where) {
     plain.builder = set.builder = job.builder;
     set_build_parameter(set, it->first, it->second);
     if (build_params_json(plain) == build_params_json(set)) {
-      draft.build.erase(it->first);
       it = job.build_settings.erase(it);
     } else {
       ++it;
@@ -620,8 +616,8 @@ void JobExpander::identify(Draft& draft, const std::string& where) {
   // A format set as an override builds the tree for it too, as the axis does.
   if (job.node_format.empty() && job.overrides.count("memory.node_format"))
     job.node_format = job.overrides.at("memory.node_format");
-  draft.resolved["set"] = draft.overrides;
-  if (!draft.build.empty()) draft.resolved["build"] = draft.build;  // absent: old campaigns keep their keys
+  draft.resolved["set"] = json(job.overrides);
+  if (!job.build_settings.empty()) draft.resolved["build"] = json(job.build_settings);  // absent: old campaigns keep their keys
   json identity = draft.resolved;
   for (const char* spelling : {"preset", "preset_file_hash", "set"}) identity.erase(spelling);
   identity["hardware"] = hardware_for(job, draft.typed_overrides, where);
@@ -659,10 +655,8 @@ void JobExpander::expand_group(const std::string& group_name, const Sweep& sweep
     // the tree's (unless the campaign sets the builder's own cutoff).
     CampaignJob& job = draft.job;
     if (!job.ao_cutoff.empty() && !job.build_settings.count("ao_cutoff_relative") &&
-        parameter_used_by(*find_builder_parameter("ao_cutoff_relative"), job.builder)) {
+        parameter_used_by(*find_builder_parameter("ao_cutoff_relative"), job.builder))
       job.build_settings["ao_cutoff_relative"] = job.ao_cutoff;
-      draft.build["ao_cutoff_relative"] = job.ao_cutoff;
-    }
     drop_plain_values(draft, where);
     identify(draft, where);
     if (seen_.insert(job.key).second) campaign.jobs.push_back(std::move(job));
