@@ -180,6 +180,20 @@ void check_build_flags(const BuildParams& params) {
   }
 }
 
+std::vector<const CLI::Option*> add_bounce_flags(CLI::App* cmd, uint32_t& bounces, uint32_t& diffuse_bounces,
+                                                 bool& russian_roulette) {
+  return {cmd->add_option("--bounces", bounces, "reflection/refraction bounces (0.." + std::to_string(kMaxBounces) + ")")
+              ->capture_default_str(),
+          add_deprecated_option(cmd, "--max-depth", "--bounces", bounces,
+                                " (the bounce count in trace and simulate; the BVH depth in build and table1)"),
+          cmd->add_option("--diffuse-bounces", diffuse_bounces,
+                          "diffuse path bounces per primary hit (0.." + std::to_string(kMaxDiffuseBounces) +
+                              "; ray types diffuse1, ...)")
+              ->capture_default_str(),
+          cmd->add_flag("--russian-roulette", russian_roulette,
+                        "a diffuse bounce past the first survives with the albedo")};
+}
+
 void check_frame_flags(const EffectSettings& settings) {
   if (settings.spp == 0 || settings.spp > 1024) throw InputError(typed_flag("--spp"), "must be 1..1024");
   if (settings.ao_samples < -1 || settings.ao_samples > 1024)

@@ -142,6 +142,11 @@ void load_workload(Workload& out, const std::string& scene, const std::string& c
 
 // ---- the frame: trace's and simulate's image flags, checked alike
 
+// --bounces (and its old spelling --max-depth), --diffuse-bounces and
+// --russian-roulette, as trace and simulate both take them; the options, in that order.
+std::vector<const CLI::Option*> add_bounce_flags(CLI::App* cmd, uint32_t& bounces, uint32_t& diffuse_bounces,
+                                                 bool& russian_roulette);
+
 // --spp 1..1024, --ao -1..1024, --bounces 0..kMaxBounces (the reflection/refraction
 // depth Ray::bounce can count), before any work.
 void check_frame_flags(const EffectSettings& settings);

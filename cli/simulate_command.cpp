@@ -306,18 +306,9 @@ void add_simulate_command(CLI::App& root) {
   opts->ray_making_flags = {
       cmd->add_option("--ao", opts->ao, "AO rays per primary hit (-1: the scene decides, 0: off)")
           ->capture_default_str(),
-      cmd->add_option("--spp", opts->spp, "samples per pixel")->capture_default_str(),
-      cmd->add_option("--bounces", opts->bounces,
-                      "reflection/refraction bounces (0.." + std::to_string(kMaxBounces) + ")")
-          ->capture_default_str(),
-      add_deprecated_option(cmd, "--max-depth", "--bounces", opts->bounces,
-                            " (the bounce count in trace and simulate; the BVH depth in build and table1)"),
-      cmd->add_option("--diffuse-bounces", opts->diffuse_bounces,
-                      "diffuse path bounces per primary hit (0.." + std::to_string(kMaxDiffuseBounces) +
-                          "; ray types diffuse1, ...)")
-          ->capture_default_str(),
-      cmd->add_flag("--russian-roulette", opts->russian_roulette,
-                    "a diffuse bounce past the first survives with the albedo")};
+      cmd->add_option("--spp", opts->spp, "samples per pixel")->capture_default_str()};
+  for (const CLI::Option* flag : add_bounce_flags(cmd, opts->bounces, opts->diffuse_bounces, opts->russian_roulette))
+    opts->ray_making_flags.push_back(flag);
   cmd->add_option("--seed", opts->seed, "seed of every random choice (rays and the build)")
       ->capture_default_str();
   cmd->add_option("--rays-in", opts->rays_in, "replay this ray file (rtsim trace --rays-out; no secondary rays)");

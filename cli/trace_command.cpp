@@ -353,21 +353,9 @@ void add_trace_command(CLI::App& root) {
       cmd->add_option("--spp", options->spp, "samples per pixel")->capture_default_str());
   cmd->add_option("--seed", options->seed, "seed of every random choice (rays and the build)")
       ->capture_default_str();
-  options->ray_making_flags.push_back(
-      cmd->add_option("--bounces", options->bounces,
-                      "reflection/refraction bounces (0.." + std::to_string(kMaxBounces) + ")")
-          ->capture_default_str());
-  options->ray_making_flags.push_back(
-      add_deprecated_option(cmd, "--max-depth", "--bounces", options->bounces,
-                            " (the bounce count in trace and simulate; the BVH depth in build and table1)"));
-  options->ray_making_flags.push_back(
-      cmd->add_option("--diffuse-bounces", options->diffuse_bounces,
-                      "diffuse path bounces per primary hit (0.." + std::to_string(kMaxDiffuseBounces) +
-                          "; ray types diffuse1, ...)")
-          ->capture_default_str());
-  options->ray_making_flags.push_back(
-      cmd->add_flag("--russian-roulette", options->russian_roulette,
-                    "a diffuse bounce past the first survives with the albedo"));
+  for (const CLI::Option* flag :
+       add_bounce_flags(cmd, options->bounces, options->diffuse_bounces, options->russian_roulette))
+    options->ray_making_flags.push_back(flag);
   cmd->add_option("--threads", options->threads,
                   "threads for the build, the trace and validation (0: all); results do not depend on it");
   cmd->add_option("--config", options->config,

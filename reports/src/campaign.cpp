@@ -501,6 +501,13 @@ std::string JobExpander::scene_hash(const CampaignJob& job) {
   return scene_hashes_.emplace(lookup, h).first->second;
 }
 
+// An integer axis value in [lo, hi], or a message naming the key and the range.
+int64_t integer_in(const json& v, int64_t lo, int64_t hi, const std::string& where, const std::string& what) {
+  if (!v.is_number_integer() || v.get<int64_t>() < lo || v.get<int64_t>() > hi)
+    throw InputError(where, what + " must be integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  return v.get<int64_t>();
+}
+
 // One dimension's value into the job: an override, a builder parameter, or a named
 // axis, each checked where it is read.
 void JobExpander::apply_value(Draft& draft, const std::string& name, const json& v, const std::string& w) {
@@ -550,9 +557,7 @@ void JobExpander::apply_value(Draft& draft, const std::string& name, const json&
       throw InputError(w, "'" + value + "' is not a resolution WxH (1..16384)");
     job.resolution = value;
   } else if (name == "ao") {
-    if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > 1024)
-      throw InputError(w, "AO ray counts must be integers in [0, 1024]");
-    job.ao_rays = v.get<int64_t>();
+    job.ao_rays = integer_in(v, 0, 1024, w, "AO ray counts");
   } else if (name == "node_format") {
     node_format(value, w);  // names the formats when unknown
     job.node_format = value;
@@ -563,13 +568,9 @@ void JobExpander::apply_value(Draft& draft, const std::string& name, const json&
       throw InputError(w, "AO ray lengths must be numbers in (0, 10] (x scene diagonal)");
     job.ao_cutoff = value;
   } else if (name == "frames") {
-    if (!v.is_number_integer() || v.get<int64_t>() < 1 || v.get<int64_t>() > 1000)
-      throw InputError(w, "frames must be integers in [1, 1000]");
-    job.frames = v.get<int64_t>();
+    job.frames = integer_in(v, 1, 1000, w, "frames");
   } else if (name == "diffuse_bounces") {
-    if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > int64_t(kMaxDiffuseBounces))
-      throw InputError(w, "diffuse bounces must be integers in [0, " + std::to_string(kMaxDiffuseBounces) + "]");
-    job.diffuse_bounces = v.get<int64_t>();
+    job.diffuse_bounces = integer_in(v, 0, kMaxDiffuseBounces, w, "diffuse bounces");
   }
 }
 

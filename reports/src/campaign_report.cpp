@@ -11,12 +11,12 @@
 #include <rtsim/reports/text_table.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
+#include <rtsim/workloads/numbers.h>
 
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <fstream>
 #include <map>
 #include <set>
@@ -103,11 +103,9 @@ json typed(const json& text) {
 json workload_value(const json& job, const WorkloadAxis& axis) {
   if (!job.contains(axis.key)) return axis.absent;
   const json text = job.at(axis.key);
-  if (std::string(axis.key) == "resolution" && text.is_string()) {
-    unsigned w = 0, h = 0;
-    char end = 0;
-    if (std::sscanf(text.get<std::string>().c_str(), "%ux%u%c", &w, &h, &end) == 2) return uint64_t(w) * h;
-  }
+  uint32_t w = 0, h = 0;
+  if (std::string(axis.key) == "resolution" && text.is_string() && parse_resolution_text(text.get<std::string>(), w, h))
+    return uint64_t(w) * h;
   return typed(text);
 }
 
