@@ -235,7 +235,7 @@ Image shaded_image(const Scene& scene, const FrameRun& run) {
       const SurfaceHit s = surface_at(scene, r, hit);
       const Gather& g = gather[i];
       const float ao = g.ao_total ? float(g.ao_open) / float(g.ao_total) : 1.0f;
-      const vec3 albedo = s.material ? s.material->albedo : vec3(0.7f);
+      const vec3 albedo = albedo_of(s.material);
       float light;
       if (run.plan.on(RayType::Shadow)) {
         light = 0.15f * ao + 0.85f * g.direct;
@@ -254,8 +254,10 @@ Image shaded_image(const Scene& scene, const FrameRun& run) {
                  (has_trans ? trans * g.refracted : vec3(0.0f)) + s.material->emission;
       }
       // A cosine-weighted bounce's pdf cancels the cosine and 1/pi of a Lambertian
-      // surface: the light it brings back counts albedo times what it found.
-      colour += albedo * g.diffuse;
+      // surface: the light it brings back counts albedo times what it found (divided
+      // by its chance to survive where russian roulette could have ended it).
+      const bool roulette = run.plan.russian_roulette && diffuse_depth(r.type) >= 1;
+      colour += albedo * g.diffuse / (roulette ? roulette_keep_probability(albedo) : 1.0f);
     }
     if (r.type == RayType::Primary) {
       if (r.pixel < image.pixels.size())

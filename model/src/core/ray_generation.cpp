@@ -159,6 +159,10 @@ SurfaceHit surface_at(const Scene& scene, const Ray& ray, const HitRecord& hit) 
   return s;
 }
 
+float roulette_keep_probability(const vec3& albedo) {
+  return std::clamp(std::max({albedo.x, albedo.y, albedo.z}), 0.05f, 0.95f);
+}
+
 void spawn_secondary_rays(const Scene& scene, const EffectPlan& plan, const EffectSettings& settings,
                           const Ray& ray, uint32_t ray_index, const HitRecord& hit,
                           std::vector<Ray>& out) {
@@ -212,9 +216,7 @@ void spawn_secondary_rays(const Scene& scene, const EffectPlan& plan, const Effe
     const float r1 = rng.next_float(), r2 = rng.next_float();
     bool survives = true;
     if (plan.russian_roulette && depth >= 1) {
-      const vec3 albedo = s.material ? s.material->albedo : vec3(0.7f);
-      const float keep = std::clamp(std::max({albedo.x, albedo.y, albedo.z}), 0.05f, 0.95f);
-      survives = rng.next_float() < keep;
+      survives = rng.next_float() < roulette_keep_probability(albedo_of(s.material));
     }
     if (survives) {
       child.type = diffuse_ray_type(depth + 1);

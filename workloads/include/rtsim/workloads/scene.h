@@ -19,6 +19,9 @@ struct Material {
   vec3 emission{0.0f};
 };
 
+// A surface's albedo: a triangle without a material reflects as the default material.
+inline vec3 albedo_of(const Material* m) { return m ? m->albedo : Material{}.albedo; }
+
 struct Light {
   enum class Kind { Point, Directional };
   Kind kind = Kind::Point;

@@ -85,6 +85,11 @@ void spawn_secondary_rays(const Scene& scene, const EffectPlan& plan, const Effe
                           const Ray& ray, uint32_t ray_index, const HitRecord& hit,
                           std::vector<Ray>& out);
 
+// Russian roulette: the chance that a diffuse bounce past the first continues from a
+// surface of this albedo (its largest channel, clamped to 0.05..0.95). The shading
+// divides what a surviving bounce brings back by it, so the picture stays unbiased.
+float roulette_keep_probability(const vec3& albedo);
+
 // cosine_hemisphere_direction: rtsim/workloads/geometry.h.
 
 }  // namespace rtsim
