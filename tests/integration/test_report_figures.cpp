@@ -224,7 +224,9 @@ TEST(ReportFigures, SweptWorkloadAxesHaveOnePlainRun) {
       EXPECT_EQ(r.at("coordinates").at("resolution"), 16 * 16) << r.dump();
     }
   ASSERT_FALSE(plain_key.empty());
-  for (const json& d : read_json(report / "dram_bytes_per_ray.data.json").at("drawn"))
+  // Held in a local: a range-for over a member of a temporary reads freed memory.
+  const json dram_figure = read_json(report / "dram_bytes_per_ray.data.json");
+  for (const json& d : dram_figure.at("drawn"))
     EXPECT_EQ(d.at("job_key"), plain_key) << d.dump();
   for (const char* axis : {"ao", "resolution"}) {
     const json sweep = read_json(report / (std::string("sweep_") + axis + ".data.json"));
