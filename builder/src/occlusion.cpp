@@ -26,17 +26,6 @@ void frame(const vec3& n, vec3* t, vec3* b) {
 }  // namespace
 
 namespace {
-// Spreads the low bits of v (up to 19) so that two zero bits follow each (Morton interleave).
-uint64_t spread_bits(uint64_t v) {
-  v &= 0x7FFFFull;
-  v = (v | (v << 32)) & 0x001F00000000FFFFull;
-  v = (v | (v << 16)) & 0x001F0000FF0000FFull;
-  v = (v | (v << 8)) & 0x100F00F00F00F00Full;
-  v = (v | (v << 4)) & 0x10C30C30C30C30C3ull;
-  v = (v | (v << 2)) & 0x1249249249249249ull;
-  return v;
-}
-
 uint64_t orientation_class(const vec3& n) {
   const float ax = std::fabs(n.x), ay = std::fabs(n.y), az = std::fabs(n.z);
   const uint64_t dominant = ax >= ay && ax >= az ? 0 : ay >= az ? 1 : 2;
@@ -124,7 +113,7 @@ void share_groups(const Scene& scene, uint32_t share, float cutoff, std::vector<
       const vec3 p = ((v0 + v1 + v2) / 3.0f - box.lo) / extent * cells;
       uint64_t m = 0;
       for (int a = 0; a < 3; ++a)
-        m |= spread_bits(uint64_t(std::min(std::max(p[a], 0.0f), cells - 1.0f))) << a;
+        m |= spread_bits_21(uint64_t(std::min(std::max(p[a], 0.0f), cells - 1.0f))) << a;
       keys[t] = (orientation_class(cross) << 27 | m) << 32 | t;
     }
   });

@@ -90,19 +90,6 @@ bool triangle_geometric_less(const Scene& scene, uint32_t a, uint32_t b) {
   return a < b;
 }
 
-namespace {
-// Spreads the low 21 bits of v so that two zero bits follow each (3-D Morton).
-uint64_t spread_bits_21(uint64_t v) {
-  v &= 0x1FFFFFull;
-  v = (v | (v << 32)) & 0x1F00000000FFFFull;
-  v = (v | (v << 16)) & 0x1F0000FF0000FFull;
-  v = (v | (v << 8)) & 0x100F00F00F00F00Full;
-  v = (v | (v << 4)) & 0x10C30C30C30C30C3ull;
-  v = (v | (v << 2)) & 0x1249249249249249ull;
-  return v;
-}
-}  // namespace
-
 std::vector<uint32_t> geometric_order(const Scene& scene) {
   // The Morton code of the bounds' centre on a 2^21 grid over the scene's box nearly
   // always decides, so the sort compares integers held beside the index; only
@@ -114,20 +101,10 @@ std::vector<uint32_t> geometric_order(const Scene& scene) {
   };
   const size_t n = scene.triangle_count();
   const Aabb box = scene.bounds();
-  const vec3 extent = box.hi - box.lo;
-  vec3 scale(0.0f);
-  for (int a = 0; a < 3; ++a)
-    if (extent[a] > 0 && std::isfinite(extent[a])) scale[a] = float((1u << 21) - 1) / extent[a];
   std::vector<Key> keys(n);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t != r.end(); ++t) {
-      const vec3 c = scene.triangle_bounds(uint32_t(t)).centre();
-      uint64_t code = 0;
-      for (int a = 0; a < 3; ++a) {
-        const float cell = std::min(std::max((c[a] - box.lo[a]) * scale[a], 0.0f), float((1u << 21) - 1));
-        code |= spread_bits_21(uint64_t(cell)) << a;
-      }
-      keys[t] = Key{code, uint32_t(t)};
+      keys[t] = Key{morton_code(scene.triangle_bounds(uint32_t(t)).centre(), box, 1u << 21), uint32_t(t)};
     }
   });
   tbb::parallel_sort(keys.begin(), keys.end(), [&](const Key& a, const Key& b) {

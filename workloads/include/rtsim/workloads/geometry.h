@@ -59,6 +59,32 @@ inline bool is_finite(const vec3& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
+// 3-D Morton code: the low 21 bits of v spread so that two zero bits follow each;
+// (spread(x) | spread(y) << 1 | spread(z) << 2) orders grid cells along a Z curve.
+// The face order, the AO sample grouping and the ray-reordering unit share it.
+inline uint64_t spread_bits_21(uint64_t v) {
+  v &= 0x1FFFFFull;
+  v = (v | (v << 32)) & 0x1F00000000FFFFull;
+  v = (v | (v << 16)) & 0x1F0000FF0000FFull;
+  v = (v | (v << 8)) & 0x100F00F00F00F00Full;
+  v = (v | (v << 4)) & 0x10C30C30C30C30C3ull;
+  v = (v | (v << 2)) & 0x1249249249249249ull;
+  return v;
+}
+
+// The Morton code of p's cell on a grid of `cells` (<= 2^21) per axis over box
+// (points outside clamp to the nearest cell; a flat axis is cell 0).
+inline uint64_t morton_code(const vec3& p, const Aabb& box, uint32_t cells) {
+  uint64_t code = 0;
+  for (int a = 0; a < 3; ++a) {
+    const float extent = box.hi[a] - box.lo[a];
+    const float scale = extent > 0 && std::isfinite(extent) ? float(cells - 1) / extent : 0.0f;
+    const float cell = std::min(std::max((p[a] - box.lo[a]) * scale, 0.0f), float(cells - 1));
+    code |= spread_bits_21(uint64_t(cell)) << a;
+  }
+  return code;
+}
+
 // Cosine-weighted direction over the hemisphere around unit `normal`, from two
 // uniform numbers in [0,1): a uniform point on the unit disk lifted to the
 // hemisphere (Malley's method), in an orthonormal basis built without a branch on
