@@ -106,6 +106,19 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
            "how primary rays reach the cores, a raygen.tile of pixels at a time: static "
            "(tile i to core i mod cores) or dynamic (a core that runs out takes the next tile); "
            "a ray's secondary rays stay on its core"),
+      u32("reorder.batch_rays", c.reorder_batch_rays, 0, 4096, "rays",
+          "the ray-reordering unit between ray generation and TRV (one per core) holds up to this "
+          "many rays, primary and secondary, and releases them sorted by reorder.key; 0: no unit"),
+      text("reorder.key", c.reorder_key, {"none", "origin", "octant_origin", "first_node"},
+           "the reordering unit's sort key: none (arrival order), the origin's Morton code on a "
+           "1024^3 grid over the tree's box, the direction octant then that code, or the node the "
+           "ray enters after the root (the unit box-tests the root's children)"),
+      u32("reorder.stage_cycles", c.reorder_stage_cycles, 0, 1000, "cycles",
+          "cycles per compare stage of the unit's sort: a batch of B rays leaves after the depth "
+          "of Batcher's bitonic network, k (k + 1) / 2 stages for k = ceil(log2 B) (36 for 256 rays)"),
+      u32("reorder.entry_bytes", c.reorder_entry_bytes, 16, 256, "bytes",
+          "one buffered ray (origin, direction, t range, ids, key): the buffer is batch_rays x "
+          "this, and its access energy is the cache table's for that size"),
       u32("trv.units", c.trv_units, 1, 256, "units", "traversal units per core"),
       u32("trv.ray_slots", c.trv_ray_slots, 1, 4096, "rays",
           "rays in flight per TRV unit (hide memory latency)"),
@@ -538,6 +551,12 @@ HardwareConfig preset(const std::string& name) {
     throw InputError("preset", "unknown preset '" + name + "' (mobile | desktop | mobile-gpu | desktop-gpu)");
   }
   return c;
+}
+
+uint32_t reorder_sort_cycles(const HardwareConfig& c, uint32_t rays) {
+  uint32_t k = 0;
+  while ((1ull << k) < rays) ++k;
+  return k * (k + 1) / 2 * c.reorder_stage_cycles;
 }
 
 std::pair<uint32_t, uint32_t> parse_tile(const std::string& text) {

@@ -75,6 +75,22 @@ void report_energy(StatsRegistry& s, const HardwareConfig& config, const EnergyC
     total += p.pj;
     for (size_t t = 0; t < kRayTypeCount; ++t) by_type[t] += p.pj * p.share[t];
   }
+  // The reordering units, only where built (a run without them keeps its stats): each
+  // ray is written into and read out of a buffer of batch_rays entries, priced as a
+  // cache of that size; a first-node key adds its root box tests.
+  if (c.reorder_built) {
+    const ReorderCounters& r = c.reorder.total;
+    const uint64_t buffer_bytes = uint64_t(config.reorder_batch_rays) * config.reorder_entry_bytes;
+    const double pj = double(r.rays) * 2 * cache_access_pj(buffer_bytes) * sram +
+                      double(c.reorder.key_box_tests) * e.box_test_pj * at65;
+    s.set_real("energy.reorder.pj", pj, "pJ",
+               "energy of the ray-reordering buffers (a write and a read per ray) and their key tests");
+    s.set_real("energy.reorder.pj_per_ray", rays ? pj / double(rays) : 0, "pJ/ray",
+               "energy of the ray-reordering buffers / rays");
+    total += pj;
+    for (size_t t = 0; t < kRayTypeCount; ++t)
+      if (r.rays) by_type[t] += pj * double(r.rays_by_type[t]) / double(r.rays);
+  }
   s.set_real("energy.total_pj", total, "pJ", "dynamic energy of the run (no leakage, no DRAM background)");
   s.set_real("energy.pj_per_ray", rays ? total / double(rays) : 0, "pJ/ray", "energy.total_pj / rays");
   s.set_real("energy.rays_per_joule", total > 0 ? double(rays) / (total * 1e-12) : 0, "rays/J",

@@ -1,6 +1,7 @@
 #include <rtsim/model/sim/ray_dispatch.h>
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
 namespace rtsim::sim {
@@ -16,6 +17,9 @@ IssuePolicy IssuePolicy::from(const HardwareConfig& c) {
   p.secondary_behind = c.raygen_secondary != "after";
   p.cores = c.cores;
   p.dynamic = c.raygen_dispatch == "dynamic";
+  p.reorder_rays = c.reorder_batch_rays;
+  p.reorder_key = parse_reorder_key(c.reorder_key);
+  p.reorder_latency_ps = uint64_t(std::llround(reorder_sort_cycles(c, c.reorder_batch_rays) * c.clock_period_ps()));
   return p;
 }
 
@@ -67,9 +71,15 @@ std::vector<uint32_t> free_slot_order(uint32_t units, uint32_t slots_per_unit) {
 }
 
 RayDispatcher::RayDispatcher(const IssuePolicy& policy, std::vector<Ray> initial, uint32_t width,
-                             uint32_t height, bool spawn)
+                             uint32_t height, bool spawn, const TraversalContext* context)
     : policy_(policy), rays_(std::move(initial)), initial_count_(rays_.size()),
       cores_(std::max<uint32_t>(1, policy.cores)) {
+  if (policy.reorder_rays > 0) {
+    if (!context) throw std::logic_error("ray dispatcher: a reordering unit needs the tree");
+    reorder_keys_ = std::make_unique<RayReorderKeys>(policy.reorder_key, *context);
+    reorder_.assign(cores_.size(), RayReorderBuffer(policy.reorder_rays, policy.reorder_latency_ps));
+    wake_ps_.assign(cores_.size(), UINT64_MAX);
+  }
   const size_t n = rays_.size();
   // Primary rays by pixel issue order (stable: a pixel's samples keep their order).
   const size_t pixel_count = size_t(width) * height;
@@ -136,6 +146,9 @@ void RayDispatcher::start_frame() {
   for (uint32_t c = 0; c < cores_.size(); ++c) cores_[c] = CoreQueue{0, 0, c, {}};
   next_free_tile_ = 0;
   secondary_queued_ = 0;
+  for (RayReorderBuffer& b : reorder_) b.restart();
+  for (uint64_t& w : wake_ps_) w = UINT64_MAX;
+  if (reorder_keys_) reorder_keys_->restart();
 }
 
 bool RayDispatcher::primary_left(const CoreQueue& q) const {
@@ -161,6 +174,36 @@ bool RayDispatcher::take_tile(uint32_t core) {
 }
 
 bool RayDispatcher::next(uint32_t core, uint64_t now_ps, uint32_t* ray_index) {
+  if (reorder_.empty()) return take(core, now_ps, ray_index);
+  RayReorderBuffer& unit = reorder_[core];
+  if (!unit.holding()) {
+    unit.form(now_ps, rays_, *reorder_keys_,
+              [&](uint64_t t, uint32_t* ray) { return take(core, t, ray); });
+    if (unit.holding() && unit.ready_ps() > now_ps) wake_ps_[core] = unit.ready_ps();
+  }
+  return unit.release(now_ps, ray_index);
+}
+
+uint64_t RayDispatcher::take_wake(uint32_t core) {
+  if (wake_ps_.empty()) return UINT64_MAX;
+  const uint64_t w = wake_ps_[core];
+  wake_ps_[core] = UINT64_MAX;
+  return w;
+}
+
+ReorderFigures RayDispatcher::reorder_figures() const {
+  ReorderFigures f;
+  for (const RayReorderBuffer& b : reorder_) {
+    const ReorderCounters& c = b.counters();
+    f.total.batches += c.batches, f.total.full_batches += c.full_batches, f.total.rays += c.rays;
+    f.total.wait_ps += c.wait_ps;
+    for (size_t t = 0; t < kRayTypeCount; ++t) f.total.rays_by_type[t] += c.rays_by_type[t];
+  }
+  if (reorder_keys_) f.key_box_tests = reorder_keys_->box_tests();
+  return f;
+}
+
+bool RayDispatcher::take(uint32_t core, uint64_t now_ps, uint32_t* ray_index) {
   CoreQueue& q = cores_[core];
   const bool secondary_ready = !q.secondary.empty() && q.secondary.front().ready_ps <= now_ps;
   const bool primary = primary_left(q);
@@ -180,6 +223,7 @@ bool RayDispatcher::next(uint32_t core, uint64_t now_ps, uint32_t* ray_index) {
 }
 
 uint64_t RayDispatcher::next_ready_ps(uint32_t core) const {
+  if (!reorder_.empty() && reorder_[core].holding()) return reorder_[core].ready_ps();
   const CoreQueue& q = cores_[core];
   if (primary_left(q)) return 0;
   return q.secondary.empty() ? UINT64_MAX : q.secondary.front().ready_ps;
@@ -187,6 +231,8 @@ uint64_t RayDispatcher::next_ready_ps(uint32_t core) const {
 
 bool RayDispatcher::empty() const {
   if (secondary_queued_ != 0) return false;
+  for (const RayReorderBuffer& b : reorder_)
+    if (b.holding()) return false;
   for (const CoreQueue& q : cores_)
     if (primary_left(q)) return false;
   return true;

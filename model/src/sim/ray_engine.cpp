@@ -84,7 +84,7 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
     : config_(config), shape_(MachineShape::of(config)), workload_(&workload), timed_(timed),
       cycle_ps_(uint64_t(std::llround(config.clock_period_ps()))),
       dispatcher_(IssuePolicy::from(config), workload.initial_rays, workload.width,
-                  workload.height, workload.spawn_secondary),
+                  workload.height, workload.spawn_secondary, workload.context),
       visit_order_(free_slot_order(shape_.trv_units(), config.trv_ray_slots)),
       trv_free_(shape_.trv_units(), 0), ist_free_(shape_.ist_units(), 0),
       shading_free_(shape_.cores, 0), raygen_free_(shape_.cores, 0),
@@ -194,7 +194,12 @@ uint64_t RayEngine::issue_probed(Port& port, Slot& slot, const std::vector<Memor
 bool RayEngine::start_next_ray(Slot& slot, uint64_t now_ps, uint64_t* start_ps) {
   uint32_t ray = 0;
   const uint32_t core = slot.core;
-  if (!dispatcher_.next(core, now_ps, &ray)) return false;
+  if (!dispatcher_.next(core, now_ps, &ray)) {
+    // A batch the reordering unit releases later: ray generation wakes then.
+    if (const uint64_t wake = dispatcher_.take_wake(core); timed_ && wake != UINT64_MAX)
+      schedule(wake, core, EventKind::Dispatch);
+    return false;
+  }
   slot.ray = ray;
   slot.traversal.reset(dispatcher_.rays()[ray]);
   slot.active = true;

@@ -132,6 +132,7 @@ struct MachineFigures {
   std::vector<uint64_t> l2_downstream_stall_ps, l2_downstream_refusals;  // per slice (cycle)
   const DramModel* dram = nullptr;
   const Crossbar* noc = nullptr;
+  const RayDispatcher* dispatcher = nullptr;  // its ray-reordering units, if built
 };
 
 // The energy model's event counts from the figures (energy.h).
@@ -157,6 +158,10 @@ EnergyCounts energy_counts(const MachineFigures& f,
   e.dram_write_bursts = (d.bytes_written + dram.burst_bytes - 1) / dram.burst_bytes;
   e.dram_refreshes = d.refreshes;
   e.per_type = per_type;
+  if (f.dispatcher->reorders()) {
+    e.reorder = f.dispatcher->reorder_figures();
+    e.reorder_built = true;
+  }
   return e;
 }
 
@@ -181,6 +186,7 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
   for (uint32_t u = 0; u < f.trv_leaves_blocked.size(); ++u)
     s.set(m.trv_name(u) + ".leaves_blocked", f.trv_leaves_blocked[u], "leaves",
           "leaves that found the IST unit's queue full and waited for room");
+  if (f.dispatcher->reorders()) report_reorder(s, config, f.dispatcher->reorder_figures(), timed);
   report_rollup(s, UnitKind::Trv, f.trv, cycle_ps);
   report_rollup(s, UnitKind::Ist, f.ist, cycle_ps);
   report_rollup(s, UnitKind::Shading, f.shading, cycle_ps);
@@ -408,6 +414,7 @@ void engine_figures(RayEngine& engine, bool timed, const HardwareConfig& c, uint
                                                      c.ist_tests_per_cycle * cycle_ps));
   }
   f.ray_ps_by_type = engine.ray_ps_by_type();
+  f.dispatcher = &engine.dispatcher();
 }
 
 // Connects the request's traces, if any, to the level's DRAM model and caches.
@@ -590,6 +597,7 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
   }
   f.dram = &system.dram->model;
   f.noc = &system.noc_model;
+  f.dispatcher = &system.dispatcher;
   report_machine(result.stats, config, system.shape, f, result.per_type, result.simulated_ps, true);
 }
 

@@ -46,7 +46,11 @@ void CycleRayGen::on_event() {
       break;
     }
     uint32_t ray = 0;
-    if (!dispatcher_.next(core_, now, &ray)) break;
+    if (!dispatcher_.next(core_, now, &ray)) {
+      // A batch the reordering unit releases later: wake then.
+      if (const uint64_t wake = dispatcher_.take_wake(core_); wake != UINT64_MAX) wake_.push(wake, 0);
+      break;
+    }
     auto [trv, slot] = free_slots_.front();
     free_slots_.pop_front();
     trv->start_ray(slot, ray, dispatcher_.rays()[ray], now);

@@ -8,7 +8,7 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
                          const Workload& work, std::function<void(uint64_t)> progress)
     : sc_module(name), config(cfg), workload(work), shape(MachineShape::of(cfg)), scheduler("scheduler"),
       dispatcher(IssuePolicy::from(cfg), work.initial_rays, work.width, work.height,
-                 work.spawn_secondary),
+                 work.spawn_secondary, work.context),
       noc_model(cfg, shape, true), progress_(std::move(progress)) {
   const uint64_t cycle_ps = uint64_t(std::llround(cfg.clock_period_ps()));
   const auto module = [](const std::string& instance) { return MachineShape::module_name(instance); };

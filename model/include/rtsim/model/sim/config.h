@@ -131,6 +131,12 @@ struct HardwareConfig {
   std::string raygen_tile = "8x8";         // tile size for raygen_order = tiles
   std::string raygen_secondary = "behind";  // secondary rays: behind their parent | after all primaries
 
+  // Ray reordering between ray generation and TRV (ray_reorder.h); 0 rays: no unit.
+  uint32_t reorder_batch_rays = 0;
+  std::string reorder_key = "origin";  // none | origin | octant_origin | first_node
+  uint32_t reorder_stage_cycles = 1;   // per compare stage of the batch's sort
+  uint32_t reorder_entry_bytes = 48;   // one buffered ray: origin, direction, t range, ids, key
+
   // TRV
   uint32_t trv_units = 4;
   uint32_t trv_ray_slots = 16;        // rays in flight per unit (hide memory latency)
@@ -240,6 +246,9 @@ HardwareConfig parse_hardware_config(const std::string& toml_text, const std::st
 // Cross-parameter checks (powers of two, line sizes, set counts, DRAM bank groups,
 // refresh and write-drain limits); throws InputError naming the key.
 void validate(const HardwareConfig& config);
+// Cycles from a batch of `rays` forming to its first release: the depth of
+// Batcher's bitonic sorting network over it, k (k + 1) / 2 stages for k = ceil(log2 rays).
+uint32_t reorder_sort_cycles(const HardwareConfig& c, uint32_t rays);
 // raygen.tile "WxH" -> (W, H); throws InputError naming raygen.tile.
 std::pair<uint32_t, uint32_t> parse_tile(const std::string& text);
 // The resolved configuration as a JSON object text, keys sorted.

@@ -10,6 +10,7 @@
 //   bytes (caches, crossbar, DRAM) or ops (TRV, IST) each ray type caused there.
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/cache_model.h>
+#include <rtsim/model/sim/ray_reorder.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/stats.h>
 
@@ -32,6 +33,9 @@ struct EnergyCounts {
   uint64_t dram_activates = 0, dram_read_bursts = 0, dram_write_bursts = 0, dram_refreshes = 0;
   double dram_background_pj = 0;  // dram.background_mw x channels x simulated time
   std::array<CounterTotals, kRayTypeCount> per_type{};  // box tests and triangle tests by type
+  // The ray-reordering units, if built: a write and a read of each ray's entry.
+  bool reorder_built = false;
+  ReorderFigures reorder;
 };
 
 void report_energy(StatsRegistry& stats, const HardwareConfig& config, const EnergyCounts& counts);

@@ -16,8 +16,11 @@
 // core i mod cores (static), or a core that finishes its tile takes the next one
 // not yet taken (dynamic). A core's spawned rays queue on that core. One core
 // issues exactly the single order above.
+// With reorder.batch_rays > 0 each core's rays pass its ray-reordering unit
+// (ray_reorder.h) on their way to TRV: next() is where every level meets it.
 #include <rtsim/model/core/ray.h>
 #include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/ray_reorder.h>
 
 #include <cstdint>
 #include <deque>
@@ -31,6 +34,9 @@ struct IssuePolicy {
   bool secondary_behind = true;
   uint32_t cores = 1;
   bool dynamic = false;  // raygen.dispatch
+  uint32_t reorder_rays = 0;  // reorder.batch_rays (0: no reordering unit)
+  ReorderKey reorder_key = ReorderKey::None;
+  uint64_t reorder_latency_ps = 0;
   static IssuePolicy from(const HardwareConfig& config);
 };
 
@@ -44,16 +50,23 @@ class RayDispatcher {
  public:
   // initial: the frame's rays. spawn = true: they are primary rays and shading
   // adds secondary rays (add_spawned); false: a replayed ray set, ordered once
-  // with its parent links.
+  // with its parent links. context: the tree the reordering unit's keys read
+  // (only with a unit).
   RayDispatcher(const IssuePolicy& policy, std::vector<Ray> initial, uint32_t width,
-                uint32_t height, bool spawn);
+                uint32_t height, bool spawn, const TraversalContext* context = nullptr);
 
-  // The next ray core `core` issues that is ready at now_ps (index into rays());
-  // false if none.
+  // The next ray core `core` issues that is ready at now_ps (index into rays();
+  // UINT64_MAX: untimed); false if none.
   bool next(uint32_t core, uint64_t now_ps, uint32_t* ray_index);
+  // After a next() that returned false: when the core's reordering unit releases
+  // the batch it just formed, once (UINT64_MAX: no such batch). The level wakes
+  // the core's ray generation then.
+  uint64_t take_wake(uint32_t core);
   // Earliest time a ray queued for the core is ready (UINT64_MAX: nothing queued).
   uint64_t next_ready_ps(uint32_t core) const;
   bool empty() const;  // nothing queued for any core
+  bool reorders() const { return !reorder_.empty(); }
+  ReorderFigures reorder_figures() const;  // summed over the cores' units, this frame
   // Rays a core's shading spawned (ready at ready_ps), appended to rays().
   void add_spawned(uint32_t core, const std::vector<Ray>& rays, uint64_t ready_ps);
   const std::vector<Ray>& rays() const { return rays_; }
@@ -71,6 +84,7 @@ class RayDispatcher {
     size_t next_tile = 0;        // static: the next tile it owns
     std::deque<Spawned> secondary;
   };
+  bool take(uint32_t core, uint64_t now_ps, uint32_t* ray_index);  // ray generation's next ray
   bool primary_left(const CoreQueue& q) const;
   bool take_tile(uint32_t core);  // moves the core to its next tile; false if none
   void start_frame();
@@ -83,6 +97,9 @@ class RayDispatcher {
   size_t next_free_tile_ = 0;         // dynamic
   size_t secondary_queued_ = 0;
   std::vector<CoreQueue> cores_;
+  std::unique_ptr<RayReorderKeys> reorder_keys_;
+  std::vector<RayReorderBuffer> reorder_;  // per core; empty: no unit
+  std::vector<uint64_t> wake_ps_;          // per core, for take_wake
 };
 
 }  // namespace rtsim::sim

@@ -133,6 +133,7 @@ class RayEngine {
   uint64_t start_ps() const { return frame_start_ps_; }  // the last frame's start
   uint64_t end_ps() const { return end_ps_; }
   const std::vector<Ray>& rays() const { return dispatcher_.rays(); }
+  const RayDispatcher& dispatcher() const { return dispatcher_; }
   const std::array<CounterTotals, kRayTypeCount>& per_type() const { return per_type_; }
   CounterTotals total() const;
   // lt: each unit's cycle accounting (finished at end_ps() by run()).
