@@ -51,6 +51,21 @@ std::string binary_size(double bytes) {
   return kib >= 1024 ? std::to_string(int(kib / 1024)) + " MiB" : std::to_string(int(kib)) + " KiB";
 }
 
+// A campaign of real scenes, which a fresh clone has not fetched (loading it would
+// refuse them), read from a copy whose scene axis is one built-in scene. The axes the
+// docs state do not depend on the scene; the job count is per scene.
+rtsim::Campaign load_on_one_builtin_scene(const std::string& file) {
+  std::string text = read_all(kSource / "campaigns" / file);
+  const std::regex scene_line(R"(\nscene = [^\n]*)");
+  if (!std::regex_search(text, scene_line)) throw std::runtime_error(file + ": no scene line");
+  text = std::regex_replace(text, scene_line, "\nscene = \"interior\"");
+  const fs::path copy = fs::temp_directory_path() / ("docs-agree-" + std::to_string(::getpid()) + "-" + file);
+  std::ofstream(copy) << text;
+  const rtsim::Campaign c = rtsim::load_campaign(copy, "rev");
+  fs::remove(copy);
+  return c;
+}
+
 }  // namespace
 
 TEST(DocsAgree, TheExampleCampaignIsAsDocumented) {
@@ -79,17 +94,7 @@ TEST(DocsAgree, TheExampleCampaignIsAsDocumented) {
 }
 
 TEST(DocsAgree, TheGpuScalingRangeIsAsDocumented) {
-  // The campaign runs real scenes, which a fresh clone has not fetched (loading it would
-  // refuse them); the cores sweep does not depend on the scene, so a copy that runs a
-  // built-in one is read instead.
-  std::string text = read_all(kSource / "campaigns" / "gpu-scaling.toml");
-  const std::regex scene_line(R"(\nscene = [^\n]*)");
-  ASSERT_TRUE(std::regex_search(text, scene_line));
-  text = std::regex_replace(text, scene_line, "\nscene = \"interior\"");
-  const fs::path copy = fs::temp_directory_path() / ("docs-agree-gpu-scaling-" + std::to_string(::getpid()) + ".toml");
-  std::ofstream(copy) << text;
-  const rtsim::Campaign c = rtsim::load_campaign(copy, "rev");
-  fs::remove(copy);
+  const rtsim::Campaign c = load_on_one_builtin_scene("gpu-scaling.toml");
   const std::vector<double> cores = override_values(c, "cores");
   ASSERT_GE(cores.size(), 2u);
   const std::string range = std::to_string(int(cores.front())) + ".." + std::to_string(int(cores.back()));
@@ -99,6 +104,25 @@ TEST(DocsAgree, TheGpuScalingRangeIsAsDocumented) {
   const size_t at = machine.find("`campaigns/gpu-scaling.toml` sweeps `cores` ");
   ASSERT_NE(at, std::string::npos);
   EXPECT_EQ(machine.substr(at + 44, words.size()), words) << machine.substr(at, 120);
+}
+
+TEST(DocsAgree, TheRayReorderingCampaignIsAsDocumented) {
+  const rtsim::Campaign c = load_on_one_builtin_scene("ray-reordering.toml");
+  const std::string text = std::regex_replace(section(read_all(kSource / "docs" / "machine.md"), "## Ray reordering"),
+                                              std::regex(R"(\s+)"), " ");
+  ASSERT_FALSE(text.empty());
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(text, m, std::regex(R"((\d+) jobs)"))) << text;
+  EXPECT_EQ(std::stoul(m[1]), 3 * c.jobs.size()) << "three scenes of this many jobs each";
+  // Every batch size the campaign runs has rows in the table, and no other does.
+  std::set<int> swept, tabled;
+  for (double b : override_values(c, "reorder.batch_rays"))
+    if (b > 0) swept.insert(int(b));
+  const std::regex row(R"(\| (\d+) \| [+-]\d)");  // "| B | +x%, ..."
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), row);
+       it != std::sregex_iterator(); ++it)
+    tabled.insert(std::stoi((*it)[1]));
+  EXPECT_EQ(swept, tabled);
 }
 
 // Every flag shown after `rtsim SUBCOMMAND` in the docs is one that subcommand has,
