@@ -13,6 +13,7 @@
 #include <rtsim/workloads/files.h>
 #include <rtsim/workloads/procedural.h>
 #include <rtsim/workloads/scene_registry.h>
+#include <rtsim/model/core/ray.h>
 #include <rtsim/model/sim/stat_names.h>
 
 #include <nlohmann/json.hpp>
@@ -178,6 +179,7 @@ Condition job_condition(const CampaignJob& job, const ClaimOptions& o) {
     else if (f.name == "t2") c[f.name] = level_of(f, "t2");
     else if (f.name == "format") c[f.name] = job.node_format;
     else if (f.name == "cutoff") c[f.name] = job.ao_cutoff;
+    else if (f.name == "diffuse") c[f.name] = std::to_string(std::max<int64_t>(0, job.diffuse_bounces));
   }
   c[kTrees] = setting("rdh_cameras") == "none" ? "surfaces" : job.tree_camera() != job.camera ? "unseen" : "";
   return c;
@@ -199,15 +201,23 @@ Figures figures_of(const json& stats) {
       f.v[1][m] = get("fetches.node") / rays;
       f.v[2][m] = get("dram.bytes") / rays;
     } else {
-      const std::string p = "per_type." + mix + ".";
-      const double rays = get(p + "rays");
-      f.v[0][m] = (get(p + "trv_ops") + get(p + "ist_ops")) / rays;
-      f.v[1][m] = get(p + "node_fetches") / rays;
-      // Every kind the ray type read (nodes, prim refs, triangles, stack).
-      double bytes = 0;
-      const std::string prefix = std::string(sim::stat::kDramBytesByType) + "." + mix + ".";
-      for (auto it = s.lower_bound(prefix); it != s.end() && it->first.compare(0, prefix.size(), prefix) == 0; ++it)
-        if (std::isfinite(it->second)) bytes += it->second;
+      // The mix's ray types: one, or every diffuse depth the run traced.
+      std::vector<std::string> types;
+      for (RayType t : kAllRayTypes)
+        if (mix == ray_type_name(t) || (mix == "diffuse" && diffuse_depth(t) > 0)) types.push_back(ray_type_name(t));
+      double rays = 0, ops = 0, fetches = 0, bytes = 0;
+      for (const std::string& type : types) {
+        const std::string p = "per_type." + type + ".";
+        const double n = get(p + "rays");
+        if (!(n > 0)) continue;
+        rays += n, ops += get(p + "trv_ops") + get(p + "ist_ops"), fetches += get(p + "node_fetches");
+        // Every kind the ray type read (nodes, prim refs, triangles, stack).
+        const std::string prefix = std::string(sim::stat::kDramBytesByType) + "." + type + ".";
+        for (auto it = s.lower_bound(prefix); it != s.end() && it->first.compare(0, prefix.size(), prefix) == 0; ++it)
+          if (std::isfinite(it->second)) bytes += it->second;
+      }
+      f.v[0][m] = rays > 0 ? ops / rays : NAN;
+      f.v[1][m] = rays > 0 ? fetches / rays : NAN;
       f.v[2][m] = rays > 0 ? bytes / rays : NAN;
     }
   }
@@ -260,7 +270,8 @@ ClaimOptions quick_claim_options(ClaimOptions o) {
   o.extra_builders = {"rdh"};
   o.factors = {{"leaf", {"4", "8"}, "4"},
                {"format", {"bvh2-64", "bvh4-128"}, "bvh2-64"},
-               {"cutoff", {"0.05", "0.2"}, "0.05"}};
+               {"cutoff", {"0.05", "0.2"}, "0.05"},
+               {"diffuse", {"0", "1"}, "0"}};
   o.replicates = 3;
   o.resolution = "32x32";
   return o;
@@ -321,6 +332,8 @@ std::string claim_campaign_json(const ClaimOptions& o) {
     if (!part.camera.empty()) g["camera"] = part.camera;
     if (c.count("format")) g["node_format"] = c.at("format");
     if (c.count("cutoff")) g["ao_cutoff"] = number_text(c.at("cutoff"));
+    // No bounces is the sweep's own workload: the same jobs as before the axis existed.
+    if (c.count("diffuse") && c.at("diffuse") != "0") g["diffuse_bounces"] = number_text(c.at("diffuse"));
     json build = json::object();
     if (c.count("leaf")) build["max_leaf_size"] = number_text(c.at("leaf"));
     if (c.count("t2")) build["t2"] = number_text(c.at("t2"));
@@ -406,7 +419,8 @@ ClaimFigures collect_figures(const ClaimOptions& o, const Campaign& campaign, co
     const Condition c = job_condition(job, o);
     bool comparable = true;
     for (const ClaimFactor& fac : o.factors)
-      if ((fac.name == "t2" || fac.name == "cutoff") && c.at(fac.name) != fac.centre) comparable = false;
+      if ((fac.name == "t2" || fac.name == "cutoff" || fac.name == "diffuse") && c.at(fac.name) != fac.centre)
+        comparable = false;
     if (c.at(kTrees) != "") comparable = false;  // the default's trees, or costs for rays not traced
     if (comparable) out.tree_points[{job.scene, job.camera, std::to_string(job.seed)}].push_back(p);
   }
@@ -490,9 +504,14 @@ std::vector<Cell> claim_cells(const FiguresByWhere& figures, const std::vector<R
         for (const std::string& a : as) involved = involved || trees.count(a) > 0;
         if (!involved) continue;
       }
-      for (size_t m = 0; m < kMetricCount; ++m)
-        for (size_t x = 0; x < kMixCount; ++x)
+      for (size_t x = 0; x < kMixCount; ++x) {
+        // A mix the condition does not trace (diffuse rays without bounces) has no cells.
+        bool traced = false;
+        for (const auto& [seed, f] : by_builder.at(rel.b)) traced = traced || std::isfinite(f.v[0][x]);
+        if (!traced) continue;
+        for (size_t m = 0; m < kMetricCount; ++m)
           cells.push_back(relation_cell(rel, as, by_builder, scene, camera, condition, m, x));
+      }
     }
   }
   return cells;
@@ -519,6 +538,7 @@ std::vector<Correlation> claim_correlations(const TreePoints& tree_points) {
           if (!std::isfinite(v)) continue;
           sah.push_back(s / n), weighted.push_back(w / n), epo.push_back(e / n), ops.push_back(v / n);
         }
+        if (ops.empty()) continue;  // a mix the comparable trees' runs do not trace
         Correlation c{sc.first, sc.second, kMixes[x], all_trees ? "all" : "default, no median", ops.size(),
                       spearman(sah, ops), spearman(weighted, ops), NAN};
         bool have_epo = std::all_of(epo.begin(), epo.end(), [](double d) { return std::isfinite(d); });

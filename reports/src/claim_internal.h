@@ -17,8 +17,10 @@ namespace rtsim::claim_detail {
 // The measured quantities and the ray mixes they are read for.
 inline const char* const kMetrics[] = {"ops", "node_fetches", "dram_bytes"};
 inline const char* const kMetricText[] = {"TRV+IST ops/ray", "node fetches/ray", "DRAM B/ray"};
-inline const char* const kMixes[] = {"primary", "ao", "all"};
-constexpr size_t kMetricCount = 3, kMixCount = 3;
+// "diffuse": every diffuse bounce's rays together (ray types diffuse1, diffuse2, ...),
+// only in the conditions that trace them.
+inline const char* const kMixes[] = {"primary", "ao", "diffuse", "all"};
+constexpr size_t kMetricCount = 3, kMixCount = 4;
 
 // The tree-only conditions: the default for every tree but the camera-dependent
 // (unseen) or ray-sampling (surfaces) ones, which are built from other rays.

@@ -30,10 +30,10 @@ TEST(Claim, QuickMapGivesVerdictsThatFollowFromTheIntervalsAndResumes) {
   const CliResult first = run_rtsim(args);
   ASSERT_EQ(first.exit_code, 0) << first.output;
   const json claim = read_json(dir / "out" / "claim.json");
-  // cornell, 2 cameras, 3 replicates: 4 conditions x 5 builders + rdh at the default,
-  // osah and rdh traced from the camera they were not built for, and rdh from surface
-  // AO rays.
-  EXPECT_EQ(claim.at("jobs").get<size_t>(), (4u * 5u + 1u + 2u + 1u) * 2u * 3u);
+  // cornell, 2 cameras, 3 replicates: 5 conditions (the default, leaf, format,
+  // cutoff, diffuse) x 5 builders + rdh at the default, osah and rdh traced from the
+  // camera they were not built for, and rdh from surface AO rays.
+  EXPECT_EQ(claim.at("jobs").get<size_t>(), (5u * 5u + 1u + 2u + 1u) * 2u * 3u);
   EXPECT_EQ(claim.at("jobs_missing_or_failed").get<size_t>(), 0u);
   size_t cells = 0, median_cells = 0;
   for (const json& c : claim.at("cells")) {
@@ -84,6 +84,16 @@ TEST(Claim, QuickMapGivesVerdictsThatFollowFromTheIntervalsAndResumes) {
       EXPECT_TRUE(relation != "aobvh<sah" && relation != "aobvh<sbvh") << c.dump();
   }
   EXPECT_TRUE(unseen_cells);
+  // Diffuse rays are a mix of their own where the condition traces them, and only there.
+  size_t diffuse_cells = 0;
+  for (const json& c : claim.at("cells"))
+    if (c.at("mix") == "diffuse") {
+      ++diffuse_cells;
+      EXPECT_EQ(c.at("condition"), "diffuse=1") << c.dump();
+      // cornell fits the caches: its DRAM bytes are ~0 and have no interval.
+      if (c.at("metric") != "dram_bytes") EXPECT_FALSE(c.at("ci_lo_pct").is_null()) << c.dump();
+    }
+  EXPECT_GT(diffuse_cells, 0u);
   for (const char* f : {"claim.md", "claim.csv", "claim-campaign.json"})
     EXPECT_TRUE(std::filesystem::exists(dir / "out" / f)) << f;
 

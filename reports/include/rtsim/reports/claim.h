@@ -2,10 +2,10 @@
 // rtsim claim: where the patent's claim holds. A campaign (resumable, and the same
 // file `rtsim campaign emit --slurm` takes) over scenes x cameras x builders x
 // seeds, in a star design: every factor (leaf size, T2/T1, node format, AO ray
-// length) is varied alone around the defaults, so the map costs the sum of the
+// length, diffuse bounces) is varied alone around the defaults, so the map costs the sum of the
 // factors' levels, not their product. Per patent relation (AO-BVH < SAH, < SBVH,
 // < OSAH, every tree < median) and per condition, metric (TRV+IST ops, node
-// fetches, DRAM bytes, per ray) and ray mix (primary, AO, all rays): the mean
+// fetches, DRAM bytes, per ray) and ray mix (primary, AO, diffuse, all rays): the mean
 // relative difference over the seed replicates with a 95% t interval; the relation
 // "holds" only where the interval lies below zero, "reverses" where it lies above.
 // Also the rank correlation of each tree's modelled cost (SAH, weighted, EPO) with
@@ -22,7 +22,7 @@ namespace rtsim {
 
 // One factor of the star design: its levels and its default (the centre).
 struct ClaimFactor {
-  std::string name;                 // leaf | t2 | format | cutoff
+  std::string name;                 // leaf | t2 | format | cutoff | diffuse
   std::vector<std::string> levels;  // value texts, the default among them
   std::string centre;
 };
@@ -41,6 +41,7 @@ struct ClaimOptions {
       {"t2", {"0.25", "1", "4"}, "1"},  // T1 = 1: the ratio T2/T1
       {"format", {"bvh2-64", "bvh4-128", "bvh8-80q"}, "bvh2-64"},
       {"cutoff", {"0.02", "0.05", "0.2"}, "0.05"},  // AO ray length x scene diagonal
+      {"diffuse", {"0", "1", "3"}, "0"},  // diffuse path bounces per primary hit (a ray mix of its own)
   };
   uint32_t replicates = 5;  // seeds 1..N: each replicate's workload and builder seed
   std::string resolution = "64x64";
