@@ -75,7 +75,7 @@ void print_accounting(const sim::StatsRegistry& s) {
     std::printf(" %7s", name.c_str());
   }
   std::printf("\n");
-  for (sim::UnitKind kind : {sim::UnitKind::Trv, sim::UnitKind::Ist, sim::UnitKind::Shading}) {
+  for (sim::UnitKind kind : sim::kAllUnitKinds) {
     const std::string p = std::string("machine.") + sim::unit_kind_name(kind) + ".";
     if (!s.contains(p + "busy_cycles.mean")) continue;
     std::printf("  %-33s", sim::unit_kind_name(kind));

@@ -8,6 +8,7 @@
 
 #include <rtsim/model/core/ray_file.h>
 #include <rtsim/model/sim/accounting.h>
+#include <rtsim/model/sim/config.h>
 
 #include <gtest/gtest.h>
 
@@ -181,4 +182,34 @@ TEST(Accounting, WriteBacksAreChargedToTheRaysThatWroteThem) {
         EXPECT_EQ(key.find(".ao."), std::string("l2.bytes_requested").size()) << level << " " << key;
   }
   std::filesystem::remove_all(dir);
+}
+
+// The ray-reordering unit's own accounting (timed levels): its cycles add up, busy is
+// the sort latency of each batch it formed, and the machine roll-up covers it.
+TEST(Accounting, TheReorderingUnitsCyclesAddUpAndBusyIsItsSorts) {
+  const Machine gpu{"gpu_reorder", "preset = \"mobile-gpu\"\ncores = 2\nreorder.batch_rays = 16\n"};
+  rtsim::sim::HardwareConfig c;
+  c.reorder_stage_cycles = 1;
+  const uint64_t sort_cycles = rtsim::sim::reorder_sort_cycles(c, 16);  // mobile-gpu: one cycle a stage
+  for (const std::string level : {"lt", "cycle"}) {
+    const auto dir = scratch_folder("accounting", "reorder_" + level);
+    const Stats s = run(level, gpu, dir);
+    const uint64_t total = s.at("time.cycles").get<uint64_t>();
+    double busy = 0;
+    for (const std::string unit : {"core0.reorder", "core1.reorder"}) {
+      uint64_t sum = 0;
+      for (CycleBucket b : rtsim::sim::kAllCycleBuckets) {
+        const std::string key = unit + "." + rtsim::sim::cycle_bucket_name(b) + "_cycles";
+        ASSERT_EQ(s.count(key) == 1, rtsim::sim::unit_has_bucket(UnitKind::Reorder, b)) << level << " " << key;
+        if (s.count(key)) sum += s.at(key).get<uint64_t>();
+      }
+      EXPECT_EQ(sum, total) << level << " " << unit;
+      EXPECT_GT(stat_number(s, unit + ".blocked_cycles"), 0) << level << " " << unit;
+      busy += stat_number(s, unit + ".busy_cycles");
+    }
+    // Each core's busy time is its batches' sorts, rounded once per core.
+    EXPECT_NEAR(busy, stat_number(s, "reorder.batches") * double(sort_cycles), 1.0) << level;
+    EXPECT_DOUBLE_EQ(stat_number(s, "machine.reorder.busy_cycles.mean"), busy / 2) << level;
+    std::filesystem::remove_all(dir);
+  }
 }

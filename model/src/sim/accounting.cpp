@@ -48,6 +48,7 @@ const char* unit_kind_name(UnitKind kind) {
     case UnitKind::Trv: return "trv";
     case UnitKind::Ist: return "ist";
     case UnitKind::Shading: return "shading";
+    case UnitKind::Reorder: return "reorder";
   }
   return "?";
 }
@@ -55,13 +56,15 @@ const char* unit_kind_name(UnitKind kind) {
 bool unit_has_bucket(UnitKind kind, CycleBucket bucket) {
   switch (bucket) {
     case CycleBucket::Busy:
-    case CycleBucket::Latency:
     case CycleBucket::Idle: return true;
+    // The reordering unit's sort is its busy time; its rays are then blocked at once.
+    case CycleBucket::Latency: return kind != UnitKind::Reorder;
     case CycleBucket::WaitingL1:
     case CycleBucket::WaitingNoc:
     case CycleBucket::WaitingL2:
-    case CycleBucket::WaitingDram: return kind != UnitKind::Shading;
-    case CycleBucket::Blocked:
+    case CycleBucket::WaitingDram: return kind == UnitKind::Trv || kind == UnitKind::Ist;
+    // The reordering unit is blocked while it holds sorted rays no TRV slot has taken.
+    case CycleBucket::Blocked: return kind == UnitKind::Trv || kind == UnitKind::Reorder;
     case CycleBucket::WaitingIst: return kind == UnitKind::Trv;
   }
   return false;

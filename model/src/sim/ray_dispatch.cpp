@@ -139,14 +139,14 @@ RayDispatcher::RayDispatcher(const IssuePolicy& policy, std::vector<Ray> initial
     for (size_t i = 1; i < order_.size(); ++i)
       if (tile[i] != tile[i - 1]) tile_start_.push_back(i);
   if (!order_.empty()) tile_start_.push_back(order_.size());  // no rays: no tiles
-  start_frame();
+  start_frame(0);
 }
 
-void RayDispatcher::start_frame() {
+void RayDispatcher::start_frame(uint64_t t) {
   for (uint32_t c = 0; c < cores_.size(); ++c) cores_[c] = CoreQueue{0, 0, c, {}};
   next_free_tile_ = 0;
   secondary_queued_ = 0;
-  for (RayReorderBuffer& b : reorder_) b.restart();
+  for (RayReorderBuffer& b : reorder_) b.restart(t);
   for (uint64_t& w : wake_ps_) w = UINT64_MAX;
   if (reorder_keys_) reorder_keys_->restart();
 }
@@ -246,9 +246,18 @@ void RayDispatcher::add_spawned(uint32_t core, const std::vector<Ray>& rays, uin
   secondary_queued_ += rays.size();
 }
 
-void RayDispatcher::restart() {
+void RayDispatcher::restart(uint64_t frame_start_ps) {
   rays_.resize(initial_count_);
-  start_frame();
+  start_frame(frame_start_ps);
+}
+
+std::vector<CycleSplit> RayDispatcher::finish_reorder_accounting(uint64_t end_ps) {
+  std::vector<CycleSplit> out;
+  for (RayReorderBuffer& b : reorder_) {
+    b.accounting.finish(end_ps);
+    out.push_back(b.accounting.ps());
+  }
+  return out;
 }
 
 }  // namespace rtsim::sim

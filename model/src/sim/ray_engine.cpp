@@ -265,7 +265,7 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
     if (frame > 0) {
       frame_start_ps_ = end_ps_;
       reset_counters();  // the accounting starts again at the new frame's start
-      dispatcher_.restart();
+      dispatcher_.restart(frame_start_ps_);
     }
     if (timed_) run_timed(port, sync, progress);
     else if (auto* functional = dynamic_cast<FunctionalMemory*>(&port)) run_rounds(*functional, progress);

@@ -51,6 +51,11 @@ void RayReorderBuffer::sort_batch(uint64_t now_ps, const std::vector<Ray>& rays)
   std::stable_sort(batch_.begin(), batch_.end(), [](const Entry& a, const Entry& b) { return a.key < b.key; });
   formed_ps_ = now_ps;
   ready_ps_ = now_ps == UINT64_MAX ? now_ps : now_ps + latency_ps_;
+  if (now_ps != UINT64_MAX) {  // busy sorting, then holding the sorted rays
+    accounting.change(now_ps, UnitAccounting::Resident, +1);
+    accounting.reserve(now_ps, now_ps, ready_ps_);
+    accounting.change(now_ps, ready_ps_, UnitAccounting::Blocked, +1);
+  }
   ++counters_.batches;
   counters_.full_batches += batch_.size() == batch_rays_;
   counters_.rays += batch_.size();

@@ -133,6 +133,7 @@ struct MachineFigures {
   const DramModel* dram = nullptr;
   const Crossbar* noc = nullptr;
   const RayDispatcher* dispatcher = nullptr;  // its ray-reordering units, if built
+  std::vector<CycleSplit> reorder;            // per core (timed levels, when built)
 };
 
 // The energy model's event counts from the figures (energy.h).
@@ -187,9 +188,13 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
     s.set(m.trv_name(u) + ".leaves_blocked", f.trv_leaves_blocked[u], "leaves",
           "leaves that found the IST unit's queue full and waited for room");
   if (f.dispatcher->reorders()) report_reorder(s, config, f.dispatcher->reorder_figures(), timed);
+  for (uint32_t c = 0; c < f.reorder.size(); ++c)
+    report_unit(s, MachineShape::core_name(c) + ".reorder", UnitKind::Reorder, f.reorder[c], cycle_ps,
+                f.dispatcher->reorder_units()[c].counters().rays, "rays", "rays the unit sorted and released");
   report_rollup(s, UnitKind::Trv, f.trv, cycle_ps);
   report_rollup(s, UnitKind::Ist, f.ist, cycle_ps);
   report_rollup(s, UnitKind::Shading, f.shading, cycle_ps);
+  report_rollup(s, UnitKind::Reorder, f.reorder, cycle_ps);
   for (uint32_t c = 0; c < f.raygen_blocked_ps.size(); ++c)
     s.set(MachineShape::core_name(c) + ".raygen.blocked_cycles", cycles(f.raygen_blocked_ps[c]),
           "cycles", "cycles a ready ray found no free TRV slot of its core");
@@ -313,7 +318,8 @@ void report_frames(StatsRegistry& s, const std::vector<FrameFigures>& history,
 template <class Cache>
 void draw_machine(Timeline& t, const HardwareConfig& config, const MachineShape& m,
                   const std::vector<UnitAccounting*>& trv, const std::vector<UnitAccounting*>& ist,
-                  const std::vector<UnitAccounting*>& shading, const std::vector<Cache*>& l1_node,
+                  const std::vector<UnitAccounting*>& shading, RayDispatcher& dispatcher,
+                  const std::vector<Cache*>& l1_node,
                   const std::vector<Cache*>& l1_triangle, const std::vector<Cache*>& l2, Crossbar& noc,
                   DramModel& dram) {
   const auto core = [](uint32_t c) { return MachineShape::core_name(c); };
@@ -326,6 +332,9 @@ void draw_machine(Timeline& t, const HardwareConfig& config, const MachineShape&
     l1_triangle[i]->draw_on(&t, t.track(core(m.core_of_ist(i)), m.l1_triangle_name(i) + " misses", true));
   }
   for (uint32_t c = 0; c < shading.size(); ++c) shading[c]->draw_on(&t, t.track(core(c), core(c) + ".shading"));
+  std::vector<RayReorderBuffer>& reorder = dispatcher.reorder_units();
+  for (uint32_t c = 0; c < reorder.size(); ++c)
+    reorder[c].accounting.draw_on(&t, t.track(core(c), core(c) + ".reorder"));
   for (uint32_t s = 0; s < l2.size(); ++s)
     l2[s]->draw_on(&t, t.track("memory", MachineShape::slice_name(s) + " misses", true));
   std::vector<uint32_t> to_slice, to_core;
@@ -399,6 +408,7 @@ void engine_figures(RayEngine& engine, bool timed, const HardwareConfig& c, uint
   f.shaded = engine.shaded();
   f.spawned = engine.spawned();
   if (timed) {
+    f.reorder = engine.dispatcher().finish_reorder_accounting(engine.end_ps());
     accounted(engine.trv_accounting(), f.trv);
     accounted(engine.ist_accounting(), f.ist);
     accounted(engine.shading_accounting(), f.shading);
@@ -508,7 +518,8 @@ void run_lt(const SimulationRequest& request, const HardwareConfig& config, cons
       return out;
     };
     draw_machine(*work.timeline, config, lt.shape, pointers(e.trv_accounting()), pointers(e.ist_accounting()),
-                 pointers(e.shading_accounting()), caches(lt.l1_node), caches(lt.l1_triangle), caches(lt.l2),
+                 pointers(e.shading_accounting()), e.dispatcher(), caches(lt.l1_node), caches(lt.l1_triangle),
+                 caches(lt.l2),
                  lt.noc_model, lt.dram->model);
   }
   attach_traces(request, lt.dram->model, models_of(lt.l1_node), models_of(lt.l1_triangle),
@@ -546,7 +557,7 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
       for (auto& c : v) out.push_back(c.get());
       return out;
     };
-    draw_machine(*work.timeline, config, system.shape, trv, ist, shading, caches(system.l1_node),
+    draw_machine(*work.timeline, config, system.shape, trv, ist, shading, system.dispatcher, caches(system.l1_node),
                  caches(system.l1_triangle), caches(system.l2), system.noc_model, system.dram->model);
   }
   attach_traces(request, system.dram->model, models_of(system.l1_node), models_of(system.l1_triangle),
@@ -598,6 +609,7 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
   f.dram = &system.dram->model;
   f.noc = &system.noc_model;
   f.dispatcher = &system.dispatcher;
+  f.reorder = system.dispatcher.finish_reorder_accounting(system.end_ps);
   report_machine(result.stats, config, system.shape, f, result.per_type, result.simulated_ps, true);
 }
 

@@ -14,7 +14,7 @@ nlohmann::json vocabulary_json() {
   for (RayType t : kAllRayTypes) types.push_back(ray_type_name(t));
   for (CycleBucket b : kAllCycleBuckets)
     buckets.push_back({{"name", cycle_bucket_name(b)}, {"meaning", cycle_bucket_meaning(b)}});
-  for (UnitKind u : {UnitKind::Trv, UnitKind::Ist, UnitKind::Shading}) {
+  for (UnitKind u : kAllUnitKinds) {
     json has = json::array();
     for (CycleBucket b : kAllCycleBuckets)
       if (unit_has_bucket(u, b)) has.push_back(cycle_bucket_name(b));

@@ -96,7 +96,7 @@ void CycleSystem::check_frame_end(uint64_t t) {
   frame_start_ps = t;
   end_ps = t;
   reset_counters();
-  dispatcher.restart();
+  dispatcher.restart(t);
   for (auto& r : raygen) r->restart(t);
 }
 

@@ -46,8 +46,9 @@ const char* cycle_bucket_name(CycleBucket bucket);
 const char* cycle_bucket_meaning(CycleBucket bucket);
 
 // The kinds of unit, each with the buckets it can be in.
-enum class UnitKind : uint8_t { Trv, Ist, Shading };
-const char* unit_kind_name(UnitKind kind);  // "trv", "ist", "shading"
+enum class UnitKind : uint8_t { Trv, Ist, Shading, Reorder };
+constexpr UnitKind kAllUnitKinds[] = {UnitKind::Trv, UnitKind::Ist, UnitKind::Shading, UnitKind::Reorder};
+const char* unit_kind_name(UnitKind kind);  // "trv", "ist", "shading", "reorder"
 bool unit_has_bucket(UnitKind kind, CycleBucket bucket);
 
 using CycleSplit = std::array<uint64_t, kCycleBucketCount>;  // by CycleBucket

@@ -67,11 +67,16 @@ class RayDispatcher {
   bool empty() const;  // nothing queued for any core
   bool reorders() const { return !reorder_.empty(); }
   ReorderFigures reorder_figures() const;  // summed over the cores' units, this frame
+  // The timed levels: each core's unit's cycle accounting, finished at end_ps.
+  std::vector<CycleSplit> finish_reorder_accounting(uint64_t end_ps);
+  std::vector<RayReorderBuffer>& reorder_units() { return reorder_; }  // per core; empty: none
+  const std::vector<RayReorderBuffer>& reorder_units() const { return reorder_; }
   // Rays a core's shading spawned (ready at ready_ps), appended to rays().
   void add_spawned(uint32_t core, const std::vector<Ray>& rays, uint64_t ready_ps);
   const std::vector<Ray>& rays() const { return rays_; }
-  // The next frame: the same initial rays again (shading spawns the same secondaries).
-  void restart();
+  // The next frame, from frame_start_ps: the same initial rays again (shading spawns
+  // the same secondaries).
+  void restart(uint64_t frame_start_ps = 0);
   uint32_t cores() const { return uint32_t(cores_.size()); }
 
  private:
@@ -87,7 +92,7 @@ class RayDispatcher {
   bool take(uint32_t core, uint64_t now_ps, uint32_t* ray_index);  // ray generation's next ray
   bool primary_left(const CoreQueue& q) const;
   bool take_tile(uint32_t core);  // moves the core to its next tile; false if none
-  void start_frame();
+  void start_frame(uint64_t t);
 
   IssuePolicy policy_;
   std::vector<Ray> rays_;

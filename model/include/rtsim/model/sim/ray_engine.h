@@ -134,6 +134,7 @@ class RayEngine {
   uint64_t end_ps() const { return end_ps_; }
   const std::vector<Ray>& rays() const { return dispatcher_.rays(); }
   const RayDispatcher& dispatcher() const { return dispatcher_; }
+  RayDispatcher& dispatcher() { return dispatcher_; }
   const std::array<CounterTotals, kRayTypeCount>& per_type() const { return per_type_; }
   CounterTotals total() const;
   // lt: each unit's cycle accounting (finished at end_ps() by run()).

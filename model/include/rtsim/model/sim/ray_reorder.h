@@ -12,8 +12,10 @@
 //
 // Written once for every level: the dispatcher (ray_dispatch.h) owns it, and the
 // functional, lt and cycle levels reach it through RayDispatcher::next. Untimed,
-// the latency is zero.
+// the latency is zero. Timed, its cycles split (accounting.h) into busy (sorting a
+// batch), blocked (holding sorted rays no TRV slot has taken yet) and idle.
 #include <rtsim/model/core/ray.h>
+#include <rtsim/model/sim/accounting.h>
 #include <rtsim/model/sim/config.h>
 
 #include <array>
@@ -84,11 +86,20 @@ class RayReorderBuffer {
   bool release(uint64_t now_ps, uint32_t* ray) {
     if (!holding() || ready_ps_ > now_ps) return false;
     *ray = batch_[cursor_++].ray;
-    if (now_ps != UINT64_MAX) counters_.wait_ps += now_ps - formed_ps_;
+    if (now_ps != UINT64_MAX) {
+      counters_.wait_ps += now_ps - formed_ps_;
+      if (!holding()) {  // the batch's last ray has left
+        accounting.change(now_ps, UnitAccounting::Blocked, -1);
+        accounting.change(now_ps, UnitAccounting::Resident, -1);
+      }
+    }
     return true;
   }
   const ReorderCounters& counters() const { return counters_; }
-  void restart() { batch_.clear(), cursor_ = 0, counters_ = {}; }
+  // A new frame from t (0 untimed): the counts start again, nothing is held.
+  void restart(uint64_t t) { batch_.clear(), cursor_ = 0, counters_ = {}, accounting.restart(t); }
+
+  UnitAccounting accounting;  // timed levels only
 
  private:
   struct Entry {
