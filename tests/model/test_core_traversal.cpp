@@ -73,12 +73,12 @@ TEST(CoreBox, TightBoxAroundAFarAwayTriangleIsNeverMissed) {
   EXPECT_EQ(misses, 0u);
 }
 
-// The traversal tests a record's boxes two at a time (intersect_box_pair).
+// The traversal tests a record's boxes four at a time (intersect_box_quad).
 // Property: its hit and entry distance are the scalar test's, bit for bit, for
 // random boxes and rays and for the awkward ones: zero and negative-zero
 // direction components, origins on face planes (0 * inf), flat and empty
 // boxes, infinite tmax and closest-hit limits inside the box.
-TEST(CoreBox, PairedSlabTestGivesTheScalarAnswersBitForBit) {
+TEST(CoreBox, FourBoxSlabTestGivesTheScalarAnswersBitForBit) {
   const float specials[] = {0.0f, -0.0f, 1.0f, -1.0f, 0.5f, 2.0f, kInf, -kInf, 1e-30f, 3e7f};
   uint64_t checked = 0, hits = 0;
   for (uint32_t i = 0; i < 200000; ++i) {
@@ -88,7 +88,7 @@ TEST(CoreBox, PairedSlabTestGivesTheScalarAnswersBitForBit) {
     };
     const bool awkward = i % 4 == 0;
     vec3 o, d;
-    Aabb boxes[2];
+    Aabb boxes[4];
     for (int a = 0; a < 3; ++a) {
       d[a] = coord(awkward && uint32_t(rng.next_u64()) % 3 == 0);
       for (Aabb& b : boxes) {
@@ -98,19 +98,18 @@ TEST(CoreBox, PairedSlabTestGivesTheScalarAnswersBitForBit) {
         b.lo[a] = lo, b.hi[a] = hi;
       }
       // Origins on a face plane of either box now and then.
-      o[a] = awkward && uint32_t(rng.next_u64()) % 3 == 0 ? (uint32_t(rng.next_u64()) % 2 ? boxes[0].lo[a] : boxes[1].hi[a])
+      o[a] = awkward && uint32_t(rng.next_u64()) % 3 == 0 ? (uint32_t(rng.next_u64()) % 2 ? boxes[i % 4].lo[a] : boxes[(i / 4) % 4].hi[a])
                                                 : coord(false);
     }
     if (d == vec3(0.0f)) continue;
     const float tmin = uint32_t(rng.next_u64()) % 2 ? 0.0f : rng.next_float();
     const float tmax = uint32_t(rng.next_u64()) % 2 ? kInf : rng.next_float() * 6.0f;
     const RayBoxPrecompute pre(o, d);
-    BoxPairLanes pair{};
-    pair.set(0, boxes[0]);
-    pair.set(1, boxes[1]);
-    float paired[2];
-    const uint32_t mask = intersect_box_pair(RayBoxLanes(pre), pair, tmin, tmax, paired);
-    for (int k = 0; k < 2; ++k) {
+    BoxQuadLanes quad{};
+    for (int k = 0; k < 4; ++k) quad.set(k, boxes[k]);
+    float paired[4];
+    const uint32_t mask = intersect_box_quad(RayBoxLanes(pre), quad, tmin, tmax, paired);
+    for (int k = 0; k < 4; ++k) {
       float scalar = 0.0f;
       const bool hit = intersect_box(pre, boxes[k], tmin, tmax, &scalar);
       ASSERT_EQ(hit, ((mask >> k) & 1u) != 0) << "case " << i << " box " << k;
@@ -122,7 +121,7 @@ TEST(CoreBox, PairedSlabTestGivesTheScalarAnswersBitForBit) {
       ++checked;
     }
   }
-  EXPECT_GT(checked, 390000u);
+  EXPECT_GT(checked, 780000u);
   EXPECT_GT(hits, checked / 20);  // both answers occur often
   EXPECT_LT(hits, checked - checked / 20);
 }

@@ -89,8 +89,8 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
   }
   if (own_box_records_ || bvh.empty()) return;
   const uint32_t width = image.format().width;
-  const uint32_t pairs = (width + 1) / 2;
-  targets_offset_ = sizeof(RecordHead) + pairs * sizeof(BoxPairLanes);
+  const uint32_t quads = (width + 3) / 4;
+  targets_offset_ = sizeof(RecordHead) + quads * sizeof(BoxQuadLanes);
   block_bytes_ = (targets_offset_ + width * sizeof(ChildTarget) + 15) & ~size_t(15);
   const size_t chunks = image.record_count() * block_bytes_ / sizeof(Chunk);
   reserve_on_huge_pages(blocks_, chunks);
@@ -102,13 +102,13 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
     const uint32_t children = node.is_leaf() ? 0 : node.children;
     unsigned char* block = reinterpret_cast<unsigned char*>(blocks_.data()) + size_t(r) * block_bytes_;
     new (block) RecordHead{image.node_address(n), n, children};
-    BoxPairLanes* lanes = new (block + sizeof(RecordHead)) BoxPairLanes[pairs]{};
+    BoxQuadLanes* lanes = new (block + sizeof(RecordHead)) BoxQuadLanes[quads]{};
     ChildTarget* targets = new (block + targets_offset_) ChildTarget[width]{};
     const Aabb* boxes = children ? image.record_boxes(n) : nullptr;
     for (uint32_t k = 0; k < children; ++k) {
       const uint32_t c = node.index + k;
       const BvhNode& child = bvh.nodes[c];
-      lanes[k / 2].set(int(k % 2), boxes[k]);
+      lanes[k / 4].set(int(k % 4), boxes[k]);
       targets[k] = child.is_leaf() ? ChildTarget{c, image.leaf_first(c), child.count}
                                    : ChildTarget{c, image.record_ordinal(c), 0};
     }
@@ -245,13 +245,13 @@ void RayTraversal::process_child_boxes_node() {
     return;
   }
   // The child boxes as the record decodes them (quantized formats: conservative).
-  const BoxPairLanes* pairs = context_->record_box_pairs(current_record_);
+  const BoxQuadLanes* quads = context_->record_box_quads(current_record_);
   const TraversalContext::ChildTarget* targets = context_->record_targets(current_record_);
-  float t_entry[kMaxBvhWidth + 1];
+  float t_entry[(kMaxBvhWidth + 3) / 4 * 4];
   uint32_t hit_mask = 0;
-  for (uint32_t k = 0; k < children; k += 2)
-    hit_mask |= intersect_box_pair(box_ray_, pairs[k / 2], ray_.tmin, tfar_, &t_entry[k]) << k;
-  hit_mask &= (1u << children) - 1;  // an odd count leaves an unused lane
+  for (uint32_t k = 0; k < children; k += 4)
+    hit_mask |= intersect_box_quad(box_ray_, quads[k / 4], ray_.tmin, tfar_, &t_entry[k]) << k;
+  hit_mask &= (1u << children) - 1;  // a count that is no multiple of 4 leaves unused lanes
   counters_.box_tests += children;
   last_box_tests_ = children;
   // The hit children by entry distance (insertion; equal distances keep child

@@ -61,20 +61,21 @@ inline bool intersect_box(const RayBoxPrecompute& r, const Aabb& box, float tmin
   return t_near <= t_far;
 }
 
-// Two child boxes laid out for one 4-lane slab test: per axis, lanes
-// {lo of box 0, lo of box 1, hi of box 0, hi of box 1}. A wide record's boxes
-// are a run of these pairs (the traversal context builds them once).
-struct BoxPairLanes {
-  float axis[3][4];
-  void set(int slot, const Aabb& box) {  // slot 0 or 1
-    for (int a = 0; a < 3; ++a) axis[a][slot] = box.lo[a], axis[a][2 + slot] = box.hi[a];
+// Four child boxes laid out for one 4-lane slab test: plane[0][axis] holds the four
+// boxes' lo on that axis, plane[1][axis] their hi. A wide record's boxes are a run
+// of these quads (the traversal context builds them once); lanes past the node's
+// children are unused and masked off by the caller.
+struct BoxQuadLanes {
+  alignas(16) float plane[2][3][4];
+  void set(int slot, const Aabb& box) {  // slot 0..3
+    for (int a = 0; a < 3; ++a) plane[0][a][slot] = box.lo[a], plane[1][a][slot] = box.hi[a];
   }
 };
 
 // The ray's slab-test data broadcast to four lanes, made once per ray.
 struct RayBoxLanes {
 #if defined(__SSE2__)
-  __m128 origin[3], inv_direction[3], near_is_hi[3];  // near_is_hi: all-ones lanes
+  __m128 origin[3], inv_direction[3];
 #endif
   RayBoxPrecompute scalar;
   RayBoxLanes() = default;
@@ -83,44 +84,38 @@ struct RayBoxLanes {
     for (int a = 0; a < 3; ++a) {
       origin[a] = _mm_set1_ps(r.origin[a]);
       inv_direction[a] = _mm_set1_ps(r.inv_direction[a]);
-      near_is_hi[a] = _mm_castsi128_ps(_mm_set1_epi32(-r.near_is_hi[a]));
     }
 #endif
   }
 };
 
-// intersect_box for both boxes of a pair at once, with exactly its answers (the
-// same operations in the same order per lane, so traversal is bit-identical).
-// Far distances are kept negated so that one max serves both bounds: -min(a, b)
-// is max(-a, -b), and a NaN leaves the running bound unchanged either way.
-// Returns a hit mask (bit i: box i) and writes both entry distances.
-inline uint32_t intersect_box_pair(const RayBoxLanes& r, const BoxPairLanes& pair, float tmin,
-                                   float tmax, float t_entry[2]) {
+// intersect_box for the four boxes of a quad at once, with exactly its answers (the
+// same operations in the same order per lane, so traversal is bit-identical): the
+// ray's sign picks which plane row is near per axis (an address, not a blend), max
+// and min keep the running bound when a distance is NaN as the scalar test does.
+// Returns a hit mask (bit i: box i) and writes all four entry distances.
+inline uint32_t intersect_box_quad(const RayBoxLanes& r, const BoxQuadLanes& quad, float tmin,
+                                   float tmax, float t_entry[4]) {
 #if defined(__SSE2__)
   constexpr float kFarScale = 1.0f + 2.0f * float_gamma(3);
-  __m128 acc = _mm_setr_ps(tmin, tmin, -tmax, -tmax);
-  const __m128 scale = _mm_setr_ps(1.0f, 1.0f, -kFarScale, -kFarScale);
+  const __m128 scale = _mm_set1_ps(kFarScale);
+  __m128 t_near = _mm_set1_ps(tmin), t_far = _mm_set1_ps(tmax);
   for (int a = 0; a < 3; ++a) {
-    __m128 planes = _mm_loadu_ps(pair.axis[a]);
-    // A ray entering by the hi plane takes {hi, lo}: swap the halves.
-    const __m128 swapped = _mm_shuffle_ps(planes, planes, _MM_SHUFFLE(1, 0, 3, 2));
-    const __m128 pick = r.near_is_hi[a];
-    planes = _mm_or_ps(_mm_and_ps(pick, swapped), _mm_andnot_ps(pick, planes));
-    const __m128 t =
-        _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(planes, r.origin[a]), r.inv_direction[a]), scale);
-    acc = _mm_max_ps(t, acc);  // t > acc ? t : acc, as the scalar test
+    const int near_row = r.scalar.near_is_hi[a];
+    const __m128 near_plane = _mm_load_ps(quad.plane[near_row][a]);
+    const __m128 far_plane = _mm_load_ps(quad.plane[1 - near_row][a]);
+    const __m128 t0 = _mm_mul_ps(_mm_sub_ps(near_plane, r.origin[a]), r.inv_direction[a]);
+    const __m128 t1 = _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(far_plane, r.origin[a]), r.inv_direction[a]), scale);
+    t_near = _mm_max_ps(t0, t_near);  // t0 > t_near ? t0 : t_near
+    t_far = _mm_min_ps(t1, t_far);    // t1 < t_far ? t1 : t_far
   }
-  const __m128 far = _mm_xor_ps(_mm_shuffle_ps(acc, acc, _MM_SHUFFLE(1, 0, 3, 2)),
-                                _mm_set1_ps(-0.0f));
-  alignas(16) float near[4];
-  _mm_store_ps(near, acc);
-  t_entry[0] = near[0], t_entry[1] = near[1];
-  return uint32_t(_mm_movemask_ps(_mm_cmple_ps(acc, far))) & 3u;
+  _mm_storeu_ps(t_entry, t_near);
+  return uint32_t(_mm_movemask_ps(_mm_cmple_ps(t_near, t_far)));
 #else
   uint32_t mask = 0;
-  for (int slot = 0; slot < 2; ++slot) {
+  for (int slot = 0; slot < 4; ++slot) {
     Aabb box;
-    for (int a = 0; a < 3; ++a) box.lo[a] = pair.axis[a][slot], box.hi[a] = pair.axis[a][2 + slot];
+    for (int a = 0; a < 3; ++a) box.lo[a] = quad.plane[0][a][slot], box.hi[a] = quad.plane[1][a][slot];
     if (intersect_box(r.scalar, box, tmin, tmax, &t_entry[slot])) mask |= 1u << slot;
   }
   return mask;

@@ -99,7 +99,7 @@ class TraversalContext {
  public:
   // The host's copy of a record that holds its children's boxes, laid out for the
   // hot loop in one block per record, in address order: its head, its children's
-  // decoded boxes two to a BoxPairLanes (one 4-lane slab test per pair), then
+  // decoded boxes four to a BoxQuadLanes (one 4-lane slab test per quad), then
   // where each child leads (its own record, or its leaf's triangle slots). A node
   // step reads one block instead of the tree, the image and its box table, and
   // the ray can prefetch it as soon as it knows its next node: the engines
@@ -124,13 +124,13 @@ class TraversalContext {
   // Triangle data by memory slot (see MemoryImage): the leaf's triangles in order.
   const PackedTriangle& slot_data(uint32_t slot) const { return triangles_[slot]; }
   bool own_box_records() const { return own_box_records_; }  // bvh2-32
-  // Child-box formats only: record r's head, its box pairs (the boxes as the
+  // Child-box formats only: record r's head, its box quads (the boxes as the
   // record decodes them) and its children's targets.
   const RecordHead& record_head(uint32_t r) const {
     return *reinterpret_cast<const RecordHead*>(record_block(r));
   }
-  const BoxPairLanes* record_box_pairs(uint32_t r) const {
-    return reinterpret_cast<const BoxPairLanes*>(record_block(r) + sizeof(RecordHead));
+  const BoxQuadLanes* record_box_quads(uint32_t r) const {
+    return reinterpret_cast<const BoxQuadLanes*>(record_block(r) + sizeof(RecordHead));
   }
   const ChildTarget* record_targets(uint32_t r) const {
     return reinterpret_cast<const ChildTarget*>(record_block(r) + targets_offset_);
