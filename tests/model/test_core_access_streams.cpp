@@ -1,7 +1,7 @@
 // The traversal core's access streams, held against a stored digest: for every
 // builder and every node format, the same rays (primary, AO and one diffuse bounce
 // on `foliage`) make the same accesses in the same order, step by step, with the
-// same hits. The digests were stored before issue 39 made the core faster
+// same hits. The digests were stored before issue 39 part 3 changed the core
 // (tests/model/golden/access-streams.tsv, the core of commit d6d3e7a), so a faster core
 // must keep every address, size, kind, direction and step boundary it had.
 //
