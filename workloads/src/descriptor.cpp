@@ -144,6 +144,13 @@ Scene load_scene_descriptor(const std::filesystem::path& path) {
     dropped_tool_faces += mesh.dropped_tool_faces;
     const uint32_t vertex_base = uint32_t(scene.vertices.size());
     const uint32_t material_base = uint32_t(scene.materials.size());
+    // Texture coordinates: per triangle, zero where a mesh has none (only alpha-tested
+    // materials sample them, and those come with their mesh's coordinates).
+    const bool alpha = override_material.empty() && !mesh.alpha_textures.empty();
+    if ((alpha || !scene.triangle_uvs.empty()) && scene.triangle_uvs.size() < scene.triangles.size())
+      scene.triangle_uvs.resize(scene.triangles.size(), TriangleUv{});
+    const int32_t texture_base = int32_t(scene.alpha_textures.size());
+    if (alpha) scene.alpha_textures.insert(scene.alpha_textures.end(), mesh.alpha_textures.begin(), mesh.alpha_textures.end());
     for (const vec3& v : mesh.vertices) scene.vertices.push_back(vec3(transform * glm::vec4(v, 1.0f)));
     // A mirroring transform flips winding; keep triangles front-facing.
     const bool flips = glm::determinant(glm::mat3(transform)) < 0.0f;
@@ -157,15 +164,24 @@ Scene load_scene_descriptor(const std::filesystem::path& path) {
         material = material_base + mesh.material_ids[i];
       else material = material_index.count("default") ? material_index["default"] : ~0u;
       scene.material_ids.push_back(material);
+      if (!scene.triangle_uvs.empty()) {
+        TriangleUv uv = alpha && i < mesh.triangle_uvs.size() ? mesh.triangle_uvs[i] : TriangleUv{};
+        if (flips) std::swap(uv[1], uv[2]);
+        scene.triangle_uvs.push_back(uv);
+      }
     }
     if (override_material.empty())
-      scene.materials.insert(scene.materials.end(), mesh.materials.begin(), mesh.materials.end());
+      for (Material m : mesh.materials) {
+        if (m.alpha_tested()) m.alpha_texture += texture_base;
+        scene.materials.push_back(m);
+      }
     for (Camera c : mesh.suggested_cameras) {
       c.position = vec3(transform * glm::vec4(c.position, 1.0f));
       c.target = vec3(transform * glm::vec4(c.target, 1.0f));
       suggested.push_back(c);
     }
   }
+  if (!scene.triangle_uvs.empty()) scene.triangle_uvs.resize(scene.triangles.size(), TriangleUv{});
   // Triangles with no material of their own get a plain diffuse default.
   uint32_t fallback = ~0u;
   for (uint32_t& m : scene.material_ids)

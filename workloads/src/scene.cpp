@@ -67,7 +67,51 @@ uint64_t Scene::content_hash() const {
                        m.ior, m.emission.x, m.emission.y, m.emission.z};
     h = hash_bytes(h, f, sizeof f);
   }
+  // Alpha testing only where there is some: an opaque scene keeps the hash it had.
+  if (!alpha_textures.empty()) {
+    for (const Material& m : materials) {
+      const float f[] = {float(m.alpha_texture), m.alpha_cutoff};
+      h = hash_bytes(h, f, sizeof f);
+    }
+    for (const AlphaTexture& t : alpha_textures) {
+      const uint32_t size[] = {t.width, t.height};
+      h = hash_bytes(h, size, sizeof size);
+      h = hash_bytes(h, t.alpha.data(), t.alpha.size());
+    }
+    h = hash_bytes(h, triangle_uvs.data(), triangle_uvs.size() * sizeof(TriangleUv));
+  }
   return h;
+}
+
+size_t Scene::alpha_tested_triangles() const {
+  if (alpha_textures.empty()) return 0;
+  size_t n = 0;
+  for (uint32_t t = 0; t < triangles.size(); ++t) n += alpha_tested(t);
+  return n;
+}
+
+AlphaSample Scene::alpha_sample(uint32_t tri, float u, float v) const {
+  const Material& m = materials[material_ids[tri]];
+  const AlphaTexture& texture = alpha_textures[size_t(m.alpha_texture)];
+  const TriangleUv& uv = triangle_uvs[tri];
+  const glm::vec2 st = (1.0f - u - v) * uv[0] + u * uv[1] + v * uv[2];
+  // Nearest texel, repeating: the fraction of each coordinate picks the texel.
+  const auto texel = [](float c, uint32_t size) {
+    const float f = c - std::floor(c);  // [0, 1]; 1 only from rounding
+    return std::min(size - 1, uint32_t(f * float(size)));
+  };
+  AlphaSample s;
+  s.texture = uint32_t(m.alpha_texture);
+  s.x = std::isfinite(st.x) ? texel(st.x, texture.width) : 0;
+  s.y = std::isfinite(st.y) ? texel(st.y, texture.height) : 0;
+  s.opaque = float(texture.alpha[size_t(s.y) * texture.width + s.x]) >= m.alpha_cutoff * 255.0f;
+  return s;
+}
+
+void Scene::make_opaque() {
+  for (Material& m : materials) m.alpha_texture = -1;
+  alpha_textures.clear();
+  triangle_uvs.clear();
 }
 
 bool triangle_geometric_less(const Scene& scene, uint32_t a, uint32_t b) {
@@ -135,6 +179,7 @@ void shuffle_triangles(Scene& scene, uint64_t seed) {
     const size_t j = size_t(rng.next_u64() % i);
     std::swap(scene.triangles[i - 1], scene.triangles[j]);
     if (has_materials) std::swap(scene.material_ids[i - 1], scene.material_ids[j]);
+    if (scene.triangle_uvs.size() == n) std::swap(scene.triangle_uvs[i - 1], scene.triangle_uvs[j]);
   }
 }
 

@@ -12,7 +12,7 @@ namespace {
 
 // "RTSIMSCN" and the format's version: a new Scene field is a new version.
 constexpr char kMagic[8] = {'R', 'T', 'S', 'I', 'M', 'S', 'C', 'N'};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;  // 2: alpha textures and texture coordinates
 
 class Writer {
  public:
@@ -84,7 +84,17 @@ void write_body(Writer& w, const Scene& s) {
     const float f[] = {m.albedo.x, m.albedo.y, m.albedo.z, m.reflectance, m.transmittance, m.ior,
                        m.emission.x, m.emission.y, m.emission.z};
     w.pod(f);
+    w.pod(m.alpha_texture);
+    w.pod(m.alpha_cutoff);
   }
+  w.pod(uint64_t(s.alpha_textures.size()));
+  for (const AlphaTexture& t : s.alpha_textures) {
+    w.text(t.file);
+    w.pod(t.width);
+    w.pod(t.height);
+    w.array(t.alpha);
+  }
+  w.array(s.triangle_uvs);
   w.pod(uint64_t(s.lights.size()));
   for (const Light& l : s.lights) {
     w.pod(uint32_t(l.kind));
@@ -114,12 +124,24 @@ bool read_body(Reader& r, Scene* s) {
   for (uint64_t i = 0; i < n; ++i) {
     Material m;
     float f[9];
-    if (!r.text(&m.name) || !r.pod(&f)) return false;
+    if (!r.text(&m.name) || !r.pod(&f) || !r.pod(&m.alpha_texture) || !r.pod(&m.alpha_cutoff)) return false;
     m.albedo = vec3(f[0], f[1], f[2]);
     m.reflectance = f[3], m.transmittance = f[4], m.ior = f[5];
     m.emission = vec3(f[6], f[7], f[8]);
     s->materials.push_back(m);
   }
+  if (!r.pod(&n)) return false;
+  for (uint64_t i = 0; i < n; ++i) {
+    AlphaTexture t;
+    if (!r.text(&t.file) || !r.pod(&t.width) || !r.pod(&t.height) || !r.array(&t.alpha) ||
+        t.alpha.size() != uint64_t(t.width) * t.height)
+      return false;
+    s->alpha_textures.push_back(std::move(t));
+  }
+  if (!r.array(&s->triangle_uvs)) return false;
+  if (!s->triangle_uvs.empty() && s->triangle_uvs.size() != s->triangles.size()) return false;
+  for (const Material& m : s->materials)
+    if (m.alpha_texture < -1 || m.alpha_texture >= int64_t(s->alpha_textures.size())) return false;
   if (!r.pod(&n)) return false;
   for (uint64_t i = 0; i < n; ++i) {
     Light l;

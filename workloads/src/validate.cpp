@@ -21,6 +21,10 @@ void validate_scene(Scene& scene) {
     throw InputError(where, "material id count " + std::to_string(scene.material_ids.size()) +
                                 " differs from triangle count " +
                                 std::to_string(scene.triangles.size()));
+  const bool has_uvs = !scene.triangle_uvs.empty();
+  if (has_uvs && scene.triangle_uvs.size() != scene.triangles.size())
+    throw InputError(where, "texture coordinate count " + std::to_string(scene.triangle_uvs.size()) +
+                                " differs from triangle count " + std::to_string(scene.triangles.size()));
 
   ValidationReport report;
   report.input_triangles = scene.triangles.size();
@@ -60,10 +64,12 @@ void validate_scene(Scene& scene) {
       ++report.degenerate_kept;
     scene.triangles[kept] = t;
     scene.material_ids[kept] = material;
+    if (has_uvs) scene.triangle_uvs[kept] = scene.triangle_uvs[i];
     ++kept;
   }
   scene.triangles.resize(kept);
   scene.material_ids.resize(kept);
+  if (has_uvs) scene.triangle_uvs.resize(kept);
   scene.validation = report;
 
   if (scene.triangles.empty())
@@ -76,7 +82,21 @@ void validate_scene(Scene& scene) {
       if (!std::isfinite(v) || v < 0.0f)
         throw InputError(where + " material '" + m.name + "'",
                          "albedo, reflectance, transmittance and ior must be finite and >= 0");
+    if (m.alpha_texture >= int64_t(scene.alpha_textures.size()) || m.alpha_texture < -1)
+      throw InputError(where + " material '" + m.name + "'",
+                       "alpha texture " + std::to_string(m.alpha_texture) + " does not exist (" +
+                           std::to_string(scene.alpha_textures.size()) + " alpha textures)");
+    if (m.alpha_tested() && !(m.alpha_cutoff >= 0.0f && m.alpha_cutoff <= 1.0f))
+      throw InputError(where + " material '" + m.name + "' alpha_cutoff", "must lie in [0, 1]");
   }
+  for (const AlphaTexture& t : scene.alpha_textures)
+    if (t.width == 0 || t.height == 0 || t.alpha.size() != size_t(t.width) * t.height)
+      throw InputError(where + " alpha texture '" + t.file + "'",
+                       "is " + std::to_string(t.width) + " x " + std::to_string(t.height) + " with " +
+                           std::to_string(t.alpha.size()) + " texels");
+  if (!scene.alpha_textures.empty() && !has_uvs)
+    throw InputError(where, "has alpha-tested materials but no texture coordinates");
+  // Coordinates only matter where a texture is sampled; a non-finite one samples texel 0.
   for (const Camera& c : scene.cameras) {
     if (!is_finite(c.position) || !is_finite(c.target) || !is_finite(c.up) ||
         c.position == c.target || !(c.vertical_fov_deg > 0.0f && c.vertical_fov_deg < 180.0f))

@@ -18,6 +18,10 @@ struct Mesh {
   std::vector<uvec3> triangles;  // counter-clockwise seen from the front
   std::vector<uint32_t> material_ids;  // per triangle, into materials
   std::vector<Material> materials;
+  // Alpha testing (Scene's fields of the same names): textures the materials'
+  // alpha_texture index, and one TriangleUv per triangle or none.
+  std::vector<AlphaTexture> alpha_textures;
+  std::vector<TriangleUv> triangle_uvs;
   std::vector<Camera> suggested_cameras;  // spawn points, track quads
   // Quake 3 faces left out on purpose (counted so that `scenes info` can say so):
   // sky faces (when MeshOptions::bsp_drop_sky) and tool faces (textures/common/:

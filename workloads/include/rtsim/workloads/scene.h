@@ -3,6 +3,7 @@
 // named cameras and AO settings; validated once on load (see validate.h).
 #include <rtsim/workloads/geometry.h>
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -17,6 +18,30 @@ struct Material {
   float transmittance = 0.0f;  // > 0 spawns refraction rays
   float ior = 1.5f;
   vec3 emission{0.0f};
+  // Alpha-tested (foliage drawn as textured quads): a hit counts only where the
+  // texture's alpha reaches alpha_cutoff; elsewhere the ray goes on (an any-hit
+  // test). -1: opaque. Index into Scene::alpha_textures (Mesh::alpha_textures).
+  int32_t alpha_texture = -1;
+  float alpha_cutoff = 0.5f;  // of full alpha (255); STK's alphatest shader uses 0.5
+  bool alpha_tested() const { return alpha_texture >= 0; }
+};
+
+// The alpha channel of an alpha-tested material's texture: 8 bits a texel,
+// row-major, row 0 at texture coordinate t = 0. Sampled nearest, wrapping (repeat).
+struct AlphaTexture {
+  std::string file;  // where it was read from, for messages and `scenes info`
+  uint32_t width = 0, height = 0;
+  std::vector<uint8_t> alpha;  // width * height
+};
+
+// A triangle's texture coordinates, one per vertex in the triangle's vertex order.
+using TriangleUv = std::array<glm::vec2, 3>;
+
+// Where an alpha test at barycentrics (u, v) samples its texture, and what it finds.
+struct AlphaSample {
+  uint32_t texture = 0;  // into Scene::alpha_textures
+  uint32_t x = 0, y = 0;  // the texel
+  bool opaque = true;     // alpha >= cutoff: the hit counts
 };
 
 // A surface's albedo: a triangle without a material reflects as the default material.
@@ -85,6 +110,10 @@ struct Scene {
   std::vector<uvec3> triangles;
   std::vector<uint32_t> material_ids;  // one per triangle
   std::vector<Material> materials;
+  // Alpha testing: the textures alpha-tested materials name, and one TriangleUv per
+  // triangle (empty when no material is alpha-tested).
+  std::vector<AlphaTexture> alpha_textures;
+  std::vector<TriangleUv> triangle_uvs;
   std::vector<Light> lights;
   std::vector<Camera> cameras;
   AoSettings ao;
@@ -98,6 +127,18 @@ struct Scene {
   Aabb bounds() const;
   float diagonal() const { return bounds().diagonal(); }
   float ao_cutoff() const { return ao.cutoff_relative * diagonal(); }
+  // The triangle's material is alpha-tested (so a hit on it needs an any-hit test).
+  bool alpha_tested(uint32_t tri) const {
+    return !alpha_textures.empty() && materials[material_ids[tri]].alpha_tested();
+  }
+  size_t alpha_tested_triangles() const;
+  // The any-hit test of a hit at barycentrics (u, v) (Embree's convention, ray.h) on
+  // alpha-tested triangle `tri`: the texel at the interpolated coordinates. One
+  // definition for the model's any-hit stage and Embree's intersection filter.
+  AlphaSample alpha_sample(uint32_t tri, float u, float v) const;
+  // Makes every material opaque (drops the textures and coordinates): the same
+  // geometry as an opaque scene, for comparison.
+  void make_opaque();
   const Camera* find_camera(const std::string& camera_name) const;
   const Camera& camera(const std::string& camera_name) const;  // throws InputError
   // The camera a command uses when none is named: view1 if there is one, else the
