@@ -236,6 +236,7 @@ void run_simulate(const SimulateOptions& o) {
   for (RayType t : kAllRayTypes)
     out["effects"][ray_type_name(t)] = {{"on", result.plan.on(t)},
                                         {"why", result.plan.reason[ray_type_index(t)]}};
+  out["effects"]["anyhit"] = {{"on", result.plan.anyhit}, {"why", result.plan.anyhit_reason}};
 
   if (timeline) {
     timeline->close();

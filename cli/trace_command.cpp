@@ -102,7 +102,7 @@ nlohmann::json trace_one_ray(const sim::RayTarget& target, const TraversalContex
   size_t index = 0;
   while (index < run.rays.size() && !probe.is(run.rays[index])) ++index;
   if (index == run.rays.size()) throw std::logic_error("--trace-ray: the frame did not trace the ray it spawns");
-  sim::FunctionalMemory memory(one_unit);
+  sim::FunctionalMemory memory(one_unit, image.has_alpha_data());
   sim::FunctionalMemorySink before(memory);
   std::vector<TraceResult> results;
   trace_rays(context, std::vector<Ray>(run.rays.begin(), run.rays.begin() + ptrdiff_t(index)), results, &before,
@@ -177,6 +177,7 @@ nlohmann::json trace_json(const TraceOptions& o, const Workload& workload, const
     j["effects"][ray_type_name(t)] = {{"on", run.plan.enabled[k]}, {"why", run.plan.reason[k]}};
     if (run.per_type[k].rays) j["per_type"][ray_type_name(t)] = totals_json(run.per_type[k], run.total.ops());
   }
+  j["effects"]["anyhit"] = {{"on", run.plan.anyhit}, {"why", run.plan.anyhit_reason}};
   const uint64_t dram_bytes = memory.dram.counters().bytes;
   j["caches"] = {{"l1_node", cache_json(memory.l1_node)},
                  {"l1_triangle", cache_json(memory.l1_triangle)},
@@ -250,6 +251,7 @@ void print_trace_summary(const TraceOptions& o, const nlohmann::json& j, const W
     if (!on && diffuse_depth(t) > std::max(1u, run.plan.diffuse_bounces + 1)) continue;
     std::printf("  %-11s %-4s %s\n", ray_type_name(t), on ? "on" : "off", run.plan.reason[ray_type_index(t)].c_str());
   }
+  std::printf("  %-11s %-4s %s\n", "any-hit", run.plan.anyhit ? "on" : "off", run.plan.anyhit_reason.c_str());
   std::printf("\ncaches (%s, one ray in flight):  L1 node %.1f%%  L1 triangle %.1f%%  L2 %.1f%%  DRAM %.1f B/ray\n",
               o.config.c_str(), 100 * hit_rate(memory.l1_node),
               100 * hit_rate(memory.l1_triangle), 100 * hit_rate(memory.l2),
@@ -307,7 +309,7 @@ void run_trace(const TraceOptions& o) {
   // ray in flight (the L2 keeps its slices).
   sim::HardwareConfig one_unit = hardware;
   one_unit.cores = one_unit.trv_units = one_unit.ist_units = 1;
-  sim::FunctionalMemory memory(one_unit);
+  sim::FunctionalMemory memory(one_unit, image.has_alpha_data());
   sim::FunctionalMemorySink caches(memory);
   FrameRun run;
   std::vector<Ray> replayed;  // the ray file's rays (--trace-ray looks among them)

@@ -134,6 +134,7 @@ MemoryImage::MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutC
   // Triangle records: one per triangle (indexed, where the leaf order first
   // reaches it) or one per slot (inline).
   uint64_t cursor = triangles_base_, triangle_records = 0;
+  std::vector<uint64_t> record_number;  // of each slot's record, for its UV record
   const auto place = [&]() {
     const uint64_t line = config_.line_bytes;
     if (config_.triangle_packing == TrianglePacking::Line &&
@@ -145,23 +146,42 @@ MemoryImage::MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutC
     return at;
   };
   slot_address_.resize(slots);
+  record_number.resize(slots);
   if (indexed()) {
-    std::vector<uint64_t> record_of(tri_count, kNoRecord);
+    std::vector<uint64_t> record_of(tri_count, kNoRecord), number_of(tri_count, 0);
     for (uint64_t s = 0; s < slots; ++s) {
-      uint64_t& record = record_of[slot_triangle_[s]];
-      if (record == kNoRecord) record = place();
-      slot_address_[s] = record;
+      const uint32_t t = slot_triangle_[s];
+      if (record_of[t] == kNoRecord) number_of[t] = triangle_records, record_of[t] = place();
+      slot_address_[s] = record_of[t];
+      record_number[s] = number_of[t];
     }
   } else {
-    for (uint64_t s = 0; s < slots; ++s) slot_address_[s] = place();
+    for (uint64_t s = 0; s < slots; ++s) record_number[s] = triangle_records, slot_address_[s] = place();
   }
   end_ = cursor;
+  // Alpha testing: the any-hit stage reads a triangle's texture coordinates (one
+  // UV record per triangle record, in the same order) and a texel of its texture.
+  const uint64_t triangles_end = end_;
+  if (!scene.alpha_textures.empty()) {
+    uvs_base_ = align_up(end_, config_.region_alignment);
+    slot_uv_address_.resize(slots);
+    for (uint64_t s = 0; s < slots; ++s) slot_uv_address_[s] = uvs_base_ + record_number[s] * kUvRecordBytes;
+    textures_base_ = align_up(uvs_base_ + triangle_records * kUvRecordBytes, config_.region_alignment);
+    uint64_t at = textures_base_;
+    for (const AlphaTexture& t : scene.alpha_textures) {
+      texture_.push_back({at, t.width});
+      at = align_up(at + uint64_t(t.width) * t.height * kTexelBytes, 64);
+    }
+    footprint_.uv_bytes = triangle_records * kUvRecordBytes;
+    footprint_.texture_bytes = at - textures_base_;
+    end_ = at;
+  }
   footprint_.node_records = records;
   footprint_.node_bytes = records * node_bytes;
   footprint_.prim_refs = indexed() ? slots : 0;
   footprint_.prim_ref_bytes = prim_ref_bytes;
   footprint_.triangle_records = triangle_records;
-  footprint_.triangle_bytes = end_ - triangles_base_;
+  footprint_.triangle_bytes = triangles_end - triangles_base_;
 }
 
 void MemoryImage::encode_records(const Bvh& bvh) {
@@ -200,7 +220,17 @@ std::string MemoryImage::describe() const {
                 (unsigned long long)prim_refs_base_, (unsigned long long)footprint_.prim_ref_bytes,
                 (unsigned long long)triangles_base_, (unsigned long long)footprint_.triangle_bytes,
                 (unsigned long long)footprint_.triangle_records, config_.triangle_bytes);
-  return buf;
+  std::string out = buf;
+  if (footprint_.uv_bytes) {
+    std::snprintf(buf, sizeof buf,
+                  "uvs        0x%010llx  %llu B (%u B per triangle record)\n"
+                  "textures   0x%010llx  %llu B (%zu alpha textures, %u B per texel)\n",
+                  (unsigned long long)uvs_base_, (unsigned long long)footprint_.uv_bytes, kUvRecordBytes,
+                  (unsigned long long)textures_base_, (unsigned long long)footprint_.texture_bytes,
+                  texture_.size(), kTexelBytes);
+    out += buf;
+  }
+  return out;
 }
 
 }  // namespace rtsim

@@ -25,6 +25,8 @@ void CounterTotals::add(const RayCounters& c, bool hit) {
   triangle_bytes += c.triangle_bytes;
   stack_overflows += c.stack_overflows;
   stack_refills += c.stack_refills;
+  anyhit_tests += c.anyhit_tests, anyhit_rejects += c.anyhit_rejects;
+  uv_bytes += c.uv_bytes, texel_bytes += c.texel_bytes;
   max_stack_depth = std::max(max_stack_depth, c.max_stack_depth);
 }
 
@@ -43,6 +45,8 @@ void CounterTotals::add(const CounterTotals& o) {
   triangle_bytes += o.triangle_bytes;
   stack_overflows += o.stack_overflows;
   stack_refills += o.stack_refills;
+  anyhit_tests += o.anyhit_tests, anyhit_rejects += o.anyhit_rejects;
+  uv_bytes += o.uv_bytes, texel_bytes += o.texel_bytes;
   max_stack_depth = std::max(max_stack_depth, o.max_stack_depth);
 }
 

@@ -34,6 +34,14 @@ EffectPlan plan_effects(const Scene& scene, const EffectSettings& settings) {
   };
   set(RayType::Primary, true,
       std::to_string(settings.spp) + " per pixel from the camera, closest hit");
+  if (const size_t alpha = scene.alpha_tested_triangles()) {
+    plan.anyhit = true;
+    plan.anyhit_reason = std::to_string(alpha) + " alpha-tested triangles (" +
+                         std::to_string(scene.alpha_textures.size()) +
+                         " alpha textures): their hits run an alpha test, reading UVs and a texel";
+  } else {
+    plan.anyhit_reason = "no triangle's material is alpha-tested";
+  }
 
   // AO: the run's --ao overrides the scene; otherwise the scene's ao settings decide.
   if (settings.ao_samples == 0) {

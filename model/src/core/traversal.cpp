@@ -61,6 +61,8 @@ const char* access_kind_name(AccessKind kind) {
     case AccessKind::PrimRef: return "prim_ref";
     case AccessKind::Triangle: return "triangle";
     case AccessKind::Stack: return "stack";
+    case AccessKind::Uv: return "uv";
+    case AccessKind::Texel: return "texel";
   }
   return "unknown";
 }
@@ -121,6 +123,8 @@ RayTraversal::RayTraversal(const TraversalContext& context, uint32_t stack_slot)
       stack_area_(context.stack_area(stack_slot)) {
   stack_.reserve(std::min<uint32_t>(context.config().stack_limit, 64) + 1);
   reads_.reserve(2 + context.config().triangles_per_step);
+  alpha_scene_ = context.image().has_alpha_data();
+  if (alpha_scene_) candidates_.reserve(context.config().triangles_per_step);
 }
 
 void RayTraversal::reset(const Ray& ray) { reset(ray, traversal_mode_for(ray.type)); }
@@ -132,6 +136,8 @@ void RayTraversal::reset(const Ray& ray, TraversalMode mode) {
   counters_ = RayCounters{};
   stack_.clear();
   stack_accesses_.clear();
+  candidates_.clear();
+  candidate_ = 0;
   leaf_slot_ = leaf_count_ = leaf_cursor_ = last_tests_ = last_box_tests_ = 0;
   current_node_ = 0;
   current_record_ = context_->root_record();
@@ -226,6 +232,7 @@ void RayTraversal::process() {
   last_tests_ = last_box_tests_ = 0;
   if (action_ == TraversalAction::FetchNode) process_node();
   else if (action_ == TraversalAction::TestTriangles) process_triangles();
+  else if (action_ == TraversalAction::AlphaTest) process_alpha_test();
 }
 
 void RayTraversal::process_node() {
@@ -305,6 +312,14 @@ void RayTraversal::process_own_box_node() {
   action_ = TraversalAction::FetchNode;
 }
 
+void RayTraversal::commit(float t, uint32_t slot, float u, float v) {
+  hit_.t = t;
+  hit_.prim = context_->image().slot_triangle(slot);
+  hit_.u = u;
+  hit_.v = v;
+  tfar_ = t;
+}
+
 void RayTraversal::process_triangles() {
   const MemoryImage& image = context_->image();
   if (leaf_cursor_ == 0 && image.indexed()) {
@@ -314,6 +329,8 @@ void RayTraversal::process_triangles() {
   const uint32_t end = std::min(leaf_count_, leaf_cursor_ + context_->config().triangles_per_step);
   counters_.triangle_fetches += end - leaf_cursor_;
   counters_.triangle_bytes += (end - leaf_cursor_) * image.triangle_bytes();
+  candidates_.clear();
+  bool committed = false;
   for (; leaf_cursor_ < end; ++leaf_cursor_) {
     ++counters_.ist_ops;
     ++last_tests_;
@@ -322,18 +339,66 @@ void RayTraversal::process_triangles() {
     TriangleHit th;
     if (intersect_triangle(tri_ray_, tri.v0, tri.v1, tri.v2, ray_.tmin, tfar_, &th,
                            &counters_.ist_exact_steps)) {
-      hit_.t = th.t;
-      hit_.prim = image.slot_triangle(slot);
-      hit_.u = th.u;
-      hit_.v = th.v;
-      tfar_ = th.t;
+      if (alpha_scene_ && context_->scene().alpha_tested(image.slot_triangle(slot))) {
+        candidates_.push_back({th.t, th.u, th.v, slot});  // the any-hit stage decides
+        continue;
+      }
+      commit(th.t, slot, th.u, th.v);
+      committed = true;
       if (mode_ == TraversalMode::AnyHit) {
+        candidates_.clear();
         action_ = TraversalAction::Done;
         return;
       }
     }
   }
+  if (!candidates_.empty()) {
+    // Only candidates nearer than the step's own opaque hits can matter (a tie goes
+    // to the opaque hit); they are tested nearest first, so the first that passes
+    // is the nearest surface among them. Equal distances keep memory order.
+    const float limit = tfar_;
+    candidates_.erase(std::remove_if(candidates_.begin(), candidates_.end(),
+                                     [&](const Candidate& c) { return committed ? c.t >= limit : c.t > limit; }),
+                      candidates_.end());
+    std::stable_sort(candidates_.begin(), candidates_.end(),
+                     [](const Candidate& a, const Candidate& b) { return a.t < b.t; });
+    if (!candidates_.empty()) {
+      candidate_ = 0;
+      action_ = TraversalAction::AlphaTest;
+      return;
+    }
+  }
   if (leaf_cursor_ == leaf_count_) pop_next();
+}
+
+void RayTraversal::process_alpha_test() {
+  const Candidate c = candidates_[candidate_];
+  ++counters_.anyhit_tests;
+  counters_.uv_bytes += MemoryImage::kUvRecordBytes;
+  counters_.texel_bytes += MemoryImage::kTexelBytes;
+  const uint32_t prim = context_->image().slot_triangle(c.slot);
+  if (context_->scene().alpha_sample(prim, c.u, c.v).opaque) {
+    commit(c.t, c.slot, c.u, c.v);
+    candidates_.clear();  // every other one lies at or beyond it
+    if (mode_ == TraversalMode::AnyHit) {
+      action_ = TraversalAction::Done;
+      return;
+    }
+  } else {
+    ++counters_.anyhit_rejects;
+    ++candidate_;
+  }
+  after_candidates();
+}
+
+void RayTraversal::after_candidates() {
+  if (candidate_ < candidates_.size()) {
+    action_ = TraversalAction::AlphaTest;
+    return;
+  }
+  candidates_.clear();
+  if (leaf_cursor_ < leaf_count_) action_ = TraversalAction::TestTriangles;
+  else pop_next();
 }
 
 const HitRecord& trace_ray(RayTraversal& traversal, const Ray& ray, AccessSink* sink) {

@@ -144,6 +144,12 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
           "an any-hit ray may fetch up to this many - 1 it does not test"),
       f64("ist.tests_per_cycle", c.ist_tests_per_cycle, 0.001, 64, "tests/cycle",
           "triangle-test pipeline throughput per unit"),
+      u32("anyhit.test_latency", c.anyhit_test_latency, 1, 10000, "cycles",
+          "the any-hit stage of each IST unit (built only for scenes with alpha-tested "
+          "materials): the candidate hit's texel arrival to the alpha test's verdict"),
+      f64("anyhit.tests_per_cycle", c.anyhit_tests_per_cycle, 0.001, 64, "tests/cycle",
+          "alpha tests the any-hit stage starts per cycle (its UV and texel reads go through "
+          "l1_texture)"),
       u32("shading.latency", c.shading_latency, 1, 100000, "cycles",
           "finished ray to its shading result and spawned rays"),
       f64("shading.rays_per_cycle", c.shading_rays_per_cycle, 0.001, 64, "rays/cycle",
@@ -170,6 +176,10 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
   for (auto& p : list) visit(p);
   cache_parameters("l1_node", c.l1_node, "each TRV unit's L1 node cache", visit);
   cache_parameters("l1_triangle", c.l1_triangle, "each IST unit's L1 triangle cache", visit);
+  cache_parameters("l1_texture", c.l1_texture,
+                   "each IST unit's L1 texture cache, which its any-hit stage reads UVs and texels "
+                   "through (built only for scenes with alpha-tested materials)",
+                   visit);
   cache_parameters("l2", c.l2, "the shared L2 (all slices)", visit);
   std::vector<ParameterInfo> machine = {
       u32("l2.slices", c.l2_slices, 1, 64, "slices",
@@ -280,6 +290,9 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
       f64("energy.triangle_test_pj", e.triangle_test_pj, 0, 1e6, "pJ",
           "one ray-triangle test: Moeller-Trumbore's 27 multiplies, 24 adds, 6 compares and a "
           "reciprocal at SimTRaX's 65 nm unit energies (FPINV 156.3 pJ)"),
+      f64("energy.anyhit_test_pj", e.anyhit_test_pj, 0, 1e6, "pJ",
+          "one alpha test of the any-hit stage: UV interpolation and texel address (8 multiplies, "
+          "8 adds) and the alpha compare at SimTRaX's 65 nm unit energies"),
       f64("energy.noc_byte_pj", e.noc_byte_pj, 0, 1e6, "pJ",
           "one byte through the crossbar: 0.6 pJ/bit, a 45 nm 4x4 mesh's delivered energy "
           "(Park et al., DAC 2012: 892 Gb/s at 531 mW)"),
@@ -525,6 +538,7 @@ HardwareConfig preset(const std::string& name) {
     c.ist_units = 4;
     c.l1_node = {32 * 1024, 64, 4, 2, 16};
     c.l1_triangle = {32 * 1024, 64, 4, 2, 16};
+    c.l1_texture = {32 * 1024, 64, 4, 2, 16};
     c.l2 = {2 * 1024 * 1024, 64, 16, 30, 64, 4, 1};
     apply_dram_part(c.dram, "ddr4-2400");
     c.dram.channels = 2;
@@ -541,6 +555,7 @@ HardwareConfig preset(const std::string& name) {
     const uint32_t l1 = desktop ? 32 * 1024 : 16 * 1024;
     c.l1_node = {l1, 64, 8, 20, 64};
     c.l1_triangle = {l1, 64, 8, 20, 64};
+    c.l1_texture = {l1, 64, 8, 20, 64};  // as the other L1s: a GPU's L1/texture cache is one array
     c.l2_slices = desktop ? 12 : 4;
     c.l2 = {c.l2_slices * 256 * 1024, 64, 16, 100, 192, 1, 1};
     c.noc_latency_cycles = 30, c.noc_flit_bytes = 40, c.noc_header_bytes = 8;
@@ -597,6 +612,7 @@ void validate(const HardwareConfig& c) {
                                                     std::to_string(c.triangle_bytes) + ")");
   check_cache("l1_node", c.l1_node);
   check_cache("l1_triangle", c.l1_triangle);
+  check_cache("l1_texture", c.l1_texture);
   // The L2's geometry is checked per slice (3 MB in 12 slices is 256 KiB each).
   if (c.l2.size_bytes % c.l2_slices != 0)
     throw InputError("l2.slices", "must divide l2.size_bytes (" + std::to_string(c.l2.size_bytes) + ")");
@@ -628,6 +644,8 @@ void validate(const HardwareConfig& c) {
     throw InputError("l1_node.line_bytes", "must not exceed l2.line_bytes");
   if (c.l1_triangle.line_bytes > c.l2.line_bytes)
     throw InputError("l1_triangle.line_bytes", "must not exceed l2.line_bytes");
+  if (c.l1_texture.line_bytes > c.l2.line_bytes)
+    throw InputError("l1_texture.line_bytes", "must not exceed l2.line_bytes");
   const DramConfig& d = c.dram;
   if (!is_pow2(d.ranks)) throw InputError("dram.ranks", "must be a power of two");
   if (!is_pow2(d.banks)) throw InputError("dram.banks", "must be a power of two");

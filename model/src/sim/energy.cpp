@@ -91,6 +91,26 @@ void report_energy(StatsRegistry& s, const HardwareConfig& config, const EnergyC
     for (size_t t = 0; t < kRayTypeCount; ++t)
       if (r.rays) by_type[t] += pj * double(r.rays_by_type[t]) / double(r.rays);
   }
+  // The any-hit stages and their texture caches, only where built (alpha-tested scenes).
+  if (c.anyhit_built) {
+    uint64_t tests = 0;
+    for (const CounterTotals& t : c.per_type) tests += t.anyhit_tests;
+    const double stage_pj = double(tests) * e.anyhit_test_pj * at65;
+    const double cache_pj = c.l1_texture_pj * sram;
+    s.set_real("energy.anyhit.pj", stage_pj, "pJ", "energy of the any-hit stages' alpha tests");
+    s.set_real("energy.anyhit.pj_per_ray", rays ? stage_pj / double(rays) : 0, "pJ/ray",
+               "energy of the any-hit stages' alpha tests / rays");
+    s.set_real("energy.l1_texture.pj", cache_pj, "pJ",
+               "energy of L1 texture cache accesses (requests and write-backs)");
+    s.set_real("energy.l1_texture.pj_per_ray", rays ? cache_pj / double(rays) : 0, "pJ/ray",
+               "energy of L1 texture cache accesses / rays");
+    total += stage_pj + cache_pj;
+    const std::array<double, kRayTypeCount> cache_share = shares(c.l1_texture_bytes);
+    for (size_t t = 0; t < kRayTypeCount; ++t) {
+      if (tests) by_type[t] += stage_pj * double(c.per_type[t].anyhit_tests) / double(tests);
+      by_type[t] += cache_pj * cache_share[t];
+    }
+  }
   s.set_real("energy.total_pj", total, "pJ", "dynamic energy of the run (no leakage, no DRAM background)");
   s.set_real("energy.pj_per_ray", rays ? total / double(rays) : 0, "pJ/ray", "energy.total_pj / rays");
   s.set_real("energy.rays_per_joule", total > 0 ? double(rays) / (total * 1e-12) : 0, "rays/J",

@@ -17,6 +17,12 @@ uint64_t model_memory_bytes(const HardwareConfig& c, std::string* factors) {
   std::vector<Term> terms;
   auto lines = [](const CacheConfig& cache) { return cache.line_bytes ? cache.size_bytes / cache.line_bytes : 0; };
   uint64_t l1_node = 0, l1_triangle = 0;
+  // The texture caches are built only for alpha-tested scenes; counted always, so
+  // that a machine is refused or not whatever the scene.
+  terms.push_back({saturating_mul(saturating_mul(uint64_t(c.cores) * c.ist_units, lines(c.l1_texture)),
+                                  kCacheLineHostBytes),
+                   "cores " + std::to_string(c.cores) + " x ist.units " + std::to_string(c.ist_units) +
+                       " L1 texture caches of l1_texture.size_bytes " + std::to_string(c.l1_texture.size_bytes)});
   for (uint32_t core = 0; core < c.cores; ++core) {
     l1_node = saturating_add(l1_node, saturating_mul(c.trv_units, lines(c.l1_node_of(core))));
     l1_triangle = saturating_add(l1_triangle, saturating_mul(c.ist_units, lines(c.l1_triangle_of(core))));
@@ -65,6 +71,9 @@ std::string MachineShape::ist_name(uint32_t ist) const {
 }
 std::string MachineShape::l1_node_name(uint32_t trv) const {
   return core_name(core_of_trv(trv)) + ".l1_node" + std::to_string(trv % trv_per_core);
+}
+std::string MachineShape::l1_texture_name(uint32_t ist) const {
+  return core_name(core_of_ist(ist)) + ".l1_texture" + std::to_string(ist % ist_per_core);
 }
 std::string MachineShape::l1_triangle_name(uint32_t ist) const {
   return core_name(core_of_ist(ist)) + ".l1_triangle" + std::to_string(ist % ist_per_core);

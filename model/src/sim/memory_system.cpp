@@ -22,17 +22,21 @@ void PayloadPool::grow() {
   free_.push_back(p);
 }
 
-FunctionalMemory::FunctionalMemory(const HardwareConfig& c)
+FunctionalMemory::FunctionalMemory(const HardwareConfig& c, bool texture_caches)
     : shape(MachineShape::of(c)), noc(c, shape, false), dram(c.dram, c.l2.line_bytes) {
   for (uint32_t u = 0; u < shape.trv_units(); ++u)
     l1_node.push_back(std::make_unique<CacheModel>(c.l1_node_of(shape.core_of_trv(u)), "l1_node"));
   for (uint32_t u = 0; u < shape.ist_units(); ++u)
     l1_triangle.push_back(std::make_unique<CacheModel>(c.l1_triangle_of(shape.core_of_ist(u)), "l1_triangle"));
+  for (uint32_t u = 0; texture_caches && u < shape.ist_units(); ++u)
+    l1_texture.push_back(std::make_unique<CacheModel>(c.l1_texture, "l1_texture"));
+  texture_line_bytes_ = c.l1_texture.line_bytes;
   for (uint32_t s = 0; s < shape.l2_slices; ++s)
     l2.push_back(std::make_unique<CacheModel>(c.l2_slice(), "l2"));
 }
 
 uint32_t FunctionalMemory::line_bytes(Requester who) const {
+  if (who == Requester::Texture) return texture_line_bytes_;
   return (who == Requester::Trv ? l1_node : l1_triangle).front()->config().line_bytes;
 }
 
@@ -49,6 +53,7 @@ bool FunctionalMemory::to_l2(uint32_t core, const LineAccess& a) {
 void FunctionalMemory::reset_counters() {
   for (auto& c : l1_node) c->reset_counters();
   for (auto& c : l1_triangle) c->reset_counters();
+  for (auto& c : l1_texture) c->reset_counters();
   for (auto& c : l2) c->reset_counters();
   noc.reset_counters();
   dram.reset_counters();
@@ -67,7 +72,8 @@ void FunctionalMemorySink::on_step_end() {
   }
   probe_->next_step();
   uint32_t request = probe_->add(accesses_.data(), accesses_.size(), lines_.data(), lines_.size(),
-                                 memory_->line_bytes(Requester::Trv), memory_->line_bytes(Requester::Ist), 0);
+                                 memory_->line_bytes(Requester::Trv), memory_->line_bytes(Requester::Ist),
+                                 memory_->line_bytes(Requester::Texture), 0);
   for (const LineAccess& line : lines_) {
     ServedBy served = ServedBy::None;
     memory_->access_probed(requester_of(line.kind), 0, line, 0, &served);
@@ -239,6 +245,19 @@ LtSystem::LtSystem(sc_core::sc_module_name name, const HardwareConfig& config,
     ist_ports_.back()->bind(l1_triangle.back()->target);
     noc->bind_l1(l1_triangle.back()->next, shape.core_of_ist(u));
   }
+  // The any-hit stages' texture caches, only for a scene with alpha-tested materials.
+  // Like the triangle caches, no unit's accounting: the IST unit holds the test from
+  // its data's arrival.
+  for (uint32_t u = 0; workload.context->image().has_alpha_data() && u < shape.ist_units(); ++u) {
+    const std::string instance = shape.l1_texture_name(u);
+    l1_texture.push_back(std::make_unique<LtCache>(MachineShape::module_name(instance).c_str(),
+                                                   config.l1_texture, cycle_ps));
+    l1_texture.back()->set_level(1);
+    texture_ports_.push_back(std::make_unique<tlm_utils::simple_initiator_socket<LtSystem>>(
+        MachineShape::module_name(shape.ist_name(u) + "_texture_memory").c_str()));
+    texture_ports_.back()->bind(l1_texture.back()->target);
+    noc->bind_l1(l1_texture.back()->next, shape.core_of_ist(u));
+  }
   tlm_utils::tlm_quantumkeeper::set_global_quantum(
       from_ps(uint64_t(config.lt_quantum_cycles) * cycle_ps));
   quantum_.reset();
@@ -249,6 +268,7 @@ LtSystem::LtSystem(sc_core::sc_module_name name, const HardwareConfig& config,
 }
 
 uint32_t LtSystem::line_bytes(Requester who) const {
+  if (who == Requester::Texture) return config_.l1_texture.line_bytes;
   return who == Requester::Trv ? config_.l1_node.line_bytes : config_.l1_triangle.line_bytes;
 }
 
@@ -265,7 +285,7 @@ uint64_t LtSystem::access(Requester who, uint32_t unit, const LineAccess& a, uin
   extension_->ray_type = a.ray_type;
   extension_->owner = nullptr;
   extension_->served = ServedBy::None;
-  auto& port = who == Requester::Trv ? trv_ports_[unit] : ist_ports_[unit];
+  auto& port = who == Requester::Trv ? trv_ports_[unit] : who == Requester::Ist ? ist_ports_[unit] : texture_ports_[unit];
   (*port)->b_transport(payload_, delay);
   return now + to_ps(delay);
 }
@@ -280,6 +300,7 @@ uint64_t LtSystem::access_probed(Requester who, uint32_t unit, const LineAccess&
 void LtSystem::reset_counters() {
   for (auto& c : l1_node) c->model.reset_counters();
   for (auto& c : l1_triangle) c->model.reset_counters();
+  for (auto& c : l1_texture) c->model.reset_counters();
   for (auto& c : l2) c->model.reset_counters();
   noc_model.reset_counters();
   dram->model.reset_counters();

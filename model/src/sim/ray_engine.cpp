@@ -100,6 +100,9 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
   box_latency_ps_ = uint64_t(config.trv_box_test_latency) * cycle_ps_;
   test_latency_ps_ = uint64_t(config.ist_test_latency) * cycle_ps_;
   shading_latency_ps_ = uint64_t(config.shading_latency) * cycle_ps_;
+  anyhit_tests_.assign(shape_.ist_units(), 0);
+  anyhit_interval_ps_ = interval_ps(config.anyhit_tests_per_cycle, cycle_ps_);
+  anyhit_latency_ps_ = uint64_t(config.anyhit_test_latency) * cycle_ps_;
   const uint32_t count = shape_.slots();
   slots_.reserve(count);
   for (uint32_t id = 0; id < count; ++id)
@@ -119,6 +122,7 @@ void RayEngine::reset_counters() {
   trv_passes_by_type_ = ist_tests_by_type_ = ray_ps_by_type_ = {};
   std::fill(trv_passes_.begin(), trv_passes_.end(), 0);
   std::fill(ist_tests_.begin(), ist_tests_.end(), 0);
+  std::fill(anyhit_tests_.begin(), anyhit_tests_.end(), 0);
   per_type_ = {};
   std::fill(shaded_.begin(), shaded_.end(), 0);
   std::fill(spawned_count_.begin(), spawned_count_.end(), 0);
@@ -178,7 +182,8 @@ uint64_t RayEngine::issue_probed(Port& port, Slot& slot, const std::vector<Memor
     append_line_accesses(list[i], type, line_bytes_[size_t(requester_of(list[i].kind))], lines_);
   RayProbe& probe = *workload_->probe;
   uint32_t request = probe.add(list.data() + begin, end - begin, lines_.data(), lines_.size(),
-                               line_bytes_[size_t(Requester::Trv)], line_bytes_[size_t(Requester::Ist)], t);
+                               line_bytes_[size_t(Requester::Trv)], line_bytes_[size_t(Requester::Ist)],
+                               line_bytes_[size_t(Requester::Texture)], t);
   uint64_t ready = t;
   for (const LineAccess& line : lines_) {
     const Requester who = requester_of(line.kind);
@@ -260,6 +265,7 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
                     const std::function<void(uint64_t)>& progress) {
   line_bytes_[size_t(Requester::Trv)] = port.line_bytes(Requester::Trv);
   line_bytes_[size_t(Requester::Ist)] = port.line_bytes(Requester::Ist);
+  line_bytes_[size_t(Requester::Texture)] = port.line_bytes(Requester::Texture);
   const uint32_t frames = std::max<uint32_t>(1, workload_->frames);
   for (uint32_t frame = 0; frame < frames; ++frame) {
     if (frame > 0) {
@@ -289,6 +295,7 @@ void RayEngine::run_rounds(Port& port, const std::function<void(uint64_t)>& prog
       if (!slot.active && !start_next_ray(slot, UINT64_MAX, &start)) continue;
       RayTraversal& trv = slot.traversal;
       const bool node_step = trv.action() == TraversalAction::FetchNode;
+      const bool alpha_step = trv.action() == TraversalAction::AlphaTest;
       const uint32_t passes = node_step ? config_.trv_passes(trv.step_box_tests()) : 0;
       if (!trv.done()) {
         if (slot.probed) workload_->probe->next_step();
@@ -297,6 +304,7 @@ void RayEngine::run_rounds(Port& port, const std::function<void(uint64_t)>& prog
         trv.process();
         const size_t type = size_t(trv.ray().type);
         if (node_step) trv_passes_[slot.unit] += passes, trv_passes_by_type_[type] += passes;
+        else if (alpha_step) ++anyhit_tests_[slot.ist];
         else ist_tests_[slot.ist] += trv.last_step_tests(), ist_tests_by_type_[type] += trv.last_step_tests();
         const std::vector<MemoryAccess>& stack = trv.stack_accesses();
         if (!stack.empty()) issue(port, slot, stack, 0, stack.size(), 0);
@@ -320,8 +328,9 @@ void RayEngine::issue_step(MemoryPort& port, uint32_t id, uint64_t t) {
     return;
   }
   if (slot.probed) workload_->probe->next_step();
-  // The TRV unit waits for its node's reads, or for the IST unit that tests the leaf.
-  const bool triangles = trv.action() == TraversalAction::TestTriangles;
+  // The TRV unit waits for its node's reads, or for the IST unit that tests the leaf
+  // (and runs its any-hit stage).
+  const bool triangles = trv.action() != TraversalAction::FetchNode;
   slot.step = triangles ? Slot::Step::Triangles : Slot::Step::Node;
   trv_account_[slot.unit].change(t, triangles ? UnitAccounting::Downstream : UnitAccounting::AtL1, +1);
   const std::vector<MemoryAccess>& reads = trv.step_reads();
@@ -379,6 +388,19 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
           trv.process();
           trv_passes_[slot.unit] += passes;
           trv_passes_by_type_[type] += passes;
+        } else if (trv.action() == TraversalAction::AlphaTest) {
+          // The IST unit's any-hit stage: one alpha test, issued into the unit's
+          // pipeline (the stage shares its issue slot) with its own rate and latency.
+          trv.process();
+          const uint32_t ist = slot.ist;
+          const uint64_t start = std::max(t, ist_free_[ist]);
+          ist_free_[ist] = start + anyhit_interval_ps_;
+          ready = start + anyhit_latency_ps_;
+          UnitAccounting& unit = ist_account_[ist];
+          unit.reserve(t, start, ist_free_[ist]);
+          unit.change(t, UnitAccounting::Resident, +1);
+          unit.change(t, ready, UnitAccounting::Resident, -1);
+          ++anyhit_tests_[ist];
         } else {
           trv.process();
           const uint32_t tests = trv.last_step_tests();

@@ -106,9 +106,17 @@ void RayProbe::begin(uint64_t t_ps) {
   start_ps_ = end_ps_ = t_ps;
 }
 
+namespace {
+// The L1 an access goes through, as ray_engine.h's requester_of: 0 node, 1 triangle, 2 texture.
+int l1_side(AccessKind kind) {
+  if (kind == AccessKind::Node || kind == AccessKind::Stack) return 0;
+  return kind == AccessKind::Uv || kind == AccessKind::Texel ? 2 : 1;
+}
+}  // namespace
+
 uint32_t RayProbe::add(const MemoryAccess* accesses, size_t count, const LineAccess* lines,
                        size_t line_count, uint32_t node_line_bytes, uint32_t triangle_line_bytes,
-                       uint64_t issue_ps) {
+                       uint32_t texture_line_bytes, uint64_t issue_ps) {
   const uint32_t first = uint32_t(requests_.size());
   const uint32_t first_access = uint32_t(accesses_.size());
   accesses_.insert(accesses_.end(), accesses, accesses + count);
@@ -117,12 +125,12 @@ uint32_t RayProbe::add(const MemoryAccess* accesses, size_t count, const LineAcc
     Request r;
     r.step = step_, r.kind = l.kind, r.write = l.write, r.line = l.line, r.bytes = l.bytes;
     r.issue_ps = r.done_ps = issue_ps;
-    const bool trv_side = l.kind == AccessKind::Node || l.kind == AccessKind::Stack;
-    const uint64_t line_bytes = trv_side ? node_line_bytes : triangle_line_bytes;
+    const int side = l1_side(l.kind);
+    const uint64_t line_bytes = side == 0 ? node_line_bytes : side == 1 ? triangle_line_bytes : texture_line_bytes;
     // The accesses that fall in the line, as append_line_accesses merged them.
     for (size_t k = 0; k < count; ++k) {
       const MemoryAccess& a = accesses[k];
-      const bool same_side = (a.kind == AccessKind::Node || a.kind == AccessKind::Stack) == trv_side;
+      const bool same_side = l1_side(a.kind) == side;
       if (same_side && a.write == l.write && a.address < l.line + line_bytes && a.address + a.bytes > l.line)
         r.carries.push_back(first_access + uint32_t(k));
     }
@@ -164,6 +172,8 @@ class RecordNames {
       case AccessKind::Node: return {{"node", id(nodes_, a.address)}};
       case AccessKind::PrimRef: return {{"leaf", id(leaves_, a.address)}};
       case AccessKind::Triangle: return {{"triangle", id(triangles_, a.address)}};
+      case AccessKind::Uv: return {{"uv_record", true}};
+      case AccessKind::Texel: return {{"texel", true}};
       case AccessKind::Stack: {
         const uint64_t base = context_.stack_area(0);
         const uint64_t entry = a.address >= base ? (a.address - base) / context_.config().stack_entry_bytes : 0;

@@ -82,7 +82,7 @@ void report_rollup(StatsRegistry& s, UnitKind kind, const std::vector<CycleSplit
   });
 }
 
-void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCount>& per_type) {
+void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCount>& per_type, bool anyhit) {
   CounterTotals total;
   for (auto& c : per_type) total.add(c);
   s.set("rays.total", total.rays, "rays", "rays simulated, all types");
@@ -112,7 +112,28 @@ void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCou
     s.set(p + ".node_fetches", c.node_fetches, "fetches", "node fetches of these rays");
     s.set(p + ".triangle_fetches", c.triangle_fetches, "fetches", "triangle fetches of these rays");
     s.set_real(p + ".ops_per_ray", c.per_ray(c.ops()), "ops/ray", "(TRV + IST ops) / rays");
+    if (!anyhit) continue;
+    s.set(p + ".anyhit_tests", c.anyhit_tests, "tests", "any-hit (alpha) tests of these rays");
+    s.set_real(p + ".anyhit_tests_per_ray", c.per_ray(c.anyhit_tests), "tests/ray",
+               "any-hit (alpha) tests of these rays / their count");
+    s.set(p + ".anyhit_rejects", c.anyhit_rejects, "tests",
+          "alpha tests of these rays whose texel let the ray through");
+    s.set_real(p + ".texel_bytes_per_ray", c.per_ray(c.texel_bytes), "bytes/ray",
+               "texel bytes the any-hit stage read for these rays (before caches) / their count");
+    s.set_real(p + ".uv_bytes_per_ray", c.per_ray(c.uv_bytes), "bytes/ray",
+               "UV-record bytes the any-hit stage read for these rays (before caches) / their count");
   }
+  // The any-hit stage, only where built (a scene with alpha-tested materials).
+  if (!anyhit) return;
+  s.set("anyhit.tests", total.anyhit_tests, "tests",
+        "any-hit (alpha) tests: hits on alpha-tested triangles nearer than the closest committed hit");
+  s.set("anyhit.rejects", total.anyhit_rejects, "tests", "alpha tests whose texel let the ray through");
+  s.set_real("anyhit.tests_per_ray", total.per_ray(total.anyhit_tests), "tests/ray", "anyhit.tests / rays");
+  s.set_real("anyhit.reject_ratio",
+             total.anyhit_tests ? double(total.anyhit_rejects) / double(total.anyhit_tests) : 0, "ratio",
+             "anyhit.rejects / anyhit.tests");
+  s.set("fetches.uv_bytes", total.uv_bytes, "bytes", "UV-record bytes the any-hit stage read (before caches)");
+  s.set("fetches.texel_bytes", total.texel_bytes, "bytes", "texel bytes the any-hit stage read (before caches)");
 }
 
 // What one run of any level leaves to report, per instance of the machine
@@ -129,6 +150,10 @@ struct MachineFigures {
   // time from start to finish in a TRV slot.
   std::array<uint64_t, kRayTypeCount> trv_busy_ps_by_type{}, ist_busy_ps_by_type{}, ray_ps_by_type{};
   std::vector<const CacheModel*> l1_node, l1_triangle, l2;
+  // The any-hit stages and their texture caches (alpha-tested scenes only).
+  bool anyhit = false;
+  std::vector<uint64_t> anyhit_tests;  // per IST unit
+  std::vector<const CacheModel*> l1_texture;
   std::vector<uint64_t> l2_downstream_stall_ps, l2_downstream_refusals;  // per slice (cycle)
   const DramModel* dram = nullptr;
   const Crossbar* noc = nullptr;
@@ -150,7 +175,9 @@ EnergyCounts energy_counts(const MachineFigures& f,
   };
   level(f.l1_node, e.l1_node_pj, e.l1_node_bytes);
   level(f.l1_triangle, e.l1_triangle_pj, e.l1_triangle_bytes);
+  level(f.l1_texture, e.l1_texture_pj, e.l1_texture_bytes);
   level(f.l2, e.l2_pj, e.l2_bytes);
+  e.anyhit_built = f.anyhit;
   e.dram_bytes = dram_bytes;
   e.noc_bytes = f.noc->bytes();
   const DramModel::Counters& d = f.dram->counters();
@@ -184,6 +211,9 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
     report_unit(s, p, UnitKind::Shading, f.shading[c], cycle_ps, f.shaded[c], "rays", "rays shaded");
     s.set(p + ".spawned", f.spawned[c], "rays", "secondary rays spawned");
   }
+  for (uint32_t u = 0; f.anyhit && u < f.anyhit_tests.size(); ++u)
+    s.set(m.ist_name(u) + ".anyhit_tests", f.anyhit_tests[u], "tests",
+          "alpha tests the unit's any-hit stage ran (in its pipeline, beside the triangle tests)");
   for (uint32_t u = 0; u < f.trv_leaves_blocked.size(); ++u)
     s.set(m.trv_name(u) + ".leaves_blocked", f.trv_leaves_blocked[u], "leaves",
           "leaves that found the IST unit's queue full and waited for room");
@@ -224,6 +254,10 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
   report_cache_group(s, "l1_triangle.all", f.l1_triangle);
   for (uint32_t u = 0; u < f.l1_triangle.size(); ++u)
     f.l1_triangle[u]->report(s, m.l1_triangle_name(u));
+  if (f.anyhit) {
+    report_cache_group(s, "l1_texture.all", f.l1_texture);
+    for (uint32_t u = 0; u < f.l1_texture.size(); ++u) f.l1_texture[u]->report(s, m.l1_texture_name(u));
+  }
   // The L2 as a whole under l2.*, each slice under l2.slice<s>.*.
   report_cache_group(s, "l2", f.l2);
   TrafficMatrix filled;
@@ -274,7 +308,12 @@ void report_layout(StatsRegistry& s, const MemoryImage& image, uint64_t triangle
   s.set("memory.triangle_records", f.triangle_records, "records",
         "triangle records (inline storage: one per leaf reference)");
   s.set("memory.triangle_bytes", f.triangle_bytes, "bytes", "bytes of triangle records, padding included");
-  s.set("memory.total_bytes", f.total_bytes(), "bytes", "footprint of the BVH and its triangles");
+  if (image.has_alpha_data()) {
+    s.set("memory.uv_bytes", f.uv_bytes, "bytes", "bytes of UV records (alpha testing)");
+    s.set("memory.texture_bytes", f.texture_bytes, "bytes", "bytes of the alpha textures (RGBA8)");
+  }
+  s.set("memory.total_bytes", f.total_bytes(), "bytes",
+        "footprint of the BVH and its triangles (and UVs and textures, where alpha-tested)");
   s.set_real("memory.bytes_per_triangle", triangles ? double(f.total_bytes()) / double(triangles) : 0,
              "bytes/triangle", "footprint / scene triangles");
 }
@@ -405,6 +444,8 @@ void engine_figures(RayEngine& engine, bool timed, const HardwareConfig& c, uint
   };
   f.trv_passes = engine.trv_passes();
   f.ist_tests = engine.ist_tests();
+  f.anyhit_tests = engine.anyhit_tests();
+  f.anyhit = engine.anyhit_stage();
   f.shaded = engine.shaded();
   f.spawned = engine.spawned();
   if (timed) {
@@ -415,6 +456,14 @@ void engine_figures(RayEngine& engine, bool timed, const HardwareConfig& c, uint
   } else {
     untimed(f.trv_passes, c.trv_nodes_per_cycle, f.trv);
     untimed(f.ist_tests, c.ist_tests_per_cycle, f.ist);
+    // The any-hit stage issues into the IST pipeline: its tests add to the unit's busy time.
+    for (size_t u = 0; f.anyhit && u < f.ist.size(); ++u) {
+      CycleSplit& split = f.ist[u];
+      const uint64_t more = std::min(split[size_t(CycleBucket::Idle)],
+                                     uint64_t(std::llround(double(f.anyhit_tests[u]) / c.anyhit_tests_per_cycle * cycle_ps)));
+      split[size_t(CycleBucket::Busy)] += more;
+      split[size_t(CycleBucket::Idle)] -= more;
+    }
     if (engine.spawned_rays_are_shaded()) untimed(f.shaded, c.shading_rays_per_cycle, f.shading);
   }
   for (size_t t = 0; t < kRayTypeCount; ++t) {
@@ -457,7 +506,7 @@ std::vector<CacheModel*> models_of(const std::vector<std::unique_ptr<Owner>>& ca
 void run_functional(const SimulationRequest& request, const HardwareConfig& config, const Workload& work,
                     const Progress& progress, const std::function<void()>& stop_clock,
                     SimulationResult& result) {
-  FunctionalMemory memory(config);
+  FunctionalMemory memory(config, work.context->image().has_alpha_data());
   attach_traces(request, memory.dram, models_of(memory.l1_node), models_of(memory.l1_triangle),
                 models_of(memory.l2));
   RayEngine engine(config, work, false);
@@ -482,7 +531,9 @@ void run_functional(const SimulationRequest& request, const HardwareConfig& conf
   uint64_t trv_passes = 0;
   for (uint64_t p : engine.trv_passes()) trv_passes += p;
   const double trv_cycles = double(trv_passes) / (m.trv_units() * config.trv_nodes_per_cycle);
-  const double ist_cycles = double(total.ist_ops) / (m.ist_units() * config.ist_tests_per_cycle);
+  // The any-hit stage shares the IST pipeline (zero tests on an opaque scene).
+  const double ist_cycles = double(total.ist_ops) / (m.ist_units() * config.ist_tests_per_cycle) +
+                            double(total.anyhit_tests) / (m.ist_units() * config.anyhit_tests_per_cycle);
   const double dram_cycles = double(dram_bytes) / bytes_per_cycle;
   const double cycles = std::max({trv_cycles, ist_cycles,
                                   double(total.rays) / (m.cores * config.raygen_rays_per_cycle),
@@ -496,6 +547,7 @@ void run_functional(const SimulationRequest& request, const HardwareConfig& conf
   engine_figures(engine, false, config, result.simulated_ps, f);
   for (auto& c : memory.l1_node) f.l1_node.push_back(c.get());
   for (auto& c : memory.l1_triangle) f.l1_triangle.push_back(c.get());
+  for (auto& c : memory.l1_texture) f.l1_texture.push_back(c.get());
   for (auto& c : memory.l2) f.l2.push_back(c.get());
   f.dram = &memory.dram;
   f.noc = &memory.noc;
@@ -537,6 +589,7 @@ void run_lt(const SimulationRequest& request, const HardwareConfig& config, cons
   engine_figures(engine, true, config, result.simulated_ps, f);
   for (auto& c : lt.l1_node) f.l1_node.push_back(&c->model);
   for (auto& c : lt.l1_triangle) f.l1_triangle.push_back(&c->model);
+  for (auto& c : lt.l1_texture) f.l1_texture.push_back(&c->model);
   for (auto& c : lt.l2) f.l2.push_back(&c->model);
   f.dram = &lt.dram->model;
   f.noc = &lt.noc_model;
@@ -590,8 +643,10 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
     u->accounting.finish(system.end_ps);
     f.ist.push_back(u->accounting.ps());
     f.ist_tests.push_back(u->tests);
+    f.anyhit_tests.push_back(u->anyhit_tests);
     add(f.ist_busy_ps_by_type, u->busy_ps_by_type);
   }
+  f.anyhit = work.context->image().has_alpha_data();
   for (auto& sh : system.shading) {
     sh->accounting.finish(system.end_ps);
     f.shading.push_back(sh->accounting.ps());
@@ -601,6 +656,7 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
   for (auto& r : system.raygen) f.raygen_blocked_ps.push_back(r->blocked_ps);
   for (auto& c : system.l1_node) f.l1_node.push_back(&c->model);
   for (auto& c : system.l1_triangle) f.l1_triangle.push_back(&c->model);
+  for (auto& c : system.l1_texture) f.l1_texture.push_back(&c->model);
   for (auto& c : system.l2) {
     f.l2.push_back(&c->model);
     f.l2_downstream_stall_ps.push_back(c->downstream_stall_ps);
@@ -683,7 +739,7 @@ SimulationResult simulate(const SimulationRequest& request) {
   StatsRegistry& s = result.stats;
   const double cycle_ps = config.clock_period_ps();
   report_time(s, config, result.simulated_ps, result.rays, request.frames);
-  report_counts(s, result.per_type);
+  report_counts(s, result.per_type, image.has_alpha_data());
   report_layout(s, image, request.scene->triangle_count());
   report_frames(s, result.frame_history, config, request.fidelity == Fidelity::Functional);
   result.cycles = uint64_t(std::llround(double(result.simulated_ps) / cycle_ps));

@@ -17,6 +17,10 @@
 //              the leaf order first reaches it. Inline: each leaf's records
 //              contiguous, in leaf order, no prim refs (a triangle referenced by
 //              several leaves, as SBVH does, is stored once per leaf).
+//   uvs        (scenes with alpha-tested materials) one UV record per triangle
+//              record, in the same order: three (s, t) pairs, 24 bytes
+//   textures   the alpha textures in the scene's order, RGBA8 (4 bytes a
+//              texel), row-major, each starting on a 64-byte line
 // Within a leaf, triangles are ordered by their geometry
 // (triangle_geometric_less), and the IST unit reads and tests them in that order.
 //
@@ -66,7 +70,8 @@ struct MemoryFootprint {
   uint64_t node_records = 0, node_bytes = 0;
   uint64_t prim_refs = 0, prim_ref_bytes = 0;
   uint64_t triangle_records = 0, triangle_bytes = 0;  // triangle bytes include packing padding
-  uint64_t total_bytes() const { return node_bytes + prim_ref_bytes + triangle_bytes; }
+  uint64_t uv_bytes = 0, texture_bytes = 0;  // alpha testing only
+  uint64_t total_bytes() const { return node_bytes + prim_ref_bytes + triangle_bytes + uv_bytes + texture_bytes; }
 };
 
 class MemoryImage {
@@ -105,6 +110,16 @@ class MemoryImage {
   // Indexed storage: the leaf's prim-ref list (leaf size x 4 bytes).
   uint64_t prim_refs_address(uint32_t leaf) const { return prim_refs_base_ + uint64_t(leaf_first_[leaf]) * 4; }
 
+  // Alpha testing (a scene with alpha textures; has_alpha_data()): the slot's
+  // triangle's UV record, and texel (x, y) of alpha texture `texture`.
+  static constexpr uint32_t kUvRecordBytes = 24, kTexelBytes = 4;
+  bool has_alpha_data() const { return !slot_uv_address_.empty(); }
+  uint64_t uv_address(uint32_t slot) const { return slot_uv_address_[slot]; }
+  uint64_t texel_address(uint32_t texture, uint32_t x, uint32_t y) const {
+    const TexturePlace& t = texture_[texture];
+    return t.base + (uint64_t(y) * t.width + x) * kTexelBytes;
+  }
+
   uint64_t nodes_base() const { return nodes_base_; }
   uint64_t prim_refs_base() const { return prim_refs_base_; }
   uint64_t triangles_base() const { return triangles_base_; }
@@ -125,6 +140,13 @@ class MemoryImage {
   std::vector<uint32_t> leaf_first_;      // per node (leaves only)
   std::vector<uint32_t> slot_triangle_;
   std::vector<uint64_t> slot_address_;
+  std::vector<uint64_t> slot_uv_address_;  // alpha testing only
+  struct TexturePlace {
+    uint64_t base;
+    uint32_t width;
+  };
+  std::vector<TexturePlace> texture_;
+  uint64_t uvs_base_ = 0, textures_base_ = 0;
   MemoryFootprint footprint_;
 };
 

@@ -14,13 +14,19 @@ CycleIst::CycleIst(sc_core::sc_module_name name, const HardwareConfig& config, C
   const uint64_t cycle_ps = uint64_t(std::llround(config.clock_period_ps()));
   interval_ps_ = uint64_t(std::llround(double(cycle_ps) / config.ist_tests_per_cycle));
   latency_ps_ = uint64_t(config.ist_test_latency) * cycle_ps;
+  anyhit_interval_ps_ = uint64_t(std::llround(double(cycle_ps) / config.anyhit_tests_per_cycle));
+  anyhit_latency_ps_ = uint64_t(config.anyhit_test_latency) * cycle_ps;
+  if (system.workload.context->image().has_alpha_data()) {
+    texture_memory = std::make_unique<tlm_utils::simple_initiator_socket<CycleIst>>("texture_memory");
+    texture_memory->register_nb_transport_bw(this, &CycleIst::nb_transport_bw);
+  }
   for (uint32_t j = config.ist_queue_entries; j-- > 0;) free_jobs_.push_back(j);
   memory.register_nb_transport_bw(this, &CycleIst::nb_transport_bw);
 }
 
 void CycleIst::reset_counters() {
   accounting.restart(now_ps());
-  tests = 0;
+  tests = anyhit_tests = 0;
   busy_ps_by_type = {};
 }
 
@@ -43,14 +49,17 @@ void CycleIst::send(uint32_t j, const std::vector<MemoryAccess>& reads, size_t b
   lines_.clear();
   for (size_t i = begin; i < end; ++i) {
     system_.observe(job.traversal->ray(), reads[i]);
-    append_line_accesses(reads[i], type, config_.l1_triangle.line_bytes, lines_);
+    const bool texture = requester_of(reads[i].kind) == Requester::Texture;
+    append_line_accesses(reads[i], type, texture ? config_.l1_texture.line_bytes : config_.l1_triangle.line_bytes,
+                         lines_);
   }
   const uint64_t now = now_ps();
   RayProbe* probe = system_.workload.probe;
   uint32_t request = 0;  // the probed ray's first request of these, + 1
   if (job.probed)
     request = 1 + probe->add(reads.data() + begin, end - begin, lines_.data(), lines_.size(),
-                             config_.l1_node.line_bytes, config_.l1_triangle.line_bytes, now);
+                             config_.l1_node.line_bytes, config_.l1_triangle.line_bytes,
+                             config_.l1_texture.line_bytes, now);
   // The job waits on its L1 from its first read to its last one's data.
   if (!lines_.empty()) accounting.change(now, UnitAccounting::AtL1, +1);
   for (const LineAccess& line : lines_) {
@@ -64,7 +73,8 @@ void CycleIst::send(uint32_t j, const std::vector<MemoryAccess>& reads, size_t b
     ++job.pending;
     tlm::tlm_phase phase = tlm::BEGIN_REQ;
     sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
-    if (memory->nb_transport_fw(*p, phase, delay) == tlm::TLM_COMPLETED) {
+    auto& socket = requester_of(line.kind) == Requester::Texture ? *texture_memory : memory;
+    if (socket->nb_transport_fw(*p, phase, delay) == tlm::TLM_COMPLETED) {
       read_back(j, ext, now + to_ps(delay));
       payloads_.put(p);
     }
@@ -88,6 +98,17 @@ void CycleIst::tests_start(uint32_t j) {
   // The step's data is here: the core tests its triangles (an any-hit ray may
   // stop early), and the tests it made go through the pipeline.
   RayTraversal& trv = *jobs_[j].traversal;
+  if (trv.action() == TraversalAction::AlphaTest) {  // the any-hit stage: one alpha test
+    trv.process();
+    const uint64_t now = now_ps();
+    const uint64_t start = std::max(now, pipe_free_ps_);
+    pipe_free_ps_ = start + anyhit_interval_ps_;
+    accounting.reserve(now, start, pipe_free_ps_);
+    busy_ps_by_type[size_t(trv.ray().type)] += anyhit_interval_ps_;
+    ++anyhit_tests;
+    queue_.push(start + anyhit_latency_ps_, Item{Item::TestDone, j});
+    return;
+  }
   trv.process();
   const uint32_t n = trv.last_step_tests();
   const uint64_t now = now_ps();
@@ -124,8 +145,9 @@ void CycleIst::handle(const Item& item) {
       tests_start(item.job);
       break;
     case Item::TestDone:
-      if (trv.action() == TraversalAction::TestTriangles && trv.leaf_cursor() > 0) {
-        queue_.push(now, Item{Item::Fetch, item.job});  // the leaf's next triangles
+      if ((trv.action() == TraversalAction::TestTriangles && trv.leaf_cursor() > 0) ||
+          trv.action() == TraversalAction::AlphaTest) {
+        queue_.push(now, Item{Item::Fetch, item.job});  // the leaf's next triangles, or an alpha test
         break;
       }
       // Leaf finished: back to TRV, and the entry is free for a waiting leaf.

@@ -34,6 +34,13 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
     l1_triangle.back()->set_level(1, &ist.back()->accounting);
     ist.back()->memory.bind(l1_triangle.back()->target);
     noc->bind_l1(l1_triangle.back()->next, shape.core_of_ist(i));
+    if (ist.back()->texture_memory) {  // a scene with alpha-tested materials
+      l1_texture.push_back(std::make_unique<CycleCache>(module(shape.l1_texture_name(i)).c_str(),
+                                                        cfg.l1_texture, cycle_ps, scheduler));
+      l1_texture.back()->set_level(1, &ist.back()->accounting);
+      ist.back()->texture_memory->bind(l1_texture.back()->target);
+      noc->bind_l1(l1_texture.back()->next, shape.core_of_ist(i));
+    }
   }
   for (uint32_t u = 0; u < shape.trv_units(); ++u) {
     trv.push_back(
@@ -109,6 +116,7 @@ void CycleSystem::reset_counters() {
   for (auto& s : shading) s->reset_counters();
   for (auto& c : l1_node) c->reset_counters();
   for (auto& c : l1_triangle) c->reset_counters();
+  for (auto& c : l1_texture) c->reset_counters();
   for (auto& c : l2) c->reset_counters();
   noc_model.reset_counters();
   dram->model.reset_counters();

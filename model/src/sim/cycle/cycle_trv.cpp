@@ -72,7 +72,8 @@ uint32_t CycleTrv::send(uint32_t s, const std::vector<MemoryAccess>& accesses) {
   uint32_t request = 0;  // the probed ray's first request of these, + 1
   if (slot.probed)
     request = 1 + probe->add(accesses.data(), accesses.size(), lines_.data(), lines_.size(),
-                             config_.l1_node.line_bytes, config_.l1_triangle.line_bytes, now);
+                             config_.l1_node.line_bytes, config_.l1_triangle.line_bytes,
+                             config_.l1_texture.line_bytes, now);
   for (const LineAccess& line : lines_) {
     tlm::tlm_generic_payload* p = payloads_.get();
     AccessExtension& ext = PayloadPool::extension(*p);
@@ -169,6 +170,7 @@ void CycleTrv::next_action(uint32_t s) {
       if (slot.probed) system_.workload.probe->next_step();
       send(s, slot.traversal.step_reads());
       break;
+    case TraversalAction::AlphaTest:  // only ever inside an IST job (the leaf's candidates)
     case TraversalAction::TestTriangles: {
       if (ist_.can_accept() && waiting_for_ist_.empty()) {
         slot.phase = Phase::InIst;

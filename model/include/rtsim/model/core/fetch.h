@@ -9,9 +9,12 @@
 
 namespace rtsim {
 
-enum class AccessKind : uint8_t { Node = 0, PrimRef = 1, Triangle = 2, Stack = 3 };
-constexpr int kAccessKindCount = 4;
-const char* access_kind_name(AccessKind kind);  // "node", "prim_ref", "triangle", "stack"
+// Uv and Texel: the any-hit stage's reads of an alpha-tested triangle's texture
+// coordinates and of the texel they pick (through the texture cache).
+enum class AccessKind : uint8_t { Node = 0, PrimRef = 1, Triangle = 2, Stack = 3, Uv = 4, Texel = 5 };
+constexpr int kAccessKindCount = 6;
+// "node", "prim_ref", "triangle", "stack", "uv", "texel"
+const char* access_kind_name(AccessKind kind);
 
 struct MemoryAccess {
   uint64_t address = 0;  // byte address in the MemoryImage (or the stack spill area)

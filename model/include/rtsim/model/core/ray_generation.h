@@ -46,6 +46,10 @@ struct EffectPlan {
   uint32_t max_depth = 0;
   uint32_t diffuse_bounces = 0;
   bool russian_roulette = false;
+  // The any-hit stage (and its texture caches) is built only for a scene with
+  // alpha-tested materials; the reason says why it is or is not.
+  bool anyhit = false;
+  std::string anyhit_reason;
   bool on(RayType t) const { return enabled[ray_type_index(t)]; }
 };
 EffectPlan plan_effects(const Scene& scene, const EffectSettings& settings);

@@ -35,8 +35,16 @@
 //    first step reads its prim-ref list first, and the triangles, whose addresses
 //    it holds, after it. Any-hit rays stop at their first hit, so they may have
 //    read up to triangles_per_step - 1 triangles they do not test.
+//  - AlphaTest (scenes with alpha-tested materials): a triangle step's hits on
+//    alpha-tested triangles are candidates, not hits. Each candidate nearer than
+//    the closest committed hit goes, nearest first, to the any-hit stage: it reads
+//    the triangle's UV record, then (its address needs the coordinates) the texel
+//    they pick, and tests its alpha (Scene::alpha_sample). An opaque texel commits
+//    the hit; a transparent one lets the ray go on (the next candidate, the rest
+//    of the leaf, the stack). The step's opaque hits commit at once, as before.
 // Closest-hit rays skip popped entries whose entry distance lies beyond the
-// closest hit so far (no fetch, no op). Any-hit rays finish at their first hit.
+// closest hit so far (no fetch, no op). Any-hit rays finish at their first hit
+// (an alpha-tested one: at the first that passes its test).
 //
 // The short stack: the top stack_limit entries live on chip; a push onto a full
 // stack spills the bottom on-chip entry to the ray slot's spill area (a write),
@@ -84,8 +92,14 @@ struct RayCounters {
   uint32_t max_stack_depth = 0;   // most entries on the stack at once
   uint32_t stack_overflows = 0;   // pushes that found the stack full (spilled or dropped)
   uint32_t stack_refills = 0;     // pops that brought a spilled entry back
+  // The any-hit stage (alpha-tested triangles): tests run, and those whose texel
+  // let the ray through; each reads one UV record and one texel.
+  uint32_t anyhit_tests = 0, anyhit_rejects = 0;
+  uint32_t uv_bytes = 0, texel_bytes = 0;
   uint32_t ops() const { return trv_ops + ist_ops; }
-  uint64_t bytes() const { return uint64_t(node_bytes) + prim_ref_bytes + triangle_bytes; }
+  uint64_t bytes() const {
+    return uint64_t(node_bytes) + prim_ref_bytes + triangle_bytes + uv_bytes + texel_bytes;
+  }
 };
 
 // Triangle data as the IST unit sees it: three vertices, 36 bytes.
@@ -163,7 +177,7 @@ class TraversalContext {
   uint32_t root_record_ = 0;
 };
 
-enum class TraversalAction : uint8_t { FetchNode, TestTriangles, Done };
+enum class TraversalAction : uint8_t { FetchNode, TestTriangles, AlphaTest, Done };
 
 class RayTraversal {
  public:
@@ -184,7 +198,8 @@ class RayTraversal {
   // triangles whose addresses a prim-ref list holds). Valid until process().
   const std::vector<MemoryAccess>& step_reads() const;
   uint32_t step_independent_reads() const;
-  // The reads have arrived: one TRV op (FetchNode) or one IST step (TestTriangles).
+  // The reads have arrived: one TRV op (FetchNode), one IST step (TestTriangles)
+  // or one any-hit test (AlphaTest).
   void process();
   // Spill writes and refill reads the last process() caused, in order.
   const std::vector<MemoryAccess>& stack_accesses() const { return stack_accesses_; }
@@ -218,7 +233,16 @@ class RayTraversal {
   void process_triangles();
   void process_child_boxes_node();
   void process_own_box_node();
+  void process_alpha_test();
+  void commit(float t, uint32_t slot, float u, float v);
+  void after_candidates();    // the next candidate to test, or on with the leaf
   uint64_t spill_address(uint32_t position) const;
+
+  // A hit on an alpha-tested triangle waiting for its any-hit test.
+  struct Candidate {
+    float t, u, v;
+    uint32_t slot;
+  };
 
   const TraversalContext* context_;
   const BvhNode* nodes_;
@@ -236,6 +260,9 @@ class RayTraversal {
   uint32_t leaf_slot_ = 0, leaf_count_ = 0, leaf_cursor_ = 0;
   uint32_t last_tests_ = 0, last_box_tests_ = 0;
   std::vector<StackEntry> stack_;
+  std::vector<Candidate> candidates_;  // of the last triangle step, nearest first
+  uint32_t candidate_ = 0;             // the one AlphaTest tests
+  bool alpha_scene_ = false;           // the scene has alpha-tested triangles
   std::vector<MemoryAccess> stack_accesses_;
   mutable std::vector<MemoryAccess> reads_;  // built on demand by step_reads()
 };
@@ -260,6 +287,11 @@ inline const std::vector<MemoryAccess>& RayTraversal::step_reads() const {
     const uint32_t end = std::min(leaf_count_, leaf_cursor_ + context_->config().triangles_per_step);
     for (uint32_t k = leaf_cursor_; k < end; ++k)
       add(image.slot_address(leaf_slot_ + k), image.triangle_bytes(), AccessKind::Triangle);
+  } else if (action_ == TraversalAction::AlphaTest) {
+    const Candidate& c = candidates_[candidate_];
+    add(image.uv_address(c.slot), MemoryImage::kUvRecordBytes, AccessKind::Uv);
+    const AlphaSample s = context_->scene().alpha_sample(image.slot_triangle(c.slot), c.u, c.v);
+    add(image.texel_address(s.texture, s.x, s.y), MemoryImage::kTexelBytes, AccessKind::Texel);
   }
   return reads_;
 }
@@ -271,6 +303,7 @@ inline uint32_t RayTraversal::step_independent_reads() const {
     case TraversalAction::TestTriangles:
       if (leaf_cursor_ == 0 && context_->image().indexed()) return 1;
       return std::min(leaf_count_ - leaf_cursor_, context_->config().triangles_per_step);
+    case TraversalAction::AlphaTest: return 1;  // the texel's address needs the UVs
     case TraversalAction::Done: break;
   }
   return 0;

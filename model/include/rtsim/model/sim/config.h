@@ -97,6 +97,7 @@ struct EnergyConfig {
   double vdd = 0;                   // its supply in volts; 0: the node's nominal
   double box_test_pj = 137;         // one ray-box slab test
   double triangle_test_pj = 721;    // one ray-triangle test
+  double anyhit_test_pj = 173;      // one alpha test: UV interpolation, texel address, compare
   double noc_byte_pj = 4.8;         // one byte across the crossbar (one hop)
 };
 // Energy of one access to an SRAM cache of size_bytes (64-byte lines, one bank):
@@ -156,6 +157,11 @@ struct HardwareConfig {
   uint32_t ist_test_latency = 8;      // cycles per triangle test
   uint32_t ist_triangles_in_flight = 4;  // triangles of a leaf fetched together, then tested in order
   double ist_tests_per_cycle = 1.0;   // throughput per unit
+  // The any-hit stage at the end of each IST unit's pipeline (alpha-tested scenes
+  // only): interpolates the candidate's UVs, reads the texel through the unit's L1
+  // texture cache and compares its alpha with the material's cutoff.
+  uint32_t anyhit_test_latency = 4;   // cycles from the texel's arrival to the verdict
+  double anyhit_tests_per_cycle = 1.0;
 
   // Shading
   uint32_t shading_latency = 16;      // cycles per finished ray
@@ -163,6 +169,7 @@ struct HardwareConfig {
 
   CacheConfig l1_node{16 * 1024, 64, 4, 2, 8};
   CacheConfig l1_triangle{16 * 1024, 64, 4, 2, 8};
+  CacheConfig l1_texture{16 * 1024, 64, 4, 2, 8};  // per IST unit; built for alpha-tested scenes
   // Cores whose L1 caches differ from the rest: `[core.N]` tables of l1_node.* and
   // l1_triangle.* keys on top of the machine's values (line sizes stay the machine's).
   struct CoreCaches {

@@ -36,6 +36,11 @@ struct EnergyCounts {
   // The ray-reordering units, if built: a write and a read of each ray's entry.
   bool reorder_built = false;
   ReorderFigures reorder;
+  // The any-hit stages and their L1 texture caches, if built (alpha-tested scenes);
+  // their tests by type are per_type[t].anyhit_tests.
+  bool anyhit_built = false;
+  double l1_texture_pj = 0;
+  TrafficMatrix l1_texture_bytes;
 };
 
 void report_energy(StatsRegistry& stats, const HardwareConfig& config, const EnergyCounts& counts);

@@ -8,6 +8,8 @@
 //     core<c>            c < cores: raygen, shading,
 //       trv<u>, l1_node<u>        u < trv.units (a TRV unit and its L1 node cache)
 //       ist<i>, l1_triangle<i>    i < ist.units (an IST unit and its L1 triangle cache)
+//       l1_texture<i>             the IST unit's L1 texture cache, which its any-hit
+//                                 stage reads through (alpha-tested scenes only)
 //     noc                a crossbar: every core's L1s to every L2 slice
 //     l2.slice<s>        s < l2.slices, line index mod slices
 //     dram               dram.channels channels behind the slices
@@ -61,6 +63,7 @@ struct MachineShape {
   std::string ist_name(uint32_t ist) const;          // core1.ist0
   std::string l1_node_name(uint32_t trv) const;      // core1.l1_node2
   std::string l1_triangle_name(uint32_t ist) const;  // core1.l1_triangle0
+  std::string l1_texture_name(uint32_t ist) const;   // core1.l1_texture0
   static std::string slice_name(uint32_t slice) { return "l2.slice" + std::to_string(slice); }
   // The same with '_' for '.' (SystemC module names may not hold dots).
   static std::string module_name(const std::string& instance);

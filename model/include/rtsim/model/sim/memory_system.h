@@ -107,7 +107,9 @@ class PayloadPool {
 
 class FunctionalMemory final : public MemoryPort {
  public:
-  explicit FunctionalMemory(const HardwareConfig& config);
+  // texture_caches: build each IST unit's L1 texture cache (a scene with
+  // alpha-tested materials, whose any-hit stage reads through it).
+  explicit FunctionalMemory(const HardwareConfig& config, bool texture_caches = false);
   // Inline (below): the functional level's engine calls it for every line.
   uint64_t access(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps) override {
     return serve<false>(who, unit, access, issue_ps, nullptr);
@@ -121,6 +123,7 @@ class FunctionalMemory final : public MemoryPort {
 
   MachineShape shape;
   std::vector<std::unique_ptr<CacheModel>> l1_node, l1_triangle, l2;  // l2: its slices
+  std::vector<std::unique_ptr<CacheModel>> l1_texture;  // per IST unit; empty unless built
   Crossbar noc;
   DramModel dram;
 
@@ -128,13 +131,14 @@ class FunctionalMemory final : public MemoryPort {
   template <bool kProbed>
   uint64_t serve(Requester who, uint32_t unit, const LineAccess& access, uint64_t issue_ps, ServedBy* served);
   bool to_l2(uint32_t core, const LineAccess& access);  // true: the L2 hit
+  uint32_t texture_line_bytes_ = 64;
 };
 
 template <bool kProbed>
 inline uint64_t FunctionalMemory::serve(Requester who, uint32_t unit, const LineAccess& a,
                                         uint64_t issue_ps, ServedBy* served) {
   const bool trv = who == Requester::Trv;
-  CacheModel& l1 = *(trv ? l1_node : l1_triangle)[unit];
+  CacheModel& l1 = *(trv ? l1_node : who == Requester::Ist ? l1_triangle : l1_texture)[unit];
   const CacheModel::Result r = l1.access(a);
   if constexpr (kProbed) *served = a.write ? ServedBy::L1Write : ServedBy::L1Hit;
   if (!r.writeback.dirty && !r.fetch) return issue_ps;  // a hit: nothing goes to the L2
@@ -237,6 +241,7 @@ class LtSystem : public sc_core::sc_module, public MemoryPort {
   MachineShape shape;
   Crossbar noc_model;
   std::vector<std::unique_ptr<LtCache>> l1_node, l1_triangle, l2;  // l2: its slices
+  std::vector<std::unique_ptr<LtCache>> l1_texture;  // per IST unit, alpha-tested scenes only
   std::unique_ptr<LtCrossbar> noc;
   std::unique_ptr<LtDram> dram;
 
@@ -245,7 +250,7 @@ class LtSystem : public sc_core::sc_module, public MemoryPort {
   void thread();
   HardwareConfig config_;
   std::function<void(uint64_t)> progress_;
-  std::vector<std::unique_ptr<tlm_utils::simple_initiator_socket<LtSystem>>> trv_ports_, ist_ports_;
+  std::vector<std::unique_ptr<tlm_utils::simple_initiator_socket<LtSystem>>> trv_ports_, ist_ports_, texture_ports_;
   tlm_utils::tlm_quantumkeeper quantum_;
   tlm::tlm_generic_payload payload_;  // owns its AccessExtension
   AccessExtension* extension_;

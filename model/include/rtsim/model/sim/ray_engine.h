@@ -47,10 +47,18 @@ class Timeline;
 enum class ServedBy : uint8_t;
 
 // Which unit's L1 an access goes through: nodes and stack entries the TRV
-// unit's node cache, prim refs and triangles the IST unit's triangle cache.
-enum class Requester : uint8_t { Trv = 0, Ist = 1 };
+// unit's node cache, prim refs and triangles the IST unit's triangle cache, UVs
+// and texels (the IST unit's any-hit stage) its texture cache.
+enum class Requester : uint8_t { Trv = 0, Ist = 1, Texture = 2 };
+constexpr int kRequesterCount = 3;
 inline Requester requester_of(AccessKind kind) {
-  return kind == AccessKind::Node || kind == AccessKind::Stack ? Requester::Trv : Requester::Ist;
+  switch (kind) {
+    case AccessKind::Node:
+    case AccessKind::Stack: return Requester::Trv;
+    case AccessKind::Uv:
+    case AccessKind::Texel: return Requester::Texture;
+    default: return Requester::Ist;
+  }
 }
 
 // Where a unit's line accesses go (unit: the global TRV or IST unit number).
@@ -143,6 +151,8 @@ class RayEngine {
   std::vector<UnitAccounting>& shading_accounting() { return shading_account_; }  // per core
   const std::vector<uint64_t>& trv_passes() const { return trv_passes_; }  // per TRV unit
   const std::vector<uint64_t>& ist_tests() const { return ist_tests_; }  // per IST unit
+  const std::vector<uint64_t>& anyhit_tests() const { return anyhit_tests_; }  // per IST unit
+  bool anyhit_stage() const { return workload_->context->image().has_alpha_data(); }  // built
   const std::vector<uint64_t>& shaded() const { return shaded_; }  // per core
   const std::vector<uint64_t>& spawned() const { return spawned_count_; }  // per core
   // By ray type: box-test passes and triangle tests, and (lt) the rays' time from
@@ -162,7 +172,7 @@ class RayEngine {
     bool probed = false;          // the ray --trace-ray follows
     bool watched = false;         // probed, or an observer sees every access (the slow path)
     // lt: the step in flight, and what its TRV unit waits on until it completes
-    // (a node: its reads, then its pipeline; triangles: the IST unit).
+    // (a node: its reads, then its pipeline; triangles or an alpha test: the IST unit).
     enum class Step : uint8_t { None, Node, Triangles } step = Step::None;
     uint64_t start_ps = 0;
     Slot(const TraversalContext& c, uint32_t id, uint32_t u, const MachineShape& m)
@@ -221,7 +231,11 @@ class RayEngine {
   uint64_t done_rays_ = 0;
   std::vector<Ray> spawned_;
   std::vector<LineAccess> lines_;
-  std::array<uint32_t, 2> line_bytes_{64, 64};  // L1 line per requester, asked once per run
+  std::array<uint32_t, kRequesterCount> line_bytes_{64, 64, 64};  // L1 line per requester, asked once per run
+  // The any-hit stage of each IST unit (alpha-tested scenes): it issues into the
+  // unit's pipeline (ist_free_) at its own rate, with its own latency.
+  std::vector<uint64_t> anyhit_tests_;
+  uint64_t anyhit_interval_ps_ = 1, anyhit_latency_ps_ = 0;
   // lt events
   // The lt events: a calendar of one-cycle buckets over a window of cycles, the few
   // events beyond it in a heap. Popped in (time, sequence) order, as a heap would,

@@ -62,10 +62,12 @@ class RayProbe {
   void next_step() { ++step_; }
   // Line requests of one part of a step as the engine sends them (the step's
   // reads, the reads behind a prim-ref list, or its stack traffic): `lines` are
-  // the requests `accesses` make, in L1 lines of node_line_bytes (nodes, stack) and
-  // triangle_line_bytes (prim refs, triangles). Returns the first request's number.
+  // the requests `accesses` make, in L1 lines of node_line_bytes (nodes, stack),
+  // triangle_line_bytes (prim refs, triangles) and texture_line_bytes (UVs, texels).
+  // Returns the first request's number.
   uint32_t add(const MemoryAccess* accesses, size_t count, const LineAccess* lines, size_t line_count,
-               uint32_t node_line_bytes, uint32_t triangle_line_bytes, uint64_t issue_ps);
+               uint32_t node_line_bytes, uint32_t triangle_line_bytes, uint32_t texture_line_bytes,
+               uint64_t issue_ps);
   void served(uint32_t request, ServedBy by, uint64_t done_ps);
   void end(uint64_t t_ps, const RayCounters& counters);
 

@@ -5,7 +5,11 @@
 // triangles behind a prim-ref list once the list is back; then the step's tests
 // enter the test pipeline (throughput tests_per_cycle, latency test_latency).
 // Closest-hit jobs test the whole leaf, any-hit jobs stop at a hit (the core
-// decides). The finished leaf goes back to its TRV slot.
+// decides). A hit on an alpha-tested triangle goes to the unit's any-hit stage:
+// its UV and texel reads go through the unit's L1 texture cache (texture_memory,
+// built only for such scenes), then one alpha test issues into the same pipeline
+// (anyhit.tests_per_cycle, anyhit.test_latency). The finished leaf goes back to
+// its TRV slot.
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/memory_system.h>
@@ -21,6 +25,8 @@ class CycleSystem;
 class CycleIst : public sc_core::sc_module {
  public:
   tlm_utils::simple_initiator_socket<CycleIst> memory;
+  // To the L1 texture cache; null unless the scene has alpha-tested materials.
+  std::unique_ptr<tlm_utils::simple_initiator_socket<CycleIst>> texture_memory;
   CycleIst(sc_core::sc_module_name name, const HardwareConfig& config, CycleSystem& system);
 
   void serve(CycleTrv* trv) { clients_.push_back(trv); }
@@ -30,7 +36,7 @@ class CycleIst : public sc_core::sc_module {
   void reset_counters();
 
   UnitAccounting accounting;
-  uint64_t tests = 0;
+  uint64_t tests = 0, anyhit_tests = 0;
   std::array<uint64_t, kRayTypeCount> busy_ps_by_type{};  // test pipeline time of each type's tests
 
  private:
@@ -60,7 +66,7 @@ class CycleIst : public sc_core::sc_module {
 
   const HardwareConfig& config_;
   CycleSystem& system_;
-  uint64_t interval_ps_, latency_ps_;
+  uint64_t interval_ps_, latency_ps_, anyhit_interval_ps_, anyhit_latency_ps_;
   std::vector<Job> jobs_;
   std::vector<uint32_t> free_jobs_;
   std::vector<CycleTrv*> clients_;

@@ -44,6 +44,7 @@ class CycleSystem : public sc_core::sc_module {
   std::vector<std::unique_ptr<CycleIst>> ist;
   std::vector<std::unique_ptr<CycleShading>> shading;  // per core; empty when nothing needs shading
   std::vector<std::unique_ptr<CycleCache>> l1_node, l1_triangle, l2;  // l2: its slices
+  std::vector<std::unique_ptr<CycleCache>> l1_texture;  // per IST unit, alpha-tested scenes only
   Crossbar noc_model;
   std::unique_ptr<CycleCrossbar> noc;
   std::unique_ptr<CycleDram> dram;
