@@ -64,7 +64,10 @@ nlohmann::json totals_json(const CounterTotals& t, uint64_t all_ops) {
           {"ops", t.ops()},
           {"share_of_ops", all_ops ? double(t.ops()) / double(all_ops) : 0.0},
           {"max_stack_depth", t.max_stack_depth},
-          {"stack_overflows", t.stack_overflows}};
+          {"stack_overflows", t.stack_overflows},
+          {"anyhit_tests_per_ray", t.per_ray(t.anyhit_tests)},
+          {"anyhit_rejects", t.anyhit_rejects},
+          {"texel_bytes_per_ray", t.per_ray(t.texel_bytes)}};
 }
 
 // One cache level as a whole (an L2's slices summed).

@@ -39,6 +39,23 @@ EmbreeScene::EmbreeScene(const Scene& scene, const std::string& device_config) {
   build(scene, device_config, Quality::oracle);
 }
 
+namespace {
+// Alpha-tested triangles: Embree offers each hit on one to this filter, which runs
+// the scene's own alpha test (Scene::alpha_sample, the model's any-hit stage's
+// definition) and rejects the hit where the texel lets the ray through; Embree
+// then goes on looking, for the closest accepted hit or any accepted one.
+void alpha_filter(const RTCFilterFunctionNArguments* args) {
+  const Scene& scene = *static_cast<const Scene*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    if (!scene.alpha_tested(prim)) continue;
+    if (!scene.alpha_sample(prim, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i)).opaque)
+      args->valid[i] = 0;
+  }
+}
+}  // namespace
+
 void EmbreeScene::build(const Scene& scene, const std::string& device_config, Quality quality) {
   if (device_config.empty()) {
     device_ = shared_embree_device();
@@ -73,6 +90,11 @@ void EmbreeScene::build(const Scene& scene, const std::string& device_config, Qu
     ib[3 * i + 0] = scene.triangles[i].x;
     ib[3 * i + 1] = scene.triangles[i].y;
     ib[3 * i + 2] = scene.triangles[i].z;
+  }
+  if (scene.alpha_tested_triangles() > 0) {  // the scene outlives this Embree scene
+    rtcSetGeometryUserData(geom, const_cast<Scene*>(&scene));
+    rtcSetGeometryIntersectFilterFunction(geom, alpha_filter);
+    rtcSetGeometryOccludedFilterFunction(geom, alpha_filter);
   }
   rtcCommitGeometry(geom);
   rtcAttachGeometryByID(scene_, geom, 0);

@@ -156,6 +156,27 @@ std::vector<RefereeCandidate> ExactReferee::candidates(const Ray& ray) const {
     RefereeCandidate c;
     c.prim = tri;
     c.t = t;
+    if (scene_.alpha_tested(tri)) {
+      // The barycentrics of the exact hit point p = o + t d (Embree's convention):
+      // u = ((p - v0) x e2) . n / |n|^2, v = (e1 x (p - v0)) . n / |n|^2.
+      ldvec q[3];
+      for (int k = 0; k < 3; ++k) q[k] = -w[k] + t * ldvec(ray.direction[k]);
+      const ldvec nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+      const ldvec qe2[3] = {q[1] * e2[2] - q[2] * e2[1], q[2] * e2[0] - q[0] * e2[2], q[0] * e2[1] - q[1] * e2[0]};
+      const ldvec e1q[3] = {e1[1] * q[2] - e1[2] * q[1], e1[2] * q[0] - e1[0] * q[2], e1[0] * q[1] - e1[1] * q[0]};
+      const float u = float((qe2[0] * n[0] + qe2[1] * n[1] + qe2[2] * n[2]) / nn);
+      const float v = float((e1q[0] * n[0] + e1q[1] * n[1] + e1q[2] * n[2]) / nn);
+      // The verdict there and a rounding's width around it (float barycentrics of
+      // either side may land that far off): one verdict, or both admissible.
+      constexpr float kSpread = 1e-4f;
+      const bool opaque = scene_.alpha_sample(tri, u, v).opaque;
+      bool same = true;
+      for (const float du : {-kSpread, kSpread})
+        for (const float dv : {-kSpread, kSpread})
+          same = same && scene_.alpha_sample(tri, u + du, v + dv).opaque == opaque;
+      if (same && !opaque) continue;  // the ray passes through a clear texel
+      c.alpha_ambiguous = !same;
+    }
     c.on_boundary = positive + negative < 3;
     c.at_endpoint = std::fabs(t - (ldvec)ray.tmin) <= bound_min ||
                     (finite_max && std::fabs((ldvec)ray.tmax - t) <= bound_max);

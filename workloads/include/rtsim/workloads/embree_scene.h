@@ -1,6 +1,10 @@
 #pragma once
 // Embree is the oracle and the fast ray caster. This wraps one committed Embree
 // scene of a rtsim::Scene's triangles; geometry id 0, primitive id = triangle index.
+// Alpha-tested triangles count only where their texel is opaque (an intersection
+// filter runs Scene::alpha_sample): every user of Embree (the builders' AO and
+// visibility rays, validation, previews) sees the surfaces the accelerator sees.
+// The scene must then outlive the EmbreeScene.
 #include <rtsim/workloads/scene.h>
 
 #include <embree3/rtcore.h>

@@ -20,7 +20,11 @@ struct RefereeCandidate {
   long double t = 0;
   bool on_boundary = false;  // exactly on an edge or a vertex: hit or miss are both admissible
   bool at_endpoint = false;  // t within the distance bound of tmin or tmax: likewise
-  bool required() const { return !on_boundary && !at_endpoint; }
+  // Alpha-tested triangle whose alpha test is decided by where exactly the ray
+  // lands (a texel edge between an opaque and a clear texel lies within rounding of
+  // the hit): hit or miss are both admissible. Hits on clear texels are no candidates.
+  bool alpha_ambiguous = false;
+  bool required() const { return !on_boundary && !at_endpoint && !alpha_ambiguous; }
 };
 
 // One answer to a ray: hit or not, and for a closest hit where and what.
