@@ -241,11 +241,12 @@ void load_workload(Workload& out, const std::string& scene, const std::string& c
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
                    uint64_t shuffle_seed, uint32_t threads, const std::string& node_format,
                    const std::vector<std::string>& build_settings, float ao_cutoff_relative,
-                   bool builder_given, const std::function<void(const Scene&)>& check_scene) {
+                   bool builder_given, const std::function<void(const Scene&)>& check_scene, bool opaque) {
   if (!bvh_file.empty() && !build_settings.empty())
     throw InputError("--build-set", "cannot change a saved tree (--bvh); build it with these settings");
   if (bvh_file.empty()) builder_info(builder, typed_flag("--builder"));  // before the scene is loaded
   out.scene = load_scene(scene.empty() ? default_scene_name() : scene);
+  if (opaque) out.scene.make_opaque();
   if (check_scene) check_scene(out.scene);
   if (shuffle_seed != 0) shuffle_triangles(out.scene, shuffle_seed);
   if (ao_cutoff_relative > 0) out.scene.ao.cutoff_relative = ao_cutoff_relative;

@@ -132,13 +132,15 @@ struct Workload {
 // `builder_given`: --builder was on the command line; with a saved tree it must then
 // name the tree's builder (a tree labelled sah must not carry median's numbers).
 // `check_scene` runs after the scene is loaded, before the tree is built or read.
+// `opaque`: alpha-tested materials become opaque (--opaque): the same geometry
+// without the any-hit stage, for comparison.
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
                    uint64_t shuffle_seed = 0, uint32_t threads = 0,
                    const std::string& node_format = "bvh2-64",
                    const std::vector<std::string>& build_settings = {},
                    float ao_cutoff_relative = -1, bool builder_given = false,
-                   const std::function<void(const Scene&)>& check_scene = {});
+                   const std::function<void(const Scene&)>& check_scene = {}, bool opaque = false);
 
 // ---- the frame: trace's and simulate's image flags, checked alike
 

@@ -41,6 +41,7 @@ struct SimulateOptions {
   uint32_t spp = 1, bounces = 2, frames = 1, diffuse_bounces = 0;
   bool russian_roulette = false;
   uint64_t seed = 1, shuffle_faces = 0;
+  bool opaque = false;
   std::vector<std::string> build_settings;  // --build-set KEY=VALUE
   std::string dram_trace_out, dram_trace_format = "dramsim3", cache_trace_out, cache_trace = "l2";
   bool json = false;
@@ -156,7 +157,7 @@ void run_simulate(const SimulateOptions& o) {
                 request.config.node_format, o.build_settings, float(o.ao_cutoff), o.builder_flag->count() > 0,
                 [&](const Scene& loaded) {
                   if (o.rays_in.empty()) check_frame_memory(loaded, request.settings);
-                });
+                }, o.opaque);
   const Scene& scene = workload.scene;
   const Camera& camera = *workload.camera;
   const BuildParams& params = workload.params;
@@ -228,6 +229,7 @@ void run_simulate(const SimulateOptions& o) {
       {"russian_roulette", o.russian_roulette},
       {"frames", o.frames},
       {"shuffle_faces", o.shuffle_faces},
+      {"opaque", o.opaque},
       {"config_source", o.config},
       {"config_hash", is_file(o.config) ? hex64(file_content_hash(o.config))
                                                                   : std::string("preset")},
@@ -317,6 +319,9 @@ void add_simulate_command(CLI::App& root) {
   cmd->add_option("--frames", opts->frames,
                   "run the same rays this many times back to back, caches warm; stats of the last")
       ->capture_default_str();
+  cmd->add_flag("--opaque", opts->opaque,
+               "treat alpha-tested materials as opaque: the same geometry without the any-hit stage "
+               "and its texture caches (to compare)");
   cmd->add_option("--shuffle-faces", opts->shuffle_faces,
                   "permute the scene's triangles with this seed first (0: no): results must not change");
   cmd->add_option("--node-format", opts->node_format,

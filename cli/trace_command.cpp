@@ -40,6 +40,7 @@ struct TraceOptions {
   uint32_t spp = 1, threads = 0, bounces = 2, stack_limit = 128, diffuse_bounces = 0;
   bool russian_roulette = false;
   uint64_t shuffle_faces = 0;
+  bool opaque = false;
   uint64_t seed = 1;
   float heat_max = 150.0f;
   bool json = false, validate = false;
@@ -301,7 +302,7 @@ void run_trace(const TraceOptions& o) {
   load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, o.threads,
                 hardware.node_format, {}, -1, o.builder_flag->count() > 0, [&](const Scene& loaded) {
                   if (o.rays_in.empty()) check_frame_memory(loaded, settings);
-                });
+                }, o.opaque);
   const Scene& scene = workload.scene;
   const MemoryImage image(scene, workload.bvh, sim::memory_layout_for(hardware));
   TraversalConfig traversal = sim::traversal_config_for(hardware);
@@ -370,6 +371,9 @@ void add_trace_command(CLI::App& root) {
                   "node record format: " + node_format_names("|") +
                       "\n(the tree is built for its width; default: memory.node_format)");
   cmd->add_option("--node-layout", options->node_layout, "deprecated: --node-format")->group("");
+  cmd->add_flag("--opaque", options->opaque,
+               "treat alpha-tested materials as opaque: the same geometry without the any-hit stage "
+               "and its texture caches (to compare)");
   cmd->add_option("--shuffle-faces", options->shuffle_faces,
                   "permute the scene's triangles with this seed first (0: no): results must not change");
   cmd->add_option("--stack-limit", options->stack_limit, "traversal stack entries before overflow")
