@@ -359,8 +359,8 @@ void draw_machine(Timeline& t, const HardwareConfig& config, const MachineShape&
                   const std::vector<UnitAccounting*>& trv, const std::vector<UnitAccounting*>& ist,
                   const std::vector<UnitAccounting*>& shading, RayDispatcher& dispatcher,
                   const std::vector<Cache*>& l1_node,
-                  const std::vector<Cache*>& l1_triangle, const std::vector<Cache*>& l2, Crossbar& noc,
-                  DramModel& dram) {
+                  const std::vector<Cache*>& l1_triangle, const std::vector<Cache*>& l1_texture,
+                  const std::vector<Cache*>& l2, Crossbar& noc, DramModel& dram) {
   const auto core = [](uint32_t c) { return MachineShape::core_name(c); };
   for (uint32_t u = 0; u < trv.size(); ++u) {
     trv[u]->draw_on(&t, t.track(core(m.core_of_trv(u)), m.trv_name(u)));
@@ -369,6 +369,8 @@ void draw_machine(Timeline& t, const HardwareConfig& config, const MachineShape&
   for (uint32_t i = 0; i < ist.size(); ++i) {
     ist[i]->draw_on(&t, t.track(core(m.core_of_ist(i)), m.ist_name(i)));
     l1_triangle[i]->draw_on(&t, t.track(core(m.core_of_ist(i)), m.l1_triangle_name(i) + " misses", true));
+    if (i < l1_texture.size())  // alpha-tested scenes only
+      l1_texture[i]->draw_on(&t, t.track(core(m.core_of_ist(i)), m.l1_texture_name(i) + " misses", true));
   }
   for (uint32_t c = 0; c < shading.size(); ++c) shading[c]->draw_on(&t, t.track(core(c), core(c) + ".shading"));
   std::vector<RayReorderBuffer>& reorder = dispatcher.reorder_units();
@@ -571,7 +573,7 @@ void run_lt(const SimulationRequest& request, const HardwareConfig& config, cons
     };
     draw_machine(*work.timeline, config, lt.shape, pointers(e.trv_accounting()), pointers(e.ist_accounting()),
                  pointers(e.shading_accounting()), e.dispatcher(), caches(lt.l1_node), caches(lt.l1_triangle),
-                 caches(lt.l2),
+                 caches(lt.l1_texture), caches(lt.l2),
                  lt.noc_model, lt.dram->model);
   }
   attach_traces(request, lt.dram->model, models_of(lt.l1_node), models_of(lt.l1_triangle),
@@ -611,7 +613,8 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
       return out;
     };
     draw_machine(*work.timeline, config, system.shape, trv, ist, shading, system.dispatcher, caches(system.l1_node),
-                 caches(system.l1_triangle), caches(system.l2), system.noc_model, system.dram->model);
+                 caches(system.l1_triangle), caches(system.l1_texture), caches(system.l2), system.noc_model,
+                 system.dram->model);
   }
   attach_traces(request, system.dram->model, models_of(system.l1_node), models_of(system.l1_triangle),
                 models_of(system.l2));
