@@ -147,7 +147,10 @@ Scene load_scene_descriptor(const std::filesystem::path& path) {
     // Texture coordinates: per triangle, zero where a mesh has none (only alpha-tested
     // materials sample them, and those come with their mesh's coordinates).
     const bool alpha = override_material.empty() && !mesh.alpha_textures.empty();
-    if ((alpha || !scene.triangle_uvs.empty()) && scene.triangle_uvs.size() < scene.triangles.size())
+    // Decided before the loop: with no triangles yet (the first mesh) the resize
+    // leaves triangle_uvs empty, and an emptiness test would then keep none.
+    const bool keep_uvs = alpha || !scene.triangle_uvs.empty();
+    if (keep_uvs && scene.triangle_uvs.size() < scene.triangles.size())
       scene.triangle_uvs.resize(scene.triangles.size(), TriangleUv{});
     const int32_t texture_base = int32_t(scene.alpha_textures.size());
     if (alpha) scene.alpha_textures.insert(scene.alpha_textures.end(), mesh.alpha_textures.begin(), mesh.alpha_textures.end());
@@ -164,7 +167,7 @@ Scene load_scene_descriptor(const std::filesystem::path& path) {
         material = material_base + mesh.material_ids[i];
       else material = material_index.count("default") ? material_index["default"] : ~0u;
       scene.material_ids.push_back(material);
-      if (!scene.triangle_uvs.empty()) {
+      if (keep_uvs) {
         TriangleUv uv = alpha && i < mesh.triangle_uvs.size() ? mesh.triangle_uvs[i] : TriangleUv{};
         if (flips) std::swap(uv[1], uv[2]);
         scene.triangle_uvs.push_back(uv);
