@@ -17,6 +17,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -35,6 +36,18 @@ constexpr size_t kMaxQuadCameras = 16;
 constexpr int kMaxLibraryDepth = 16;
 
 vec3 mirror_z(const vec3& v) { return vec3(v.x, v.y, -v.z); }
+
+// IEEE 754 binary16 to float: SPM stores texture coordinates as pairs of these.
+float half_to_float(uint16_t h) {
+  const int exponent = (h >> 10) & 0x1f;
+  const uint32_t mantissa = h & 0x3ffu;
+  float magnitude;
+  if (exponent == 0) magnitude = std::ldexp(float(mantissa), -24);  // zero and subnormals
+  else if (exponent == 31) magnitude = mantissa ? std::numeric_limits<float>::quiet_NaN()
+                                                : std::numeric_limits<float>::infinity();
+  else magnitude = std::ldexp(float(mantissa | 0x400u), exponent - 25);  // 1.m x 2^(e - 15)
+  return (h & 0x8000u) ? -magnitude : magnitude;
+}
 
 }  // namespace
 
@@ -92,6 +105,7 @@ Mesh parse_spm(const std::vector<uint8_t>& bytes, const std::string& file_name) 
                                        " materials)");
       const MaterialInfo info = material_info[material];
       const uint32_t base = uint32_t(mesh.vertices.size());
+      std::vector<glm::vec2> buffer_uvs(vertex_count, glm::vec2(0.0f));  // (0, 0) without a texture
       for (uint32_t v = 0; v < vertex_count; ++v) {
         const uint64_t vertex_at = in.offset();
         vec3 p;
@@ -105,7 +119,10 @@ Mesh parse_spm(const std::vector<uint8_t>& bytes, const std::string& file_name) 
         if (has_colour && in.read<uint8_t>(where + " vertex colour id") != 128)
           in.skip(3, where + " vertex colour");
         if (info.uv1) {
-          in.skip(4, where + " vertex uv");
+          // Two IEEE half floats, u then v (what STK's loader reads); one 4-byte read
+          // so that a truncated file names the same field as before.
+          const uint32_t packed = in.read<uint32_t>(where + " vertex uv");
+          buffer_uvs[v] = glm::vec2(half_to_float(uint16_t(packed & 0xffffu)), half_to_float(uint16_t(packed >> 16)));
           if (info.uv2) in.skip(4, where + " vertex uv2");
           if (has_tangent) in.skip(4, where + " vertex tangent");
         }
@@ -124,6 +141,7 @@ Mesh parse_spm(const std::vector<uint8_t>& bytes, const std::string& file_name) 
         }
         std::swap(tri.y, tri.z);  // clockwise after the mirror: make it counter-clockwise
         mesh.triangles.push_back(tri);
+        mesh.triangle_uvs.push_back({buffer_uvs[tri.x - base], buffer_uvs[tri.y - base], buffer_uvs[tri.z - base]});
         mesh.material_ids.push_back(material);
       }
     }

@@ -55,6 +55,8 @@ Mesh load_mesh_assimp_in_process(const std::filesystem::path& path);
 void check_ply_against_header(std::string_view bytes, const std::string& file);
 Mesh parse_q3bsp(const std::vector<uint8_t>& bytes, const std::string& file_name,
                  const MeshOptions& options = {});
+// An SPM's triangle_uvs are its texture 1 coordinates (0, 0 for untextured
+// materials); its materials are opaque (materials.xml lies beside it, see below).
 Mesh parse_spm(const std::vector<uint8_t>& bytes, const std::string& file_name);
 Mesh load_stk_track(const std::filesystem::path& track_dir);
 
