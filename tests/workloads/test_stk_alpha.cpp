@@ -3,6 +3,7 @@
 // channels, and what the track flattener and a scene descriptor make of them. The
 // SPM bytes, the track folder and its PNGs (stb_image_write) are made here.
 #include <rtsim/workloads/alpha_texture.h>
+#include <rtsim/workloads/descriptor.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/mesh_loader.h>
 
@@ -194,6 +195,195 @@ TEST(AlphaTexture, ReadsTheAlphaChannelRowMajorWhateverTheChannelCount) {
   expect_input_error([&] { read_alpha_texture(dir / "junk.png"); }, {"junk.png", "not an image"});
   expect_input_error([&] { read_alpha_texture(dir / "absent.png"); }, {"absent.png"});
   fs::remove_all(dir);
+}
+
+// ---------------------------------------------------------------- STK track
+const std::vector<uint8_t> kTrackLeafAlpha = {0, 64, 128, 255, 10, 20, 200, 40};  // 4 x 2
+const std::vector<uint8_t> kLibraryLeafAlpha = {255, 0};                          // 2 x 1
+const std::vector<uint8_t> kBushAlpha = {1, 2, 3, 4};                              // 2 x 2, grey + alpha
+const std::vector<uint8_t> kGlobalAlpha = {200};                                   // 1 x 1
+
+// data/tracks/t: the track model has an opaque, an alpha-tested (leaf.png), an
+// alpha-blended and an alpha-tested material whose PNG exists nowhere. Library
+// lib1 (mirrored by a negative scale) names its own Bush.png in upper case in
+// its materials.xml, the track's leaf.png (found in the track folder) and a
+// global texture; lib2 has a leaf.png of its own, which wins over the track's.
+fs::path make_track(const fs::path& root) {
+  const fs::path data = root / "data", track = data / "tracks/t";
+  const std::array<std::array<uint16_t, 2>, 3> leaf_uv = {{{kHalfQuarter, kHalfHalf},
+                                                           {kHalfThreeQuarters, kHalfHalf},
+                                                           {kHalfQuarter, kHalfOne}}};
+  write_bytes(track / "ground.spm",
+              make_spm({{"ground.png", ""}, {"leaf.png", ""}, {"blend.png", ""}, {"gone.png", ""}},
+                       {triangle(0, {}), triangle(1, leaf_uv, 2), triangle(2, {}, 4), triangle(3, {}, 6)}));
+  write_text(track / "materials.xml", R"(<?xml version="1.0"?>
+<materials>
+  <material name="ground.png" normal-map="ground_nm.png"/>
+  <material name="leaf.png" shader="alphatest" ignore="Y"/>
+  <material name="blend.png" shader="alphablend"/>
+  <material name="gone.png" shader="alphatest"/>
+</materials>
+)");
+  write_png(track / "leaf.png", 4, 2, 4, kTrackLeafAlpha);
+  write_png(track / "blend.png", 1, 1, 4, {0});
+  write_text(track / "scene.xml", R"(<?xml version="1.0"?>
+<scene>
+  <track model="ground.spm" x="0" y="0" z="0"/>
+  <library name="lib1" xyz="0 0 10" hpr="0 0 0" scale="-1 1 1"/>
+  <library name="lib2" xyz="0 0 20"/>
+</scene>
+)");
+  const fs::path lib1 = data / "library/lib1";
+  write_bytes(lib1 / "bush.spm", make_spm({{"bush.png", ""}, {"leaf.png", ""}, {"global.png", ""}},
+                                          {triangle(0, leaf_uv), triangle(1, leaf_uv, 2), triangle(2, {}, 4)}));
+  write_text(lib1 / "materials.xml", "<materials><material name=\"Bush.png\" shader=\"alphatest\"/></materials>");
+  write_png(lib1 / "bush.png", 2, 2, 2, kBushAlpha);
+  write_text(lib1 / "node.xml", "<scene><object type=\"animation\" model=\"bush.spm\"/></scene>");
+  const fs::path lib2 = data / "library/lib2";
+  write_bytes(lib2 / "leafy.spm", make_spm({{"leaf.png", ""}}, {triangle(0, {})}));
+  write_text(lib2 / "materials.xml", "<materials><material name=\"leaf.png\" shader=\"alphatest\"/></materials>");
+  write_png(lib2 / "leaf.png", 2, 1, 4, kLibraryLeafAlpha);
+  write_text(lib2 / "node.xml", "<scene><object type=\"animation\" model=\"leafy.spm\"/></scene>");
+  write_text(data / "textures/materials.xml",
+             "<materials><material name=\"global.png\" shader=\"alphatest\"/></materials>");
+  write_png(data / "textures/global.png", 1, 1, 4, kGlobalAlpha);
+  return track;
+}
+
+// The material of the triangle whose first vertex lies at `at`.
+const Material& material_at(const Mesh& mesh, const vec3& at, size_t* triangle = nullptr) {
+  for (size_t t = 0; t < mesh.triangles.size(); ++t)
+    if (glm::length(mesh.vertices[mesh.triangles[t].x] - at) < 1e-4f) {
+      if (triangle) *triangle = t;
+      return mesh.materials.at(mesh.material_ids.at(t));
+    }
+  ADD_FAILURE() << "no triangle starts at " << at.x << " " << at.y << " " << at.z;
+  static const Material none;
+  return none;
+}
+
+const AlphaTexture& texture_of(const Mesh& mesh, const Material& m) {
+  static const AlphaTexture none;
+  if (!m.alpha_tested() || size_t(m.alpha_texture) >= mesh.alpha_textures.size()) {
+    ADD_FAILURE() << "material " << m.name << " has no alpha texture";
+    return none;
+  }
+  return mesh.alpha_textures[size_t(m.alpha_texture)];
+}
+
+TEST(StkAlpha, AlphaTestedMaterialsGetTheirTexturesCutoffAndCoordinates) {
+  const fs::path root = temp_dir("track");
+  const fs::path track = make_track(root);
+  const Mesh mesh = load_stk_track(track);
+  ASSERT_EQ(mesh.triangles.size(), 8u);  // track 4, lib1 3, lib2 1
+  ASSERT_EQ(mesh.triangle_uvs.size(), mesh.triangles.size());
+
+  // Opaque: no shader, alphablend (blending is no alpha test), and the PNG found nowhere.
+  EXPECT_FALSE(material_at(mesh, vec3(0, 0, 0)).alpha_tested());
+  EXPECT_FALSE(material_at(mesh, vec3(4, 0, 0)).alpha_tested());
+  EXPECT_FALSE(material_at(mesh, vec3(6, 0, 0)).alpha_tested());
+  EXPECT_EQ(mesh.alpha_textures_missing, 1u);
+
+  size_t leaf_triangle = 0;
+  const Material& leaf = material_at(mesh, vec3(2, 0, 0), &leaf_triangle);
+  EXPECT_EQ(leaf.name, "leaf.png");
+  EXPECT_EQ(leaf.alpha_cutoff, 0.5f);
+  const AlphaTexture& leaf_texture = texture_of(mesh, leaf);
+  EXPECT_EQ(leaf_texture.file, (track / "leaf.png").lexically_normal().string());
+  EXPECT_EQ(leaf_texture.width, 4u);
+  EXPECT_EQ(leaf_texture.height, 2u);
+  EXPECT_EQ(leaf_texture.alpha, kTrackLeafAlpha);
+  // File order (0.25,0.5) (0.75,0.5) (0.25,1); the loader's winding swap takes 1 and 2 along.
+  const glm::vec2 a(0.25f, 0.5f), b(0.75f, 0.5f), c(0.25f, 1.0f);
+  expect_uv(mesh.triangle_uvs[leaf_triangle], {a, c, b});
+
+  // lib1 is mirrored (scale -1 in x): its triangles' vertices, and coordinates, swap back.
+  // Irrlicht x is negated, so the triangle that started at x = 0 starts at x = 0 still.
+  size_t bush_triangle = 0;
+  const Material& bush = material_at(mesh, vec3(0, 0, -10), &bush_triangle);
+  EXPECT_EQ(bush.name, "bush.png");  // Bush.png in materials.xml: names match in any case
+  EXPECT_EQ(texture_of(mesh, bush).alpha, kBushAlpha);
+  expect_uv(mesh.triangle_uvs[bush_triangle], {a, b, c});
+
+  // lib1's leaf.png is the track's (found in the track folder): one material, one texture.
+  const Material& lib1_leaf = material_at(mesh, vec3(-2, 0, -10));
+  EXPECT_EQ(&lib1_leaf, &leaf);
+  EXPECT_EQ(texture_of(mesh, material_at(mesh, vec3(-4, 0, -10))).alpha, kGlobalAlpha);  // data/textures
+
+  // lib2's own leaf.png wins over the track's: the same name, another texture and material.
+  const Material& lib2_leaf = material_at(mesh, vec3(0, 0, -20));
+  EXPECT_EQ(lib2_leaf.name, "leaf.png");
+  EXPECT_NE(lib2_leaf.alpha_texture, leaf.alpha_texture);
+  EXPECT_EQ(texture_of(mesh, lib2_leaf).alpha, kLibraryLeafAlpha);
+  EXPECT_EQ(mesh.alpha_textures.size(), 4u);  // track leaf, bush, global, lib2 leaf: each file once
+
+  // What `scenes fetch` copies: the same four files, none decoded.
+  std::vector<fs::path> files = stk_track_alpha_texture_files(track);
+  std::vector<std::string> names;
+  for (const fs::path& f : files) names.push_back(f.lexically_relative(root / "data").generic_string());
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, std::vector<std::string>({"library/lib1/bush.png", "library/lib2/leaf.png",
+                                             "textures/global.png", "tracks/t/leaf.png"}));
+  fs::remove_all(root);
+}
+
+TEST(StkAlpha, ASceneDescriptorKeepsTheTexturesAndSamplesThem) {
+  const fs::path root = temp_dir("descriptor");
+  make_track(root);
+  write_text(root / "scene.toml", R"(name = "t"
+[[mesh]]
+file = "data/tracks/t/scene.xml"
+[[camera]]
+name = "view1"
+position = [0, 5, 5]
+target = [0, 0, 0]
+)");
+  const Scene scene = load_scene_descriptor(root / "scene.toml");
+  EXPECT_EQ(scene.alpha_textures.size(), 4u);
+  EXPECT_EQ(scene.alpha_tested_triangles(), 5u);  // leaf, bush, lib1 leaf, global, lib2 leaf
+  uint32_t leaf = ~0u;
+  for (uint32_t t = 0; t < scene.triangle_count(); ++t)
+    if (glm::length(scene.vertex(t, 0) - vec3(2, 0, 0)) < 1e-4f) leaf = t;
+  ASSERT_NE(leaf, ~0u);
+  ASSERT_TRUE(scene.alpha_tested(leaf));
+  // The leaf's coordinates are (a, c, b) = (0.25,0.5) (0.25,1) (0.75,0.5): at
+  // barycentrics (u, v) they are (0.25 + 0.5 v, 0.5 + 0.5 u).
+  const AlphaSample cut = scene.alpha_sample(leaf, 0.0f, 0.0f);  // (0.25, 0.5): texel (1, 1), alpha 20
+  EXPECT_EQ(cut.x, 1u);
+  EXPECT_EQ(cut.y, 1u);
+  EXPECT_FALSE(cut.opaque);
+  const AlphaSample kept = scene.alpha_sample(leaf, 0.0f, 0.6f);  // (0.55, 0.5): texel (2, 1), alpha 200
+  EXPECT_EQ(kept.x, 2u);
+  EXPECT_EQ(kept.y, 1u);
+  EXPECT_TRUE(kept.opaque);
+  fs::remove_all(root);
+}
+
+TEST(StkAlpha, MissingOrUndecodableTexturesLeaveMaterialsOpaqueAndAreCounted) {
+  const fs::path root = temp_dir("missing");
+  const fs::path track = make_track(root);
+  fs::remove(track / "leaf.png");  // lib1's leaf.png then is found nowhere either
+  write_text(root / "data/library/lib2/leaf.png", "truncated");
+  const Mesh mesh = load_stk_track(track);
+  EXPECT_FALSE(material_at(mesh, vec3(2, 0, 0)).alpha_tested());
+  EXPECT_FALSE(material_at(mesh, vec3(0, 0, -20)).alpha_tested());
+  // gone.png and leaf.png found nowhere, lib2's leaf.png undecodable.
+  EXPECT_EQ(mesh.alpha_textures_missing, 3u);
+  EXPECT_EQ(mesh.alpha_textures.size(), 2u);  // bush and global are still read
+  EXPECT_EQ(mesh.triangles.size(), 8u);       // the geometry is all there
+
+  // With no texture at all the track is as opaque as before: no coordinates kept.
+  fs::remove(root / "data/library/lib1/bush.png");
+  fs::remove(root / "data/textures/global.png");
+  const Mesh opaque = load_stk_track(track);
+  EXPECT_TRUE(opaque.alpha_textures.empty());
+  EXPECT_TRUE(opaque.triangle_uvs.empty());
+  for (const Material& m : opaque.materials) EXPECT_FALSE(m.alpha_tested());
+  EXPECT_EQ(opaque.alpha_textures_missing, 5u);
+
+  write_text(track / "materials.xml", "<materials><material name=\"x\"</materials>");
+  expect_input_error([&] { load_stk_track(track); }, {(track / "materials.xml").string(), "XML"});
+  fs::remove_all(root);
 }
 
 }  // namespace

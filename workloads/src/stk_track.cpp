@@ -8,6 +8,7 @@
 // Track transforms are composed in Irrlicht space and conjugated by the mirror.
 #include "byte_reader.h"
 
+#include <rtsim/workloads/alpha_texture.h>
 #include <rtsim/workloads/files.h>
 #include <rtsim/workloads/mesh_loader.h>
 #include <rtsim/workloads/numbers.h>
@@ -20,6 +21,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <set>
 #include <sstream>
 
 namespace rtsim {
@@ -167,10 +169,26 @@ bool parse_vec3(const char* text, vec3& out) {
   return bool(in) && is_finite(out);
 }
 
+std::string lower_ascii(std::string s) {
+  for (char& c : s)
+    if (c >= 'A' && c <= 'Z') c = char(c - 'A' + 'a');
+  return s;
+}
+
+// STK's shader names whose foliage we alpha-test. Only "alphatest": "alphablend"
+// (and "additive", "ghost") blend rather than cut, so a ray tracer's any-hit test
+// would not reproduce them, and they stay opaque like every other shader here.
+bool alpha_tested_shader(const std::string& shader) { return shader == "alphatest"; }
+
 class TrackFlattener {
  public:
-  TrackFlattener(std::filesystem::path track_dir) : track_dir_(std::move(track_dir)) {
-    library_dir_ = track_dir_.parent_path().parent_path() / "library";
+  // decode_textures false: find the alpha-tested textures' files but read none
+  // (what `scenes fetch` needs to know which to copy); materials stay opaque.
+  TrackFlattener(std::filesystem::path track_dir, bool decode_textures)
+      : track_dir_(std::move(track_dir)), decode_textures_(decode_textures) {
+    const std::filesystem::path data = track_dir_.parent_path().parent_path();
+    library_dir_ = data / "library";
+    textures_dir_ = data / "textures";
   }
 
   void flatten_scene(const std::filesystem::path& xml_path, const std::filesystem::path& model_dir,
@@ -203,7 +221,8 @@ class TrackFlattener {
         const vec3 at(node.attribute("x").as_float(0), node.attribute("y").as_float(0),
                       node.attribute("z").as_float(0));
         const std::string model = node.attribute("model").as_string();
-        if (!model.empty()) add_model(model_dir / model, parent * glm::translate(glm::mat4(1.0f), at), file);
+        if (!model.empty())
+          add_model(model_dir, model, parent * glm::translate(glm::mat4(1.0f), at), file);
         for (pugi::xml_node child : node.children("static-object"))
           add_object(child, model_dir, parent, lod_models, file);
       } else if (name == "object" || name == "static-object") {
@@ -223,7 +242,14 @@ class TrackFlattener {
     }
   }
 
-  Mesh take() { return std::move(mesh_); }
+  Mesh take() {
+    mesh_.alpha_textures_missing = missing_textures_.size();
+    // Coordinates only matter to alpha tests: an opaque track carries none.
+    if (mesh_.alpha_textures.empty()) mesh_.triangle_uvs = {};
+    return std::move(mesh_);
+  }
+
+  const std::set<std::filesystem::path>& texture_files() const { return texture_files_; }
 
  private:
   // Reverse-only and disabled objects are not part of the normal race.
@@ -259,17 +285,21 @@ class TrackFlattener {
       model = it->second.second;
     }
     if (model.empty()) return;  // billboards, sound and particle emitters: no geometry
-    add_model(model_dir / model, parent * object_transform(node, file), file);
+    add_model(model_dir, model, parent * object_transform(node, file), file);
   }
 
-  void add_model(const std::filesystem::path& path, const glm::mat4& irrlicht_transform,
-                 const std::string& referenced_by) {
+  // A model file of the folder model_dir (a track's or a library object's).
+  void add_model(const std::filesystem::path& model_dir, const std::string& model_name,
+                 const glm::mat4& irrlicht_transform, const std::string& referenced_by) {
+    const std::filesystem::path path = model_dir / model_name;
     auto it = models_.find(path.string());
     if (it == models_.end()) {
       if (!path_exists(path))
         throw InputError(referenced_by, "model '" + path.filename().string() + "' not found (" +
                                             path.string() + ")");
-      it = models_.emplace(path.string(), std::make_unique<Mesh>(load_mesh(path))).first;
+      auto loaded = std::make_unique<Mesh>(load_mesh(path));
+      adopt_alpha_textures(*loaded, model_dir);
+      it = models_.emplace(path.string(), std::move(loaded)).first;
     }
     const Mesh& model = *it->second;
     // Models are already mirrored; M in Irrlicht space acts as F*M*F on mirrored points.
@@ -280,17 +310,23 @@ class TrackFlattener {
     for (const vec3& v : model.vertices) mesh_.vertices.push_back(vec3(transform * glm::vec4(v, 1.0f)));
     std::vector<uint32_t> material_map(model.materials.size());
     for (size_t m = 0; m < model.materials.size(); ++m) {
-      auto found = material_index_.find(model.materials[m].name);
+      // By name and texture: one name can be alpha-tested with different files in
+      // two objects' folders (or alpha-tested in one and opaque in another).
+      const Material& material = model.materials[m];
+      const std::pair<std::string, int32_t> key(material.name, material.alpha_texture);
+      auto found = material_index_.find(key);
       if (found == material_index_.end()) {
-        found = material_index_.emplace(model.materials[m].name, uint32_t(mesh_.materials.size())).first;
-        mesh_.materials.push_back(model.materials[m]);
+        found = material_index_.emplace(key, uint32_t(mesh_.materials.size())).first;
+        mesh_.materials.push_back(material);
       }
       material_map[m] = found->second;
     }
     for (size_t t = 0; t < model.triangles.size(); ++t) {
       uvec3 tri = model.triangles[t] + uvec3(base);
-      if (flips) std::swap(tri.y, tri.z);
+      TriangleUv uv = t < model.triangle_uvs.size() ? model.triangle_uvs[t] : TriangleUv{};
+      if (flips) std::swap(tri.y, tri.z), std::swap(uv[1], uv[2]);  // the coordinates follow their vertices
       mesh_.triangles.push_back(tri);
+      mesh_.triangle_uvs.push_back(uv);
       mesh_.material_ids.push_back(t < model.material_ids.size() && model.material_ids[t] < material_map.size()
                                        ? material_map[model.material_ids[t]]
                                        : 0);
@@ -298,9 +334,115 @@ class TrackFlattener {
     if (mesh_.materials.empty()) mesh_.materials.push_back(Material{});
   }
 
-  std::filesystem::path track_dir_, library_dir_;
+  // Gives a freshly loaded model's materials their alpha textures, as indices into
+  // mesh_.alpha_textures (so models_ hold flattened indices): textures the loader
+  // brought are merged by file; an SPM's materials are looked up in materials.xml.
+  void adopt_alpha_textures(Mesh& model, const std::filesystem::path& model_dir) {
+    std::vector<int32_t> remap(model.alpha_textures.size());
+    for (size_t i = 0; i < model.alpha_textures.size(); ++i) {
+      const std::string file = model.alpha_textures[i].file;
+      int32_t& index = texture_index_.try_emplace(file, -1).first->second;
+      if (index < 0) {  // new, or a file that an earlier lookup could not decode
+        index = int32_t(mesh_.alpha_textures.size());
+        mesh_.alpha_textures.push_back(std::move(model.alpha_textures[i]));
+      }
+      remap[i] = index;
+    }
+    model.alpha_textures.clear();
+    for (Material& m : model.materials) {
+      if (m.alpha_tested()) {
+        m.alpha_texture = size_t(m.alpha_texture) < remap.size() ? remap[size_t(m.alpha_texture)] : -1;
+        continue;
+      }
+      if (!alpha_tested_shader(stk_shader(m.name, model_dir))) continue;
+      const std::filesystem::path file = find_texture(m.name, model_dir);
+      if (file.empty()) {
+        missing_textures_.insert("not found: " + m.name);
+        continue;
+      }
+      m.alpha_texture = texture_index(file);
+      m.alpha_cutoff = 0.5f;  // STK's alpha test discards alpha < 0.5 (sp_alpha_test.frag)
+    }
+  }
+
+  // The folders STK looks a texture up in, first match wins: the object's own
+  // (the track's for the track's models), the track's, then the global textures
+  // (data/textures/deprecated is pushed after data/textures, so searched first).
+  // The skybox and GUI icon folders, also on STK's path, hold no foliage.
+  std::vector<std::filesystem::path> search_folders(const std::filesystem::path& model_dir) const {
+    std::vector<std::filesystem::path> folders{model_dir};
+    if (model_dir != track_dir_) folders.push_back(track_dir_);
+    folders.push_back(textures_dir_ / "deprecated");
+    folders.push_back(textures_dir_);
+    return folders;
+  }
+
+  // The shader of the material STK gives texture `name` (matched in lower case,
+  // as STK does), from the first materials.xml that lists it; "" if none does.
+  std::string stk_shader(const std::string& name, const std::filesystem::path& model_dir) {
+    const std::string key = lower_ascii(std::filesystem::path(name).filename().string());
+    for (const std::filesystem::path& folder : search_folders(model_dir)) {
+      const auto& table = materials_in(folder);
+      if (const auto it = table.find(key); it != table.end()) return it->second;
+    }
+    return "";
+  }
+
+  // name (lower case) -> shader of a folder's materials.xml; empty without one.
+  const std::map<std::string, std::string>& materials_in(const std::filesystem::path& folder) {
+    auto it = material_files_.find(folder.string());
+    if (it != material_files_.end()) return it->second;
+    std::map<std::string, std::string> table;
+    const std::filesystem::path file = folder / "materials.xml";
+    if (is_file(file)) {
+      pugi::xml_document doc;
+      const std::string xml = read_input_file(file, kMaxConfigFileBytes);
+      const pugi::xml_parse_result parsed = doc.load_buffer(xml.data(), xml.size());
+      if (!parsed)
+        throw InputError(file.string(), "XML error at byte " + std::to_string(parsed.offset) + ": " +
+                                            parsed.description());
+      // A name listed twice: the later entry wins, as STK searches its list backwards.
+      for (pugi::xml_node m : doc.child("materials").children("material"))
+        if (const std::string name = m.attribute("name").as_string(); !name.empty())
+          table[lower_ascii(name)] = m.attribute("shader").as_string();
+    }
+    return material_files_.emplace(folder.string(), std::move(table)).first->second;
+  }
+
+  std::filesystem::path find_texture(const std::string& name, const std::filesystem::path& model_dir) const {
+    const std::filesystem::path file_name = std::filesystem::path(name).filename();
+    if (file_name.empty()) return {};
+    for (const std::filesystem::path& folder : search_folders(model_dir))
+      if (is_file(folder / file_name)) return (folder / file_name).lexically_normal();
+    return {};
+  }
+
+  // The texture read from `file` (once per file), or -1 if it cannot be read or
+  // decoded: then the material stays opaque and the file is counted as missing.
+  int32_t texture_index(const std::filesystem::path& file) {
+    texture_files_.insert(file);
+    if (!decode_textures_) return -1;
+    if (const auto it = texture_index_.find(file.string()); it != texture_index_.end()) return it->second;
+    int32_t index = -1;
+    try {
+      AlphaTexture texture = read_alpha_texture(file);
+      index = int32_t(mesh_.alpha_textures.size());
+      mesh_.alpha_textures.push_back(std::move(texture));
+    } catch (const InputError&) {
+      missing_textures_.insert(file.string());
+    }
+    texture_index_.emplace(file.string(), index);
+    return index;
+  }
+
+  std::filesystem::path track_dir_, library_dir_, textures_dir_;
+  bool decode_textures_;
   std::map<std::string, std::unique_ptr<Mesh>> models_;
-  std::map<std::string, uint32_t> material_index_;
+  std::map<std::pair<std::string, int32_t>, uint32_t> material_index_;
+  std::map<std::string, std::map<std::string, std::string>> material_files_;  // by folder
+  std::map<std::string, int32_t> texture_index_;  // file -> mesh_.alpha_textures index, -1 unreadable
+  std::set<std::string> missing_textures_;  // files unreadable, or names found nowhere
+  std::set<std::filesystem::path> texture_files_;  // every alpha-tested texture file found
   Mesh mesh_;
 };
 
@@ -361,12 +503,21 @@ std::vector<Camera> quad_cameras(const std::filesystem::path& quads_path) {
 Mesh load_stk_track(const std::filesystem::path& track_dir) {
   const std::filesystem::path scene_xml = track_dir / "scene.xml";
   if (!path_exists(scene_xml)) throw InputError(track_dir.string(), "no scene.xml in this folder");
-  TrackFlattener flattener(track_dir);
+  TrackFlattener flattener(track_dir, true);
   flattener.flatten_scene(scene_xml, track_dir, glm::mat4(1.0f), 0);
   Mesh mesh = flattener.take();
   if (mesh.triangles.empty()) throw InputError(scene_xml.string(), "the track has no geometry");
   mesh.suggested_cameras = quad_cameras(track_dir / "quads.xml");
   return mesh;
+}
+
+std::vector<std::filesystem::path> stk_track_alpha_texture_files(const std::filesystem::path& track_dir) {
+  const std::filesystem::path scene_xml = track_dir / "scene.xml";
+  if (!path_exists(scene_xml)) throw InputError(track_dir.string(), "no scene.xml in this folder");
+  TrackFlattener flattener(track_dir, false);
+  flattener.flatten_scene(scene_xml, track_dir, glm::mat4(1.0f), 0);
+  const auto& files = flattener.texture_files();
+  return {files.begin(), files.end()};
 }
 
 }  // namespace rtsim

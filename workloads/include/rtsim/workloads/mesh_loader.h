@@ -28,6 +28,9 @@ struct Mesh {
   // clip, caulk, triggers, which no renderer draws).
   uint64_t dropped_sky_faces = 0;
   uint64_t dropped_tool_faces = 0;
+  // SuperTuxKart tracks: alpha-tested textures (by file, or by name where no folder
+  // has one) that could not be found or decoded; their materials stay opaque.
+  uint64_t alpha_textures_missing = 0;
 };
 
 struct MeshOptions {
@@ -58,7 +61,13 @@ Mesh parse_q3bsp(const std::vector<uint8_t>& bytes, const std::string& file_name
 // An SPM's triangle_uvs are its texture 1 coordinates (0, 0 for untextured
 // materials); its materials are opaque (materials.xml lies beside it, see below).
 Mesh parse_spm(const std::vector<uint8_t>& bytes, const std::string& file_name);
+// A track folder's scene.xml flattened. Materials whose SuperTuxKart shader is
+// "alphatest" (materials.xml of the object's folder, the track's, data/textures')
+// get their texture's alpha channel from the first of those folders holding it.
 Mesh load_stk_track(const std::filesystem::path& track_dir);
+// The texture files load_stk_track would read for the track's alpha-tested
+// materials (found, not decoded): what `scenes fetch` copies besides the meshes.
+std::vector<std::filesystem::path> stk_track_alpha_texture_files(const std::filesystem::path& track_dir);
 
 std::vector<uint8_t> read_file_bytes(const std::filesystem::path& path);  // InputError if unreadable
 // Reads one member of a zip archive (libzip). InputError names archive and member.
