@@ -255,7 +255,10 @@ void extract_zip_member(const fs::path& archive, const std::string& member, cons
 }
 
 // A SuperTuxKart track needs its own scene.xml, quads.xml and meshes, and every
-// library's node.xml and meshes (textures are not needed for geometry).
+// library's node.xml and meshes; textures are not needed for geometry, except
+// those of alpha-tested materials (foliage cut out by its alpha channel): the
+// global materials.xml files and the few textures the loader would read are copied
+// to the same places, and no other texture.
 void copy_stk_track(const fs::path& data, const std::string& track, const fs::path& stage) {
   auto copy_geometry = [](const fs::path& from, const fs::path& to) {
     for (const auto& entry : fs::directory_iterator(from)) {
@@ -268,6 +271,20 @@ void copy_stk_track(const fs::path& data, const std::string& track, const fs::pa
   copy_geometry(data / "tracks" / track, stage / "data/tracks" / track);
   for (const auto& library : fs::directory_iterator(data / "library"))
     if (library.is_directory()) copy_geometry(library.path(), stage / "data/library" / library.path().filename());
+  for (const char* global : {"textures/materials.xml", "textures/deprecated/materials.xml"})
+    if (is_file(data / global)) copy_file_to(data / global, stage / "data" / global);
+  // The loader's own lookup, run on the package's tree, names the files to copy.
+  const std::vector<fs::path> textures = stk_track_alpha_texture_files(data / "tracks" / track);
+  uint64_t bytes = 0;
+  for (const fs::path& texture : textures) {
+    const fs::path relative = texture.lexically_relative(data.lexically_normal());
+    if (relative.empty() || *relative.begin() == "..")
+      throw std::runtime_error("texture " + texture.string() + " lies outside " + data.string());
+    copy_file_to(texture, stage / "data" / relative);
+    bytes += fs::file_size(texture);
+  }
+  say("copied " + std::to_string(textures.size()) + " alpha-tested textures (" +
+      std::to_string(bytes >> 10) + " KiB)");
 }
 
 glm::mat4 descriptor_rotation(const vec3& degrees) {  // Rz * Ry * Rx, as the descriptor reader
