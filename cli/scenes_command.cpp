@@ -46,6 +46,13 @@ nlohmann::json scene_summary(const Scene& scene, double load_seconds) {
                               {"reflectance", m.reflectance},
                               {"transmittance", m.transmittance},
                               {"ior", m.ior}});
+  size_t alpha_materials = 0, alpha_texels = 0;
+  for (const Material& m : scene.materials) alpha_materials += m.alpha_tested();
+  for (const AlphaTexture& t : scene.alpha_textures) alpha_texels += t.alpha.size();
+  j["alpha"] = {{"materials", alpha_materials},
+                {"textures", scene.alpha_textures.size()},
+                {"texels", alpha_texels},
+                {"triangles", scene.alpha_tested_triangles()}};
   j["lights"] = nlohmann::json::array();
   j["cameras"] = nlohmann::json::array();
   for (const Light& l : scene.lights)
@@ -85,6 +92,10 @@ void print_summary(const nlohmann::json& j) {
   std::printf("bounds       %s (diagonal %.4g)\n", j["bounds"].dump().c_str(),
               j["diagonal"].get<double>());
   std::printf("materials    %zu, lights %zu\n", j["materials"].size(), j["lights"].size());
+  if (const auto& a = j["alpha"]; a["materials"].get<uint64_t>())
+    std::printf("alpha test   %llu materials, %llu textures (%.1f MiB of alpha), %llu triangles\n",
+                a["materials"].get<unsigned long long>(), a["textures"].get<unsigned long long>(),
+                double(a["texels"].get<uint64_t>()) / (1 << 20), a["triangles"].get<unsigned long long>());
   if (j["cameras"].empty()) std::printf("camera       none\n");
   for (const auto& c : j["cameras"])
     std::printf("camera       %-10s at %s looking at %s\n", c["name"].get<std::string>().c_str(),
