@@ -175,10 +175,12 @@ std::string lower_ascii(std::string s) {
   return s;
 }
 
-// STK's shader names whose foliage we alpha-test. Only "alphatest": "alphablend"
-// (and "additive", "ghost") blend rather than cut, so a ray tracer's any-hit test
-// would not reproduce them, and they stay opaque like every other shader here.
-bool alpha_tested_shader(const std::string& shader) { return shader == "alphatest"; }
+// STK's shader names whose foliage we alpha-test: "alphatest", and "grass" (its
+// fragment shader discards below alpha 0.5 as alphatest's does; it only adds wind,
+// which a still frame has not). "alphablend" (and "additive", "ghost") blend rather
+// than cut, so a ray tracer's any-hit test would not reproduce them, and they stay
+// opaque like every other shader here.
+bool alpha_tested_shader(const std::string& shader) { return shader == "alphatest" || shader == "grass"; }
 
 class TrackFlattener {
  public:
