@@ -33,7 +33,8 @@ constexpr size_t kMaxValuesPerAxis = 10000;
 constexpr size_t kMaxJobs = 200000;
 
 const char* const kAxes[] = {"scene",      "builder", "node_format", "camera", "preset", "fidelity", "seed",
-                             "resolution", "ao",      "ao_cutoff",   "frames", "diffuse_bounces"};
+                             "resolution", "ao",      "ao_cutoff",   "frames", "diffuse_bounces",
+                             "opaque"};
 
 // One axis value as the text passed on the command line. Integers stay integers;
 // reals use the shortest text that reads back to the same double.
@@ -268,6 +269,7 @@ std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir
   job.ao_cutoff = ao_cutoff;
   job.frames = frames > 0 ? uint32_t(frames) : 0;
   job.diffuse_bounces = diffuse_bounces;
+  job.opaque = opaque;
   job.node_format = node_format;
   // With a hardware file the overrides are in it.
   if (hardware_file.empty()) job.overrides.assign(overrides.begin(), overrides.end());
@@ -391,6 +393,7 @@ std::string job_label(const CampaignJob& job) {
   if (!job.ao_cutoff.empty()) label += "/aocut" + job.ao_cutoff;
   if (job.frames > 0) label += "/frames" + std::to_string(job.frames);
   if (job.diffuse_bounces >= 0) label += "/diffuse" + std::to_string(job.diffuse_bounces);
+  if (job.opaque) label += "/opaque";
   if (!job.node_format.empty()) label += "/" + job.node_format;
   for (const auto& [k, v] : job.overrides) label += "/" + k + "=" + v;
   for (const auto& [k, v] : job.build_settings) label += "/build." + k + "=" + v;
@@ -571,6 +574,10 @@ void JobExpander::apply_value(Draft& draft, const std::string& name, const json&
     job.frames = integer_in(v, 1, 1000, w, "frames");
   } else if (name == "diffuse_bounces") {
     job.diffuse_bounces = integer_in(v, 0, kMaxDiffuseBounces, w, "diffuse bounces");
+  } else if (name == "opaque") {
+    if (!v.is_boolean()) throw InputError(w, "opaque must be true or false (alpha-tested materials as opaque)");
+    job.opaque = v.get<bool>();
+    if (!job.opaque) draft.resolved.erase(name);  // the default: the plain run, its key unchanged
   }
 }
 

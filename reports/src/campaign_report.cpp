@@ -80,6 +80,7 @@ const WorkloadAxis kWorkloadAxes[] = {{"camera", "", nullptr},
                                       {"ao_cutoff", "x scene diagonal", nullptr},
                                       {"frames", "frames", 1},
                                       {"diffuse_bounces", "bounces", 0},
+                                      {"opaque", "", false},
                                       {"resolution", "pixels", nullptr}};
 
 std::string hardware_unit(const std::string& key) {

@@ -256,6 +256,23 @@ TEST(CampaignExpand, DiffuseBouncesAreAnAxisThatLeavesOldKeysAlone) {
   EXPECT_NE(error_of(plain + "diffuse_bounces = 1.5\n").find("integers"), std::string::npos);
 }
 
+// Alpha-tested materials as opaque is an axis: true passes --opaque and is its own
+// job; false is the plain run (the same key as a campaign without the axis).
+TEST(CampaignExpand, OpaqueIsAnAxisWhoseFalseIsThePlainRun) {
+  const std::string plain = "[sweep]\nscene = \"foliage_alpha\"\nbuilder = \"sah\"\n";
+  const Campaign before = parse(plain);
+  const Campaign c = parse(plain + "opaque = [false, true]\n");
+  ASSERT_EQ(c.jobs.size(), 2u);
+  for (const CampaignJob& j : c.jobs) {
+    const auto args = j.simulate_arguments("/o");
+    EXPECT_EQ(std::count(args.begin(), args.end(), "--opaque"), j.opaque ? 1 : 0) << j.label;
+    EXPECT_EQ(j.label.find("/opaque") != std::string::npos, j.opaque) << j.label;
+    if (j.opaque) EXPECT_NE(j.key, before.jobs[0].key);
+    else EXPECT_EQ(j.key, before.jobs[0].key);
+  }
+  EXPECT_NE(error_of(plain + "opaque = 1\n").find("true or false"), std::string::npos);
+}
+
 TEST(CampaignExpand, BadInputNamesFileAndKey) {
   EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\nbuildr = \"x\"\n")
                 .find("key 'sweep.buildr': is unknown"),
