@@ -30,7 +30,7 @@ void add_claim_command(CLI::App& root) {
   cmd->footer(
       "Runs a campaign (OUT/claim-campaign.json; resumable, and `rtsim campaign emit --slurm` takes the\n"
       "same file): scenes x cameras x builders x seeds, each factor (leaf size, T2/T1, node format, AO\n"
-      "length, diffuse bounces) varied alone around the defaults; diffuse rays are a ray mix of their\n"
+      "length, diffuse bounces, alpha testing) varied alone around the defaults; diffuse rays are a ray mix of their\n"
       "own. Writes claim.{md,json,csv} and a heatmap per relation.\n"
       "docs/claim.md explains the design and the verdicts.");
   cmd->add_option("--scenes", o->claim.scenes,

@@ -180,6 +180,7 @@ Condition job_condition(const CampaignJob& job, const ClaimOptions& o) {
     else if (f.name == "format") c[f.name] = job.node_format;
     else if (f.name == "cutoff") c[f.name] = job.ao_cutoff;
     else if (f.name == "diffuse") c[f.name] = std::to_string(std::max<int64_t>(0, job.diffuse_bounces));
+    else if (f.name == "alpha") c[f.name] = job.opaque ? "off" : "on";
   }
   c[kTrees] = setting("rdh_cameras") == "none" ? "surfaces" : job.tree_camera() != job.camera ? "unseen" : "";
   return c;
@@ -297,6 +298,13 @@ std::string claim_campaign_json(const ClaimOptions& o) {
                   {"seed", seeds}};
   json groups = json::array();
   const std::vector<Condition> conditions = star_conditions(o);
+  // The scenes alpha testing changes (loaded once each, from the scene cache): the
+  // others would run the alpha=off condition as the default's workload again.
+  std::vector<std::string> alpha_scenes;
+  for (const ClaimFactor& f : o.factors)
+    if (f.name == "alpha")
+      for (const std::string& scene : claim_scenes(o))
+        if (load_scene(scene).alpha_tested_triangles() > 0) alpha_scenes.push_back(scene);
   // One group per condition (and per traced camera where the trees are built for
   // another); a second one for the ray-distribution builders' own sampling setting.
   struct Part {
@@ -334,6 +342,11 @@ std::string claim_campaign_json(const ClaimOptions& o) {
     if (c.count("cutoff")) g["ao_cutoff"] = number_text(c.at("cutoff"));
     // No bounces is the sweep's own workload: the same jobs as before the axis existed.
     if (c.count("diffuse") && c.at("diffuse") != "0") g["diffuse_bounces"] = number_text(c.at("diffuse"));
+    if (c.count("alpha") && c.at("alpha") == "off") {
+      if (alpha_scenes.empty()) continue;  // no scene has alpha-tested materials
+      g["opaque"] = true;
+      g["scene"] = alpha_scenes;
+    }
     json build = json::object();
     if (c.count("leaf")) build["max_leaf_size"] = number_text(c.at("leaf"));
     if (c.count("t2")) build["t2"] = number_text(c.at("t2"));
@@ -419,7 +432,8 @@ ClaimFigures collect_figures(const ClaimOptions& o, const Campaign& campaign, co
     const Condition c = job_condition(job, o);
     bool comparable = true;
     for (const ClaimFactor& fac : o.factors)
-      if ((fac.name == "t2" || fac.name == "cutoff" || fac.name == "diffuse") && c.at(fac.name) != fac.centre)
+      if ((fac.name == "t2" || fac.name == "cutoff" || fac.name == "diffuse" || fac.name == "alpha") &&
+          c.at(fac.name) != fac.centre)
         comparable = false;
     if (c.at(kTrees) != "") comparable = false;  // the default's trees, or costs for rays not traced
     if (comparable) out.tree_points[{job.scene, job.camera, std::to_string(job.seed)}].push_back(p);

@@ -4,6 +4,7 @@
 #include "integration/cli_runner.h"
 #include "integration/test_campaign_fake.h"
 
+#include <rtsim/reports/campaign.h>
 #include <rtsim/reports/claim.h>
 
 #include <gtest/gtest.h>
@@ -102,6 +103,36 @@ TEST(Claim, QuickMapGivesVerdictsThatFollowFromTheIntervalsAndResumes) {
   const json again = read_json(dir / "out" / "claim.json");
   EXPECT_EQ(again.at("jobs_run_now").get<size_t>(), 0u);  // resumed: nothing ran twice
   EXPECT_EQ(again.at("cells"), claim.at("cells"));
+}
+
+// The alpha factor's off level runs --opaque, and only on the scenes it changes.
+TEST(Claim, TheAlphaFactorRunsOpaqueOnlyWhereMaterialsAreAlphaTested) {
+  ClaimOptions o;
+  o.scenes = {"cornell", "foliage_alpha"};
+  o.factors = {{"leaf", {"4", "8"}, "4"}, {"alpha", {"on", "off"}, "on"}};
+  const json doc = json::parse(claim_campaign_json(o));
+  size_t opaque_groups = 0;
+  for (const json& g : doc.at("group")) {
+    if (!g.contains("opaque")) continue;
+    ++opaque_groups;
+    EXPECT_TRUE(g.at("opaque").get<bool>());
+    EXPECT_EQ(g.at("scene"), json::array({"foliage_alpha"})) << g.dump();
+    EXPECT_NE(g.at("name").get<std::string>().find("alpha=off"), std::string::npos) << g.dump();
+  }
+  EXPECT_GE(opaque_groups, 1u);
+  // The campaign it makes expands: the off level's jobs are foliage_alpha's, with --opaque.
+  const Campaign campaign = parse_campaign(doc, "/tmp/claim-alpha.json", "test");
+  size_t opaque_jobs = 0;
+  for (const CampaignJob& j : campaign.jobs) {
+    if (!j.opaque) continue;
+    ++opaque_jobs;
+    EXPECT_EQ(j.scene, "foliage_alpha");
+    const auto args = j.simulate_arguments("/o");
+    EXPECT_EQ(std::count(args.begin(), args.end(), "--opaque"), 1);
+  }
+  EXPECT_GT(opaque_jobs, 0u);
+  o.scenes = {"cornell"};  // nothing alpha-tested: no off level at all
+  for (const json& g : json::parse(claim_campaign_json(o)).at("group")) EXPECT_FALSE(g.contains("opaque")) << g.dump();
 }
 
 TEST(Claim, BadInputIsNamed) {

@@ -2,7 +2,7 @@
 // rtsim claim: where the patent's claim holds. A campaign (resumable, and the same
 // file `rtsim campaign emit --slurm` takes) over scenes x cameras x builders x
 // seeds, in a star design: every factor (leaf size, T2/T1, node format, AO ray
-// length, diffuse bounces) is varied alone around the defaults, so the map costs the sum of the
+// length, diffuse bounces, alpha testing) is varied alone around the defaults, so the map costs the sum of the
 // factors' levels, not their product. Per patent relation (AO-BVH < SAH, < SBVH,
 // < OSAH, every tree < median) and per condition, metric (TRV+IST ops, node
 // fetches, DRAM bytes, per ray) and ray mix (primary, AO, diffuse, all rays): the mean
@@ -22,7 +22,7 @@ namespace rtsim {
 
 // One factor of the star design: its levels and its default (the centre).
 struct ClaimFactor {
-  std::string name;                 // leaf | t2 | format | cutoff | diffuse
+  std::string name;                 // leaf | t2 | format | cutoff | diffuse | alpha
   std::vector<std::string> levels;  // value texts, the default among them
   std::string centre;
 };
@@ -42,6 +42,9 @@ struct ClaimOptions {
       {"format", {"bvh2-64", "bvh4-128", "bvh8-80q"}, "bvh2-64"},
       {"cutoff", {"0.02", "0.05", "0.2"}, "0.05"},  // AO ray length x scene diagonal
       {"diffuse", {"0", "1", "3"}, "0"},  // diffuse path bounces per primary hit (a ray mix of its own)
+      // Alpha-tested materials tested (on) or opaque (off, simulate --opaque): only the
+      // scenes that have alpha-tested materials run the off level.
+      {"alpha", {"on", "off"}, "on"},
   };
   uint32_t replicates = 5;  // seeds 1..N: each replicate's workload and builder seed
   std::string resolution = "64x64";
