@@ -150,6 +150,9 @@ void add_table1_command(CLI::App& root) {
                   "have their own column)")
       ->check(CLI::Range(0u, kMaxDiffuseBounces))
       ->capture_default_str();
+  cmd->add_flag("--opaque", o->table.opaque,
+                "Treat alpha-tested materials as opaque (the same geometry without the any-hit stage; trees "
+                "built for it)");
   cmd->add_option("--seed", o->table.seed, "Seed of every random choice (rays and builders)")
       ->capture_default_str();
   cmd->add_option("--config", o->table.hardware, "Hardware preset or TOML for the cycle-level runs")

@@ -296,6 +296,7 @@ void write_table1(const Table1& table) {
   json["resolution"] = {table.options.width, table.options.height};
   json["ao_samples"] = table.ao_samples;
   json["diffuse_bounces"] = table.options.diffuse_bounces;
+  json["opaque"] = table.options.opaque;
   json["ao_length"] = table.ao_length;
   json["hardware"] = table.options.hardware;
   json["node_format"] = table.options.node_format;

@@ -30,6 +30,9 @@ struct Table1Options {
   // Diffuse path bounces per primary hit (0: none, the patent's workload): their rays
   // count in the combined figures and have their own column, all depths together.
   uint32_t diffuse_bounces = 0;
+  // Alpha-tested materials as opaque (--opaque): the same geometry without the
+  // any-hit stage, trees built for it.
+  bool opaque = false;
   uint64_t seed = 1;
   std::string hardware = "mobile";  // preset or TOML for the cycle-level runs
   bool cycle_level = true;        // run the cycle-level model for DRAM bytes and cycles
