@@ -471,8 +471,11 @@ void engine_figures(RayEngine& engine, bool timed, const HardwareConfig& c, uint
   for (size_t t = 0; t < kRayTypeCount; ++t) {
     f.trv_busy_ps_by_type[t] = uint64_t(std::llround(double(engine.trv_passes_by_type()[t]) /
                                                      c.trv_nodes_per_cycle * cycle_ps));
+    // The any-hit stage's tests take the IST pipeline too (as the cycle level counts them).
     f.ist_busy_ps_by_type[t] = uint64_t(std::llround(double(engine.ist_tests_by_type()[t]) /
-                                                     c.ist_tests_per_cycle * cycle_ps));
+                                                     c.ist_tests_per_cycle * cycle_ps)) +
+                               uint64_t(std::llround(double(engine.per_type()[t].anyhit_tests) /
+                                                     c.anyhit_tests_per_cycle * cycle_ps));
   }
   f.ray_ps_by_type = engine.ray_ps_by_type();
   f.dispatcher = &engine.dispatcher();
