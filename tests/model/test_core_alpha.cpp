@@ -216,6 +216,12 @@ TEST(SimAlpha, EveryLevelRunsTheSameAlphaTestsAndOnlyAlphaScenesBuildTheStage) {
     EXPECT_EQ(functional.at(key), lt.at(key)) << key;
     EXPECT_EQ(functional.at(key), cycle.at(key)) << key;
   }
+  // The alpha tests take the IST pipeline at every level alike (rates of 1 per cycle:
+  // no rounding between the levels' sums).
+  for (const char* key : {"per_type.primary.ist_busy_cycles", "per_type.ao.ist_busy_cycles"}) {
+    EXPECT_DOUBLE_EQ(functional.at(key), cycle.at(key)) << key;
+    EXPECT_DOUBLE_EQ(lt.at(key), cycle.at(key)) << key;
+  }
   for (const auto* stats : {&functional, &lt, &cycle}) {
     EXPECT_GT(stats->at("l1_texture.all.accesses"), 0);
     EXPECT_GT(stats->at("core0.ist0.anyhit_tests"), 0);
