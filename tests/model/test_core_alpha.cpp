@@ -245,7 +245,8 @@ TEST(SimAlpha, TheEffectPlanSaysWhyTheStageIsBuiltOrNot) {
   Scene opaque = scene;
   opaque.make_opaque();
   EXPECT_FALSE(plan_effects(opaque, {}).anyhit);
-  EXPECT_NE(plan_effects(opaque, {}).anyhit_reason.find("no triangle"), std::string::npos);
+  EXPECT_NE(plan_effects(opaque, {}).anyhit_reason.find("2 alpha-tested triangles made opaque"), std::string::npos);
+  EXPECT_NE(plan_effects(make_procedural_scene("cornell"), {}).anyhit_reason.find("no triangle"), std::string::npos);
 }
 
 TEST(SceneAlpha, BadAlphaDataIsRefusedNamingTheField) {

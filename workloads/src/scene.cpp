@@ -109,6 +109,7 @@ AlphaSample Scene::alpha_sample(uint32_t tri, float u, float v) const {
 }
 
 void Scene::make_opaque() {
+  alpha_made_opaque += alpha_tested_triangles();
   for (Material& m : materials) m.alpha_texture = -1;
   alpha_textures.clear();
   triangle_uvs.clear();

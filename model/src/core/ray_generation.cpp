@@ -39,6 +39,9 @@ EffectPlan plan_effects(const Scene& scene, const EffectSettings& settings) {
     plan.anyhit_reason = std::to_string(alpha) + " alpha-tested triangles (" +
                          std::to_string(scene.alpha_textures.size()) +
                          " alpha textures): their hits run an alpha test, reading UVs and a texel";
+  } else if (scene.alpha_made_opaque > 0) {
+    plan.anyhit_reason = std::to_string(scene.alpha_made_opaque) +
+                         " alpha-tested triangles made opaque for this run (--opaque)";
   } else {
     plan.anyhit_reason = "no triangle's material is alpha-tested";
   }

@@ -114,6 +114,9 @@ struct Scene {
   // triangle (empty when no material is alpha-tested).
   std::vector<AlphaTexture> alpha_textures;
   std::vector<TriangleUv> triangle_uvs;
+  // Triangles make_opaque turned opaque (a run's --opaque), for its effect plan to
+  // say; not part of the content (hash, cache).
+  uint64_t alpha_made_opaque = 0;
   std::vector<Light> lights;
   std::vector<Camera> cameras;
   AoSettings ao;
