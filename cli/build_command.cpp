@@ -40,6 +40,7 @@ struct BuildOptions {
   bool all = false;
   bool list_builders = false;
   bool no_epo = false;
+  bool opaque = false;  // alpha-tested materials as opaque (the tree of simulate --opaque)
   uint32_t seed_spread = 1;  // trees per sampled builder for the spread of its costs
   std::string node_format = "bvh2-64";
   BuildParams params;
@@ -152,7 +153,8 @@ void run_build(const BuildOptions& o) {
     if (o.all) throw InputError("--metrics-out", "names one tree's report; not with --all (use --json)");
     check_output_file(o.metrics_out, "--metrics-out");
   }
-  const Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene);
+  Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene);
+  if (o.opaque) scene.make_opaque();
   BuildParams base = o.params;
   // OSAH needs a camera; the named one (InputError naming the cameras if absent) or
   // the scene's default. A scene without cameras still builds every other tree.
@@ -270,6 +272,8 @@ void add_build_command(CLI::App& root) {
       ->capture_default_str();
   add_build_options(cmd, o->params);
   cmd->add_option("--seed", o->params.seed, "same as --build-seed");
+  cmd->add_flag("--opaque", o->opaque,
+                "treat alpha-tested materials as opaque (the tree `simulate --opaque` traces)");
   cmd->callback([o] {
     if (o->list_builders) {
       for (const std::string& name : builder_names()) std::printf("%s\n", name.c_str());

@@ -230,6 +230,7 @@ JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, con
   build_job.build_settings.assign(job.build_settings.begin(), job.build_settings.end());
   build_job.camera = job.tree_camera();
   build_job.node_format = job.node_format;
+  build_job.opaque = job.opaque;
   build_job.out = "$T";
   build_job.metrics_out = "$T.metrics.json";
   // The tree's path is the script's $T: those two words stay unquoted for the shell.
@@ -338,6 +339,7 @@ fs::path cached_tree(const fs::path& cache, const Campaign& campaign, const Camp
   const BuilderParameter& seed = *find_builder_parameter("seed");
   if (parameter_used_by(seed, job.builder) && !job.build_settings.count("seed")) identity["seed"] = job.seed;
   if (!job.node_format.empty()) identity["node_format"] = job.node_format;
+  if (job.opaque) identity["opaque"] = true;  // another scene: its alpha-tested materials opaque
   json build = json::object();
   for (const auto& [k, v] : job.build_settings) {
     const BuilderParameter* p = find_builder_parameter(k);

@@ -53,6 +53,7 @@ std::vector<std::string> BuildJob::arguments() const {
     if (k != "seed" && k != "camera") a.insert(a.end(), {"--build-set", k + "=" + v});
   if (!camera.empty()) a.insert(a.end(), {"--camera", camera});
   if (!node_format.empty()) a.insert(a.end(), {"--node-format", node_format});
+  if (opaque) a.push_back("--opaque");
   return a;
 }
 

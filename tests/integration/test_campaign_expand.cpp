@@ -3,6 +3,7 @@
 
 #include <rtsim/reports/campaign.h>
 #include <rtsim/reports/campaign_runner.h>
+#include <rtsim/reports/simulation_job.h>
 #include <rtsim/workloads/error.h>
 
 #include <gtest/gtest.h>
@@ -271,6 +272,13 @@ TEST(CampaignExpand, OpaqueIsAnAxisWhoseFalseIsThePlainRun) {
     else EXPECT_EQ(j.key, before.jobs[0].key);
   }
   EXPECT_NE(error_of(plain + "opaque = 1\n").find("true or false"), std::string::npos);
+  // The opaque scene is another scene: its tree is cached apart, and built --opaque.
+  ASSERT_NE(c.jobs[0].opaque, c.jobs[1].opaque);
+  EXPECT_NE(cached_tree("/trees", c, c.jobs[0]), cached_tree("/trees", c, c.jobs[1]));
+  BuildJob build;
+  build.opaque = true;
+  const auto build_args = build.arguments();
+  EXPECT_EQ(std::count(build_args.begin(), build_args.end(), "--opaque"), 1);
 }
 
 TEST(CampaignExpand, BadInputNamesFileAndKey) {

@@ -43,6 +43,7 @@ struct BuildJob {
   std::string scene, builder = "sah", camera, node_format;
   uint64_t seed = 1;
   std::vector<std::pair<std::string, std::string>> build_settings;
+  bool opaque = false;                // alpha-tested materials as opaque (--opaque)
   std::filesystem::path out;          // the tree file
   std::filesystem::path metrics_out;  // optional
   std::vector<std::string> arguments() const;  // `build --scene ... --out ...`
