@@ -7,6 +7,8 @@
 #include <rtsim/workloads/mesh_loader.h>
 #include <rtsim/workloads/random.h>
 
+#include "workloads/test_files.h"
+
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -26,51 +28,22 @@ using namespace rtsim;
 namespace {
 
 // ---------------------------------------------------------------- helpers
-template <typename T>
-void put(std::vector<uint8_t>& out, T value) {
-  const auto* p = reinterpret_cast<const uint8_t*>(&value);
-  out.insert(out.end(), p, p + sizeof(T));
-}
+using rtsim::test::put;
 template <typename T>
 void poke(std::vector<uint8_t>& out, size_t offset, T value) {
   std::memcpy(out.data() + offset, &value, sizeof(T));
 }
 
-fs::path temp_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("rtsim_test_loaders_" + name + "_" +
-                                                    std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-void write_bytes(const fs::path& path, const std::vector<uint8_t>& bytes) {
-  fs::create_directories(path.parent_path());
-  std::ofstream out(path, std::ios::binary);
-  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-}
-void write_text(const fs::path& path, const std::string& text) {
-  fs::create_directories(path.parent_path());
-  std::ofstream(path) << text;
-}
+fs::path temp_dir(const std::string& name) { return rtsim::test::temp_dir("rtsim_test_loaders_", name); }
+using rtsim::test::write_bytes;
+using rtsim::test::write_text;
 
 vec3 normal_of(const Mesh& mesh, size_t tri) {
   const uvec3 t = mesh.triangles[tri];
   return glm::cross(mesh.vertices[t.y] - mesh.vertices[t.x], mesh.vertices[t.z] - mesh.vertices[t.x]);
 }
 
-// Expects `f` to throw an InputError whose message contains every fragment.
-template <typename F>
-void expect_input_error(F&& f, std::initializer_list<std::string> fragments) {
-  try {
-    f();
-    ADD_FAILURE() << "no InputError";
-  } catch (const InputError& e) {
-    for (const std::string& fragment : fragments)
-      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << fragment << "'";
-  }
-}
+using rtsim::test::expect_input_error;
 
 // ---------------------------------------------------------------- Quake 3 BSP
 struct BspFace {

@@ -7,6 +7,8 @@
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/mesh_loader.h>
 
+#include "workloads/test_files.h"
+
 #include <gtest/gtest.h>
 #include <stb_image_write.h>
 
@@ -22,29 +24,11 @@ using namespace rtsim;
 
 namespace {
 
-template <typename T>
-void put(std::vector<uint8_t>& out, T value) {
-  const auto* p = reinterpret_cast<const uint8_t*>(&value);
-  out.insert(out.end(), p, p + sizeof(T));
-}
+using rtsim::test::put;
 
-fs::path temp_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("rtsim_test_stk_alpha_" + name + "_" +
-                                                    std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-void write_bytes(const fs::path& path, const std::vector<uint8_t>& bytes) {
-  fs::create_directories(path.parent_path());
-  std::ofstream out(path, std::ios::binary);
-  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-}
-void write_text(const fs::path& path, const std::string& text) {
-  fs::create_directories(path.parent_path());
-  std::ofstream(path) << text;
-}
+fs::path temp_dir(const std::string& name) { return rtsim::test::temp_dir("rtsim_test_stk_alpha_", name); }
+using rtsim::test::write_bytes;
+using rtsim::test::write_text;
 
 // A PNG of `channels` channels (2: grey and alpha, 4: RGBA) whose alpha is `alpha`.
 void write_png(const fs::path& path, int width, int height, int channels, const std::vector<uint8_t>& alpha) {
@@ -55,17 +39,7 @@ void write_png(const fs::path& path, int width, int height, int channels, const 
   ASSERT_TRUE(stbi_write_png(path.string().c_str(), width, height, channels, pixels.data(), width * channels));
 }
 
-template <typename F>
-void expect_input_error(F&& f, std::initializer_list<std::string> fragments) {
-  try {
-    f();
-    ADD_FAILURE() << "no InputError";
-  } catch (const InputError& e) {
-    for (const std::string& fragment : fragments)
-      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << fragment << "'";
-  }
-}
+using rtsim::test::expect_input_error;
 
 // Half floats used below, bit patterns written out so the test does not share the
 // loader's conversion.
