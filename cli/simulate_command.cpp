@@ -274,6 +274,11 @@ void run_simulate(const SimulateOptions& o) {
   std::printf("  %llu cores, L2 slice balance %.3f, %.0f pJ/ray (dynamic)\n",
               static_cast<unsigned long long>(s.number("machine.cores")), s.number("l2.slice_balance"),
               s.number("energy.pj_per_ray"));
+  if (s.contains("anyhit.tests"))  // the any-hit stage was built (alpha-tested materials)
+    std::printf("  any-hit %.3f tests/ray, %.1f%% let the ray through, L1 texture hit %.3f, %.1f texel B/ray\n",
+                s.number("anyhit.tests_per_ray"), 100.0 * s.number("anyhit.reject_ratio"),
+                s.number("l1_texture.all.hit_rate"),
+                result.rays ? s.number("fetches.texel_bytes") / double(result.rays) : 0.0);
   print_accounting(s);
   std::printf("  host %.3f s, %.0f simulated rays per CPU second%s%s\n", result.host_seconds,
               result.cpu_seconds > 0 ? double(result.rays) / result.cpu_seconds : 0.0,
