@@ -52,13 +52,10 @@ enum class ServedBy : uint8_t;
 enum class Requester : uint8_t { Trv = 0, Ist = 1, Texture = 2 };
 constexpr int kRequesterCount = 3;
 inline Requester requester_of(AccessKind kind) {
-  switch (kind) {
-    case AccessKind::Node:
-    case AccessKind::Stack: return Requester::Trv;
-    case AccessKind::Uv:
-    case AccessKind::Texel: return Requester::Texture;
-    default: return Requester::Ist;
-  }
+  // By AccessKind's value (fetch.h): node, prim_ref, triangle, stack, uv, texel.
+  constexpr Requester kOf[kAccessKindCount] = {Requester::Trv, Requester::Ist,     Requester::Ist,
+                                               Requester::Trv, Requester::Texture, Requester::Texture};
+  return kOf[size_t(kind)];
 }
 
 // Where a unit's line accesses go (unit: the global TRV or IST unit number).
