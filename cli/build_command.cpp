@@ -273,7 +273,7 @@ void add_build_command(CLI::App& root) {
   add_build_options(cmd, o->params);
   cmd->add_option("--seed", o->params.seed, "same as --build-seed");
   cmd->add_flag("--opaque", o->opaque,
-                "treat alpha-tested materials as opaque (the tree `simulate --opaque` traces)");
+                "alpha-tested materials as opaque (the tree that\n`simulate --opaque` traces)");
   cmd->callback([o] {
     if (o->list_builders) {
       for (const std::string& name : builder_names()) std::printf("%s\n", name.c_str());

@@ -325,8 +325,8 @@ void add_simulate_command(CLI::App& root) {
                   "run the same rays this many times back to back, caches warm; stats of the last")
       ->capture_default_str();
   cmd->add_flag("--opaque", opts->opaque,
-               "treat alpha-tested materials as opaque: the same geometry without the any-hit stage "
-               "and its texture caches (to compare)");
+               "alpha-tested materials as opaque: the same geometry\nwithout the any-hit stage and "
+               "its texture caches (to compare)");
   cmd->add_option("--shuffle-faces", opts->shuffle_faces,
                   "permute the scene's triangles with this seed first (0: no): results must not change");
   cmd->add_option("--node-format", opts->node_format,

@@ -151,7 +151,7 @@ void add_table1_command(CLI::App& root) {
       ->check(CLI::Range(0u, kMaxDiffuseBounces))
       ->capture_default_str();
   cmd->add_flag("--opaque", o->table.opaque,
-                "Treat alpha-tested materials as opaque (the same geometry without the any-hit stage; trees "
+                "Alpha-tested materials as opaque (the same geometry without\nthe any-hit stage; trees "
                 "built for it)");
   cmd->add_option("--seed", o->table.seed, "Seed of every random choice (rays and builders)")
       ->capture_default_str();

@@ -372,8 +372,8 @@ void add_trace_command(CLI::App& root) {
                       "\n(the tree is built for its width; default: memory.node_format)");
   cmd->add_option("--node-layout", options->node_layout, "deprecated: --node-format")->group("");
   cmd->add_flag("--opaque", options->opaque,
-               "treat alpha-tested materials as opaque: the same geometry without the any-hit stage "
-               "and its texture caches (to compare)");
+               "alpha-tested materials as opaque: the same geometry\nwithout the any-hit stage and "
+               "its texture caches (to compare)");
   cmd->add_option("--shuffle-faces", options->shuffle_faces,
                   "permute the scene's triangles with this seed first (0: no): results must not change");
   cmd->add_option("--stack-limit", options->stack_limit, "traversal stack entries before overflow")
