@@ -51,10 +51,15 @@ std::string hex(uint64_t v) {
   return s.str();
 }
 
-const std::string kGolden = std::string(RTSIM_SOURCE_DIR) + "/tests/model/golden/access-streams.tsv";
+std::string golden_path(const std::string& file) {
+  return std::string(RTSIM_SOURCE_DIR) + "/tests/model/golden/" + file;
+}
 
-TEST(CoreAccessStreams, EveryBuilderAndFormatKeepsItsStoredStream) {
-  const Scene scene = load_scene("foliage");
+// The trees of `builders` x `formats` on `scene_name` against golden/<file>.
+void check_streams(const std::string& scene_name, const std::string& file,
+                   const std::vector<std::string>& builders, const std::vector<NodeFormat>& formats) {
+  const std::string kGolden = golden_path(file);
+  const Scene scene = load_scene(scene_name);
   const bool write = std::getenv("RTSIM_WRITE_GOLDEN") != nullptr;
   std::map<std::string, std::string> stored;
   std::string stored_scene;
@@ -68,7 +73,7 @@ TEST(CoreAccessStreams, EveryBuilderAndFormatKeepsItsStoredStream) {
     // A procedural scene's vertices follow the compiler's floating point (clang
     // builds other last bits than gcc): another scene is not this test's to judge.
     if (stored_scene != hex(scene.content_hash()))
-      GTEST_SKIP() << "this build generates foliage with hash " << hex(scene.content_hash())
+      GTEST_SKIP() << "this build generates " << scene_name << " with hash " << hex(scene.content_hash())
                    << ", the digests are of " << stored_scene;
     while (std::getline(in, line)) {
       const size_t tab = line.find('\t', line.find('\t') + 1);
@@ -94,8 +99,8 @@ TEST(CoreAccessStreams, EveryBuilderAndFormatKeepsItsStoredStream) {
   std::ostringstream out;
   out << "# scene_hash\t" << hex(scene.content_hash()) << "\n";
   size_t compared = 0;
-  for (const std::string& builder : builder_names())
-    for (const NodeFormat& format : node_formats()) {
+  for (const std::string& builder : builders)
+    for (const NodeFormat& format : formats) {
       BuildParams params;
       params.builder = builder;
       apply_node_format(params, format);
@@ -123,6 +128,18 @@ TEST(CoreAccessStreams, EveryBuilderAndFormatKeepsItsStoredStream) {
     GTEST_SKIP() << "wrote " << kGolden;
   }
   EXPECT_EQ(compared, stored.size()) << "every stored stream is checked";
+}
+
+TEST(CoreAccessStreams, EveryBuilderAndFormatKeepsItsStoredStream) {
+  check_streams("foliage", "access-streams.tsv", builder_names(), node_formats());
+}
+
+// The any-hit stage's stream too (its UV and texel reads, step by step): alpha-tested
+// foliage on a binary and a wide quantized tree of two builders, stored when the
+// stage was added (issue 40 part 4).
+TEST(CoreAccessStreams, AlphaTestedFoliageKeepsItsStoredStream) {
+  check_streams("foliage_alpha", "access-streams-alpha.tsv", {"sah", "aobvh"},
+                {node_format("bvh2-64"), node_format("bvh6-64q")});
 }
 
 }  // namespace
