@@ -187,7 +187,11 @@ Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeade
     r.fail("checksum", "file is corrupt (checksum mismatch)");
   if (scene) {
     if (h.scene_hash != scene->content_hash())
-      r.fail("header.scene_hash", "the file was built for another scene than '" + scene->name + "'");
+      r.fail("header.scene_hash",
+             "the file was built for another scene than '" + scene->name + "'" +
+                 (scene->alpha_made_opaque ? " (this run makes it opaque: was the tree built without --opaque?)"
+                  : scene->alpha_tested_triangles() ? " (it has alpha-tested materials: was the tree built with --opaque?)"
+                                                    : ""));
     if (h.triangle_count != scene->triangle_count())
       r.fail("header.triangle_count", "file has " + std::to_string(h.triangle_count) +
                                           " triangles, scene has " +

@@ -4,6 +4,7 @@
 #include "sim_test_support.h"
 
 #include <rtsim/builder/build.h>
+#include <rtsim/builder/bvh_file.h>
 #include <rtsim/model/core/exact_referee.h>
 #include <rtsim/model/core/validate.h>
 #include <rtsim/workloads/error.h>
@@ -264,6 +265,26 @@ TEST(SceneAlpha, BadAlphaDataIsRefusedNamingTheField) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("alpha texture 'test'"), std::string::npos) << e.what();
   }
+}
+
+// A tree saved for the alpha-tested scene is not the opaque scene's, and the
+// refusal says which flag is likely missing.
+TEST(SceneAlpha, ATreeOfTheOtherVariantIsRefusedNamingOpaque) {
+  Cards w;
+  const std::filesystem::path file =
+      std::filesystem::temp_directory_path() /
+      ("rtsim_alpha_tree_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + ".bvh");
+  save_bvh(file, w.bvh, w.scene, BuildParams{});
+  Scene opaque = w.scene;
+  opaque.make_opaque();
+  try {
+    load_bvh(file, &opaque);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("without --opaque"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(load_bvh(file, &w.scene));
+  std::filesystem::remove(file);
 }
 
 TEST(SceneAlpha, TheSceneCacheKeepsTexturesAndCoordinates) {
