@@ -1,4 +1,5 @@
 #include <rtsim/model/sim/ray_probe.h>
+#include <rtsim/model/sim/ray_engine.h>
 
 #include <rtsim/model/core/ray_generation.h>
 #include <rtsim/model/sim/cache_model.h>
@@ -107,11 +108,8 @@ void RayProbe::begin(uint64_t t_ps) {
 }
 
 namespace {
-// The L1 an access goes through, as ray_engine.h's requester_of: 0 node, 1 triangle, 2 texture.
-int l1_side(AccessKind kind) {
-  if (kind == AccessKind::Node || kind == AccessKind::Stack) return 0;
-  return kind == AccessKind::Uv || kind == AccessKind::Texel ? 2 : 1;
-}
+// The L1 an access goes through (0 node, 1 triangle, 2 texture): ray_engine.h's rule.
+int l1_side(AccessKind kind) { return int(requester_of(kind)); }
 }  // namespace
 
 uint32_t RayProbe::add(const MemoryAccess* accesses, size_t count, const LineAccess* lines,
