@@ -29,7 +29,7 @@ class Writer {
   void array(const std::vector<T>& v) {
     static_assert(std::is_trivially_copyable_v<T>);
     pod(uint64_t(v.size()));
-    out_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    if (!v.empty()) out_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
   }
   std::string& bytes() { return out_; }
 
@@ -60,7 +60,7 @@ class Reader {
     uint64_t n = 0;
     if (!pod(&n) || n > uint64_t(end_ - p_) / sizeof(T)) return false;
     v->resize(size_t(n));
-    std::memcpy(v->data(), p_, size_t(n) * sizeof(T));
+    if (n > 0) std::memcpy(v->data(), p_, size_t(n) * sizeof(T));  // an empty vector's data() may be null
     p_ += n * sizeof(T);
     return true;
   }
