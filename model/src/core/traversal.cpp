@@ -363,8 +363,7 @@ void RayTraversal::process_triangles() {
     std::stable_sort(candidates_.begin(), candidates_.end(),
                      [](const Candidate& a, const Candidate& b) { return a.t < b.t; });
     if (!candidates_.empty()) {
-      candidate_ = 0;
-      action_ = TraversalAction::AlphaTest;
+      test_candidate(0);
       return;
     }
   }
@@ -376,8 +375,7 @@ void RayTraversal::process_alpha_test() {
   ++counters_.anyhit_tests;
   counters_.uv_bytes += MemoryImage::kUvRecordBytes;
   counters_.texel_bytes += MemoryImage::kTexelBytes;
-  const uint32_t prim = context_->image().slot_triangle(c.slot);
-  if (context_->scene().alpha_sample(prim, c.u, c.v).opaque) {
+  if (candidate_sample_.opaque) {
     commit(c.t, c.slot, c.u, c.v);
     candidates_.clear();  // every other one lies at or beyond it
     if (mode_ == TraversalMode::AnyHit) {
@@ -391,9 +389,16 @@ void RayTraversal::process_alpha_test() {
   after_candidates();
 }
 
+void RayTraversal::test_candidate(uint32_t index) {
+  const Candidate& c = candidates_[index];
+  candidate_ = index;
+  candidate_sample_ = context_->scene().alpha_sample(context_->image().slot_triangle(c.slot), c.u, c.v);
+  action_ = TraversalAction::AlphaTest;
+}
+
 void RayTraversal::after_candidates() {
   if (candidate_ < candidates_.size()) {
-    action_ = TraversalAction::AlphaTest;
+    test_candidate(candidate_);
     return;
   }
   candidates_.clear();

@@ -236,6 +236,7 @@ class RayTraversal {
   void process_alpha_test();
   void commit(float t, uint32_t slot, float u, float v);
   void after_candidates();    // the next candidate to test, or on with the leaf
+  void test_candidate(uint32_t index);  // AlphaTest of candidates_[index] comes next
   uint64_t spill_address(uint32_t position) const;
 
   // A hit on an alpha-tested triangle waiting for its any-hit test.
@@ -262,6 +263,7 @@ class RayTraversal {
   std::vector<StackEntry> stack_;
   std::vector<Candidate> candidates_;  // of the last triangle step, nearest first
   uint32_t candidate_ = 0;             // the one AlphaTest tests
+  AlphaSample candidate_sample_;       // its texel, found once for the step's reads and its test
   bool alpha_scene_ = false;           // the scene has alpha-tested triangles
   std::vector<MemoryAccess> stack_accesses_;
   mutable std::vector<MemoryAccess> reads_;  // built on demand by step_reads()
@@ -288,9 +290,8 @@ inline const std::vector<MemoryAccess>& RayTraversal::step_reads() const {
     for (uint32_t k = leaf_cursor_; k < end; ++k)
       add(image.slot_address(leaf_slot_ + k), image.triangle_bytes(), AccessKind::Triangle);
   } else if (action_ == TraversalAction::AlphaTest) {
-    const Candidate& c = candidates_[candidate_];
-    add(image.uv_address(c.slot), MemoryImage::kUvRecordBytes, AccessKind::Uv);
-    const AlphaSample s = context_->scene().alpha_sample(image.slot_triangle(c.slot), c.u, c.v);
+    add(image.uv_address(candidates_[candidate_].slot), MemoryImage::kUvRecordBytes, AccessKind::Uv);
+    const AlphaSample& s = candidate_sample_;
     add(image.texel_address(s.texture, s.x, s.y), MemoryImage::kTexelBytes, AccessKind::Texel);
   }
   return reads_;
