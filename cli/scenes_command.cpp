@@ -9,6 +9,7 @@
 #include <rtsim/workloads/procedural.h>
 #include <rtsim/workloads/render_preview.h>
 #include <rtsim/workloads/scene_registry.h>
+#include <rtsim/workloads/validate.h>
 
 #include <nlohmann/json.hpp>
 
@@ -21,7 +22,21 @@ namespace rtsim::cli {
 
 namespace {
 
-nlohmann::json scene_summary(const Scene& scene, double load_seconds) {
+// A thousands-separated count: 1085640 -> "1,085,640".
+std::string grouped(uint64_t n) {
+  std::string digits = std::to_string(n), out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return out;
+}
+
+// scene: the flat form (or the flat scene itself); instanced: the instanced form it
+// was flattened from, if the scene has instances. Every field but the instancing
+// ones describes the flat form, as it did before scenes kept their instances.
+nlohmann::json scene_summary(const Scene& scene, const Scene* instanced, double load_seconds,
+                             double flatten_seconds) {
   const Aabb box = scene.bounds();
   nlohmann::json j;
   j["name"] = scene.name;
@@ -67,6 +82,21 @@ nlohmann::json scene_summary(const Scene& scene, double load_seconds) {
              {"cutoff", scene.ao_cutoff()},
              {"samples", scene.ao.samples}};
   j["load_seconds"] = load_seconds;
+  if (instanced) {
+    const Scene& in = *instanced;
+    j["unique_triangles"] = in.triangle_count();
+    j["unique_vertices"] = in.vertices.size();
+    j["instanced_triangles"] = in.instanced_triangle_count();
+    j["meshes"] = in.meshes.size();
+    j["instances"] = in.instances.size();
+    j["instanced_content_hash"] = hex64(in.content_hash());
+    j["instanced_validation"] = {{"input_triangles", in.validation.input_triangles},
+                                 {"dropped_non_finite", in.validation.dropped_non_finite},
+                                 {"dropped_bad_index", in.validation.dropped_bad_index},
+                                 {"dropped_out_of_range", in.validation.dropped_out_of_range},
+                                 {"degenerate_kept", in.validation.degenerate_kept}};
+    j["flatten_seconds"] = flatten_seconds;
+  }
   return j;
 }
 
@@ -77,6 +107,11 @@ void print_summary(const nlohmann::json& j) {
     std::printf("licence      %s\n", j["licence"].get<std::string>().c_str());
   std::printf("triangles    %llu (vertices %llu)\n", j["triangles"].get<unsigned long long>(),
               j["vertices"].get<unsigned long long>());
+  if (j.contains("instances"))
+    std::printf("instances    %s of %s meshes; triangles: %s unique, %s instanced\n",
+                grouped(j["instances"].get<uint64_t>()).c_str(), grouped(j["meshes"].get<uint64_t>()).c_str(),
+                grouped(j["unique_triangles"].get<uint64_t>()).c_str(),
+                grouped(j["instanced_triangles"].get<uint64_t>()).c_str());
   const auto& v = j["validation"];
   std::printf("validation   input %llu, dropped non-finite %llu, dropped bad index %llu, "
               "dropped beyond 1e18 %llu, degenerate kept %llu\n",
@@ -104,12 +139,16 @@ void print_summary(const nlohmann::json& j) {
               j["ao"]["enabled"].get<bool>() ? "on" : "off", j["ao"]["cutoff"].get<double>(),
               j["ao"]["cutoff_relative"].get<double>(), j["ao"]["samples"].get<unsigned>());
   std::printf("content hash %s\n", j["content_hash"].get<std::string>().c_str());
-  std::printf("load time    %.3f s\n", j["load_seconds"].get<double>());
+  if (j.contains("instances"))
+    std::printf("load time    %.3f s (instanced form; its flat form, the hash's, %.3f s more)\n",
+                j["load_seconds"].get<double>(), j["flatten_seconds"].get<double>());
+  else
+    std::printf("load time    %.3f s\n", j["load_seconds"].get<double>());
 }
 
-Scene timed_load(const std::string& name, double& seconds) {
+Scene timed_load(const std::string& name, double& seconds, SceneForm form = SceneForm::Flat) {
   const auto start = std::chrono::steady_clock::now();
-  Scene scene = load_scene(name);
+  Scene scene = load_scene(name, form);
   seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return scene;
 }
@@ -131,6 +170,8 @@ void add_scenes_command(CLI::App& root) {
       j["scenes"] = nlohmann::json::array();
       for (const std::string& name : procedural_scene_names())
         j["scenes"].push_back({{"name", name}, {"kind", "built-in"}, {"available", true}});
+      for (const std::string& name : instanced_procedural_scene_names())
+        j["scenes"].push_back({{"name", name}, {"kind", "built-in"}, {"available", true}, {"instanced", true}});
       for (const RealSceneInfo& info : real_scene_catalogue())
         j["scenes"].push_back({{"name", info.name},
                                {"kind", "real"},
@@ -142,6 +183,8 @@ void add_scenes_command(CLI::App& root) {
     }
     std::printf("built-in (procedural):\n");
     for (const std::string& name : procedural_scene_names()) std::printf("  %s\n", name.c_str());
+    for (const std::string& name : instanced_procedural_scene_names())
+      std::printf("  %s (instanced)\n", name.c_str());
     std::printf("real scenes (cache %s):\n", cache.string().c_str());
     for (const RealSceneInfo& info : real_scene_catalogue()) {
       const bool fetched = path_exists(cache / info.name / "scene.toml");
@@ -194,8 +237,19 @@ void add_scenes_command(CLI::App& root) {
   info->add_flag("--json", *info_json, "Print the summary as JSON");
   info->callback([=] {
     double seconds = 0;
-    const Scene scene = timed_load(*info_scene, seconds);
-    const nlohmann::json j = scene_summary(scene, seconds);
+    const Scene scene = timed_load(*info_scene, seconds, SceneForm::Instanced);
+    nlohmann::json j;
+    if (scene.instanced()) {
+      // The flat form from the instanced one, validated as load_scene validates it:
+      // its counts, bounds and hash are what every flat run of the scene sees.
+      const auto start = std::chrono::steady_clock::now();
+      Scene flat = flatten(scene);
+      validate_scene(flat);
+      const double flatten_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      j = scene_summary(flat, &scene, seconds, flatten_seconds);
+    } else {
+      j = scene_summary(scene, nullptr, seconds, 0);
+    }
     if (*info_json) std::cout << j.dump(2) << "\n";
     else print_summary(j);
   });

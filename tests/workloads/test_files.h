@@ -2,6 +2,8 @@
 // What the workloads tests share: files they write, a fresh folder per test and name, and whole
 // files of bytes or text (their folders made on the way).
 #include <rtsim/workloads/error.h>
+#include <rtsim/workloads/random.h>
+#include <rtsim/workloads/scene.h>
 
 #include <gtest/gtest.h>
 
@@ -56,6 +58,26 @@ void expect_input_error(F&& f, std::initializer_list<std::string> fragments) {
       EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos)
           << "message '" << e.what() << "' lacks '" << fragment << "'";
   }
+}
+
+// A hash of a flat mesh's (Mesh's or Scene's) geometry, materials and texture
+// coordinates, bit for bit: pins a loader's output to what it was.
+template <typename M>
+uint64_t geometry_hash(const M& m) {
+  uint64_t h = 0x4D45'5348ull;
+  const auto add = [&h](const auto& v) {  // an empty vector's data() may be null: memcpy must not see it
+    h = hash_bytes(h, &h, 0);
+    if (!v.empty()) h = hash_bytes(h, v.data(), v.size() * sizeof(v[0]));
+  };
+  add(m.vertices);
+  add(m.triangles);
+  add(m.material_ids);
+  add(m.triangle_uvs);
+  for (const Material& material : m.materials) {
+    h = hash_bytes(h, material.name.data(), material.name.size());
+    h = hash_bytes(h, &material.alpha_texture, sizeof material.alpha_texture);
+  }
+  return h;
 }
 
 }  // namespace rtsim::test

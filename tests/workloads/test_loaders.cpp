@@ -6,6 +6,7 @@
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/mesh_loader.h>
 #include <rtsim/workloads/random.h>
+#include <rtsim/workloads/validate.h>
 
 #include "workloads/test_files.h"
 
@@ -517,7 +518,7 @@ bool has_vertex(const Mesh& mesh, const vec3& v) {
 TEST(StkTrack, FlattensTrackObjectsLodAndLibrariesSkippingPhysicsReverseAndGfx) {
   const fs::path root = temp_dir("track");
   const fs::path track = make_track(root);
-  const Mesh mesh = load_stk_track(track);
+  const Mesh mesh = flatten(load_stk_track(track));
   // ground 1 + most detailed LOD (high, 2) + tri 1 + library leaf 1.
   EXPECT_EQ(mesh.triangles.size(), 5u);
   EXPECT_EQ(load_mesh(track / "scene.xml").triangles.size(), 5u);  // dispatch by file name
@@ -528,6 +529,152 @@ TEST(StkTrack, FlattensTrackObjectsLodAndLibrariesSkippingPhysicsReverseAndGfx) 
   EXPECT_TRUE(has_vertex(mesh, vec3(0, 10, 2)));
   EXPECT_TRUE(has_vertex(mesh, vec3(101, 0, 0)));  // library leaf moved by the library's xyz
   EXPECT_TRUE(has_vertex(mesh, vec3(6, 1, 0)));    // LOD instance at x = 5
+  fs::remove_all(root);
+}
+
+// make_track with models placed again: tri.spm three more times (rotated, mirrored,
+// collapsed by a zero scale, as mines' warning sign is), high.spm under a library-like
+// parent, so that instancing has meshes used more than once.
+fs::path make_reused_track(const fs::path& root) {
+  const fs::path track = make_track(root);
+  write_text(track / "scene.xml", R"(<?xml version="1.0"?>
+<scene>
+  <track model="ground.spm" x="1.5" y="-2" z="0.25">
+    <static-object model="tri.spm" xyz="3 1 -2" hpr="10 20 30" scale="1.5 0.5 2"/>
+  </track>
+  <object type="animation" model="tri.spm" xyz="0 10 0" hpr="0 90 0" scale="2 2 2"/>
+  <object type="animation" model="high.spm" xyz="-4 0.5 7" hpr="0 -33 0" scale="-1 1 1"/>
+  <object type="animation" model="tri.spm" xyz="-24.1 -0.72 -88.27" hpr="0 -17.9 0" scale="0 0 0" interaction="ghost"/>
+  <object type="animation" model="high.spm" xyz="0.1 0.2 0.3" hpr="45 0 12.5"/>
+  <library name="lib1" xyz="100 0 0" hpr="0 15 0" scale="1 1 1"/>
+  <library name="lib1" xyz="-100 0 0" hpr="0 0 0" scale="1 -1 1"/>
+</scene>
+)");
+  return track;
+}
+
+Mesh flat_track(const fs::path& track) { return flatten(load_stk_track(track)); }
+
+// The flat track, bit for bit as the loader made it before tracks kept their
+// instances (hashes recorded then): flattening must reproduce it exactly.
+TEST(StkTrack, TheFlatTrackIsBitForBitWhatTheLoaderMadeBefore) {
+  const fs::path root = temp_dir("track_pinned");
+  const Mesh tiny = flat_track(make_track(root));
+  EXPECT_EQ(tiny.triangles.size(), 5u);
+  EXPECT_EQ(tiny.vertices.size(), 13u);
+  EXPECT_EQ(rtsim::test::geometry_hash(tiny), 0x19c71113b482edcaull);
+  fs::remove_all(root);
+  const Mesh reused = flat_track(make_reused_track(root));
+  EXPECT_EQ(reused.triangles.size(), 10u);
+  EXPECT_EQ(reused.vertices.size(), 26u);
+  EXPECT_EQ(rtsim::test::geometry_hash(reused), 0x9d70a4943c4abd47ull);
+  fs::remove_all(root);
+}
+
+// A descriptor placing an OBJ three times (mirrored, rotated and scaled, with its
+// material overridden) and a track: the flat scene bit for bit as it was before
+// scenes kept their instances (hash recorded then).
+fs::path make_pinned_descriptor(const fs::path& root) {
+  make_reused_track(root);
+  write_text(root / "quad.obj",
+             "mtllib quad.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\nv 7 7 7\nusemtl red\nf 1 2 3 4\n");
+  write_text(root / "quad.mtl", "newmtl red\nKd 0.8 0.1 0.1\n");
+  write_text(root / "scene.toml", R"(name = "pinned"
+[[material]]
+name = "grey"
+[[mesh]]
+file = "quad.obj"
+translate = [0.1, -3, 2]
+[[mesh]]
+file = "data/tracks/tiny/scene.xml"
+[[mesh]]
+file = "quad.obj"
+scale = [-1, 2, 0.5]
+rotate_deg = [10, 20, 30]
+[[mesh]]
+file = "quad.obj"
+material = "grey"
+translate = [5, 5, 5]
+rotate_deg = [0, 45, 0]
+scale = 3
+[[camera]]
+name = "view1"
+position = [0, 5, 5]
+target = [0, 0, 0]
+)");
+  return root / "scene.toml";
+}
+
+TEST(Descriptor, TheFlatSceneIsBitForBitWhatItWasBefore) {
+  const fs::path root = temp_dir("descriptor_pinned");
+  const Scene scene = load_scene_descriptor(make_pinned_descriptor(root));
+  EXPECT_EQ(scene.triangle_count(), 16u);
+  EXPECT_EQ(scene.content_hash(), 0x02af6f2c9c33026eull);
+  EXPECT_EQ(rtsim::test::geometry_hash(scene), 0xf5fc6f19d2428b9dull);
+  fs::remove_all(root);
+}
+
+TEST(StkTrack, KeepsEachModelOnceAndEachPlacementAsAnInstance) {
+  const fs::path root = temp_dir("track_instances");
+  const Mesh mesh = load_stk_track(make_reused_track(root));
+  // ground, tri, high, tri collapsed by its zero scale (a mesh of its own), lib1's leaf.
+  ASSERT_EQ(mesh.meshes.size(), 5u);
+  EXPECT_EQ(mesh.triangles.size(), 6u);
+  EXPECT_NE(mesh.meshes[0].name.find("ground.spm"), std::string::npos);
+  EXPECT_NE(mesh.meshes[3].name.find("tri.spm (placed flat)"), std::string::npos);
+  // The track's model, its object, 3 track objects, the collapsed one, high again,
+  // and lib1's leaf for each of the two libraries.
+  ASSERT_EQ(mesh.instances.size(), 8u);
+  EXPECT_EQ(mesh.instances[0].mesh, 0u);
+  EXPECT_EQ(mesh.instances[1].mesh, 1u);
+  EXPECT_EQ(mesh.instances[2].mesh, 1u);
+  EXPECT_EQ(mesh.instances[4].mesh, 3u);
+  EXPECT_EQ(mesh.instances[4].object_to_world, glm::mat4(1.0f));
+  EXPECT_EQ(mesh.instances[5].mesh, 2u);
+  EXPECT_EQ(mesh.instances[7].mesh, 4u);
+  // The first placement is the track's own: T(1.5, -2, 0.25) in Irrlicht space, z mirrored.
+  EXPECT_EQ(vec3(mesh.instances[0].object_to_world[3]), vec3(1.5f, -2.0f, -0.25f));
+  for (const Instance& i : mesh.instances) EXPECT_EQ(instance_transform_problem(i.object_to_world), "");
+  fs::remove_all(root);
+}
+
+TEST(Descriptor, ATrackKeepsItsInstancesAndItsFlatFormIsTheOldFlatScene) {
+  const fs::path root = temp_dir("descriptor_instanced");
+  const fs::path path = make_pinned_descriptor(root);
+  const Scene s = load_scene_descriptor(path, SceneForm::Instanced);
+  ASSERT_TRUE(s.instanced());
+  EXPECT_EQ(s.instances.size(), 3u + 8u);  // three quad.obj tables and the track's eight
+  EXPECT_EQ(s.instanced_triangle_count(), 16u);
+  Scene flat = flatten(s);
+  validate_scene(flat);
+  EXPECT_EQ(flat.content_hash(), 0x02af6f2c9c33026eull);  // TheFlatSceneIsBitForBitWhatItWasBefore's
+
+  // [[instance]] tables placing the track twice, the second time mirrored.
+  write_text(root / "twice.toml", R"(name = "twice"
+[[mesh]]
+name = "tiny"
+file = "data/tracks/tiny/scene.xml"
+[[instance]]
+mesh = "tiny"
+[[instance]]
+mesh = "tiny"
+translate = [0, 0, 50]
+scale = [1, 1, -1]
+[[camera]]
+name = "view1"
+position = [0, 5, 5]
+target = [0, 0, 0]
+)");
+  const Scene twice = load_scene_descriptor(root / "twice.toml", SceneForm::Instanced);
+  EXPECT_EQ(twice.meshes.size(), 5u);
+  EXPECT_EQ(twice.instances.size(), 16u);
+  const Scene twice_flat = load_scene_descriptor(root / "twice.toml");
+  ASSERT_EQ(twice_flat.triangle_count(), 20u);
+  const Mesh track = flat_track(root / "data/tracks/tiny");
+  for (uint32_t t = 0; t < 10; ++t) {  // the first copy is the flat track itself, bit for bit
+    EXPECT_EQ(twice_flat.triangles[t], track.triangles[t]);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(twice_flat.vertex(t, k), track.vertices[track.triangles[t][k]]);
+  }
   fs::remove_all(root);
 }
 

@@ -248,7 +248,7 @@ const AlphaTexture& texture_of(const Mesh& mesh, const Material& m) {
 TEST(StkAlpha, AlphaTestedMaterialsGetTheirTexturesCutoffAndCoordinates) {
   const fs::path root = temp_dir("track");
   const fs::path track = make_track(root);
-  const Mesh mesh = load_stk_track(track);
+  const Mesh mesh = flatten(load_stk_track(track));
   ASSERT_EQ(mesh.triangles.size(), 8u);  // track 4, lib1 3, lib2 1
   ASSERT_EQ(mesh.triangle_uvs.size(), mesh.triangles.size());
 
@@ -301,6 +301,23 @@ TEST(StkAlpha, AlphaTestedMaterialsGetTheirTexturesCutoffAndCoordinates) {
   fs::remove_all(root);
 }
 
+Mesh flat_track(const fs::path& track) { return flatten(load_stk_track(track)); }
+
+// The flat track and its descriptor scene, bit for bit as they were before tracks
+// kept their instances (hashes recorded then).
+TEST(StkAlpha, TheFlatTrackAndItsSceneAreBitForBitWhatTheyWereBefore) {
+  const fs::path root = temp_dir("pinned");
+  const fs::path track = make_track(root);
+  const Mesh mesh = flat_track(track);
+  EXPECT_EQ(rtsim::test::geometry_hash(mesh), 0xf1af7d1f5a58d348ull);
+  write_text(root / "scene.toml", "name = \"t\"\n[[mesh]]\nfile = \"data/tracks/t/scene.xml\"\n"
+                                  "[[camera]]\nname = \"view1\"\nposition = [0, 5, 5]\ntarget = [0, 0, 0]\n");
+  const Scene scene = load_scene_descriptor(root / "scene.toml");
+  EXPECT_EQ(scene.content_hash(), 0x1621bb9c01359fe1ull);
+  EXPECT_EQ(rtsim::test::geometry_hash(scene), 0xf1af7d1f5a58d348ull);
+  fs::remove_all(root);
+}
+
 TEST(StkAlpha, ASceneDescriptorKeepsTheTexturesAndSamplesThem) {
   const fs::path root = temp_dir("descriptor");
   make_track(root);
@@ -338,7 +355,7 @@ TEST(StkAlpha, MissingOrUndecodableTexturesLeaveMaterialsOpaqueAndAreCounted) {
   const fs::path track = make_track(root);
   fs::remove(track / "leaf.png");  // lib1's leaf.png then is found nowhere either
   write_text(root / "data/library/lib2/leaf.png", "truncated");
-  const Mesh mesh = load_stk_track(track);
+  const Mesh mesh = flatten(load_stk_track(track));
   EXPECT_FALSE(material_at(mesh, vec3(2, 0, 0)).alpha_tested());
   EXPECT_FALSE(material_at(mesh, vec3(0, 0, -20)).alpha_tested());
   // gone.png and leaf.png found nowhere, lib2's leaf.png undecodable.

@@ -302,7 +302,7 @@ Scene assemble(const fs::path& stage, const std::vector<MeshPlan>& plans, const 
     MeshOptions options;
     if (plan.patch_level > 0) options.bsp_patch_level = plan.patch_level;
     options.pk3_map = plan.map;
-    const Mesh mesh = load_mesh(stage / plan.file, options);
+    const Mesh mesh = flatten(load_mesh(stage / plan.file, options));  // a track keeps instances
     const glm::mat4 transform = descriptor_rotation(plan.rotate_deg);
     const uint32_t base = uint32_t(scene.vertices.size());
     for (const vec3& v : mesh.vertices) scene.vertices.push_back(vec3(transform * glm::vec4(v, 1.0f)));

@@ -60,6 +60,32 @@ struct ZipArchive {
 
 }  // namespace
 
+Mesh flatten(const Mesh& mesh) {
+  if (mesh.instances.empty()) return mesh;
+  // Through flatten(Scene): one definition of the flat form for meshes and scenes.
+  Scene scene;
+  scene.name = "mesh";
+  scene.vertices = mesh.vertices;
+  scene.triangles = mesh.triangles;
+  scene.material_ids = mesh.material_ids;
+  scene.triangle_uvs = mesh.triangle_uvs;
+  scene.meshes = mesh.meshes;
+  scene.instances = mesh.instances;
+  Scene flat = flatten(scene);
+  Mesh out;
+  out.vertices = std::move(flat.vertices);
+  out.triangles = std::move(flat.triangles);
+  out.material_ids = std::move(flat.material_ids);
+  out.triangle_uvs = std::move(flat.triangle_uvs);
+  out.materials = mesh.materials;
+  out.alpha_textures = mesh.alpha_textures;
+  out.suggested_cameras = mesh.suggested_cameras;
+  out.dropped_sky_faces = mesh.dropped_sky_faces;
+  out.dropped_tool_faces = mesh.dropped_tool_faces;
+  out.alpha_textures_missing = mesh.alpha_textures_missing;
+  return out;
+}
+
 std::vector<uint8_t> read_file_bytes(const std::filesystem::path& path) {
   const std::string bytes = read_input_file(path, kMaxDataFileBytes);
   return std::vector<uint8_t>(bytes.begin(), bytes.end());

@@ -1,9 +1,13 @@
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/procedural.h>
 #include <rtsim/workloads/random.h>
-#include <rtsim/workloads/validate.h>
+#include <rtsim/workloads/scene_registry.h>
 
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace rtsim {
 
@@ -318,25 +322,239 @@ Scene foliage(bool alpha) {
   return scene;
 }
 
+// ---------------------------------------------------------------- forest_instanced
+// A forest kept as instances: four tree meshes (two conifers of stacked cone layers,
+// two broadleaves of leaf cards on branches) and a ground mesh, each stored once,
+// the trees placed on a jittered grid with a seeded rotation about Y and scale.
+
+constexpr uint64_t kForestSeed = 0xF0E5'7000;
+
+// A cylinder from a to b (any direction), open at both ends: trunks and branches.
+void tube(MeshBuilder& mb, const vec3& a, const vec3& b, float ra, float rb, int segments) {
+  const vec3 axis = glm::normalize(b - a);
+  const vec3 side = glm::normalize(glm::cross(axis, std::abs(axis.y) < 0.9f ? vec3(0, 1, 0) : vec3(1, 0, 0)));
+  const vec3 other = glm::cross(axis, side);
+  for (int i = 0; i < segments; ++i) {
+    const float a0 = 2 * kPi * i / segments, a1 = 2 * kPi * (i + 1) / segments;
+    const vec3 d0 = std::cos(a0) * side + std::sin(a0) * other, d1 = std::cos(a1) * side + std::sin(a1) * other;
+    mb.quad(a + ra * d0, a + ra * d1, b + rb * d1, b + rb * d0);
+  }
+}
+
+// One conifer layer: a cone from radius `radius` at height y0 to its apex at y0 +
+// height, as a grid of rings x segments (shared vertices), with a noisy rim and a
+// closing disk underneath.
+void cone_layer(MeshBuilder& mb, KeyedRng& rng, float y0, float height, float radius, int rings, int segments) {
+  Scene& scene = mb.scene;
+  const uint32_t base = uint32_t(scene.vertices.size());
+  for (int r = 0; r < rings; ++r) {
+    const float t = float(r) / float(rings);  // 0 at the rim; the apex closes the last ring
+    for (int i = 0; i < segments; ++i) {
+      const float angle = 2 * kPi * (i + 0.3f * (rng.next_float() - 0.5f)) / segments;
+      const float rr = radius * (1 - t) * (1 + 0.12f * (rng.next_float() - 0.5f));
+      const float droop = 0.15f * height * (1 - t) * (1 - t);  // branches sag towards the rim
+      scene.vertices.push_back(vec3(rr * std::cos(angle), y0 + t * height - droop, rr * std::sin(angle)));
+    }
+  }
+  const uint32_t apex = uint32_t(scene.vertices.size());
+  scene.vertices.push_back(vec3(0, y0 + height, 0));
+  const uint32_t centre = uint32_t(scene.vertices.size());
+  scene.vertices.push_back(vec3(0, y0 - 0.15f * height, 0));
+  const auto at = [&](int r, int i) { return base + uint32_t(r * segments + (i % segments)); };
+  const auto add = [&](uint32_t a, uint32_t b, uint32_t c) {
+    scene.triangles.push_back(uvec3(a, b, c));
+    scene.material_ids.push_back(mb.material);
+  };
+  for (int r = 0; r + 1 < rings; ++r)
+    for (int i = 0; i < segments; ++i) {  // outward-facing (counter-clockwise seen from outside)
+      add(at(r, i), at(r + 1, i), at(r + 1, i + 1));
+      add(at(r, i), at(r + 1, i + 1), at(r, i + 1));
+    }
+  for (int i = 0; i < segments; ++i) {
+    add(at(rings - 1, i), apex, at(rings - 1, i + 1));
+    add(at(0, i), at(0, i + 1), centre);  // underneath, facing down
+  }
+}
+
+void conifer(MeshBuilder& mb, uint32_t bark, uint32_t needles, KeyedRng& rng, float height, int layers, int rings,
+             int segments) {
+  mb.material = bark;
+  tube(mb, vec3(0, -0.3f, 0), vec3(0, 0.85f * height, 0), 0.03f * height, 0.01f * height, 12);
+  mb.material = needles;
+  const float first = 0.2f * height, span = height - first;
+  for (int l = 0; l < layers; ++l) {
+    const float f = float(l) / float(layers);
+    const float y0 = first + f * span * 0.92f;
+    const float radius = 0.32f * height * (1 - 0.8f * f);
+    cone_layer(mb, rng, y0, 0.28f * height * (1 - 0.4f * f), radius, rings, segments);
+  }
+}
+
+void broadleaf(MeshBuilder& mb, uint32_t bark, uint32_t leaf, KeyedRng& rng, float height, int branches, int leaves) {
+  mb.material = bark;
+  const vec3 top(0, 0.55f * height, 0);
+  tube(mb, vec3(0, -0.3f, 0), top, 0.035f * height, 0.025f * height, 16);
+  const vec3 crown(0, 0.68f * height, 0);
+  const vec3 crown_radius(0.3f * height, 0.22f * height, 0.3f * height);
+  std::vector<vec3> tips;
+  for (int b = 0; b < branches; ++b) {
+    const float angle = 2 * kPi * (b + rng.next_float() * 0.5f) / branches;
+    const float rise = 0.1f + 0.25f * rng.next_float();
+    const vec3 tip = crown + vec3(std::cos(angle) * crown_radius.x * 0.7f, rise * height - 0.1f * height,
+                                  std::sin(angle) * crown_radius.z * 0.7f);
+    tube(mb, top - vec3(0, 0.05f * height * (b % 3), 0), tip, 0.012f * height, 0.004f * height, 8);
+    tips.push_back(tip);
+  }
+  mb.material = leaf;
+  for (int i = 0; i < leaves; ++i) {
+    // Around a branch tip, or anywhere in the crown: leaves cluster where the wood is.
+    vec3 p;
+    do {
+      p = vec3(rng.next_float(), rng.next_float(), rng.next_float()) * 2.0f - 1.0f;
+    } while (glm::dot(p, p) > 1.0f);
+    p = i % 3 == 0 ? crown + p * crown_radius : tips[size_t(i) % tips.size()] + p * (0.35f * crown_radius);
+    const vec3 n = glm::normalize(vec3(rng.next_float(), rng.next_float(), rng.next_float()) - 0.5f + 1e-3f);
+    const vec3 t = glm::normalize(glm::cross(n, std::abs(n.y) < 0.9f ? vec3(0, 1, 0) : vec3(1, 0, 0)));
+    const vec3 b = glm::cross(n, t);
+    const float s = 0.012f * height * (1 + rng.next_float());
+    mb.quad(p - s * t - s * b, p + s * t - s * b, p + s * t + s * b, p - s * t + s * b);
+  }
+}
+
+// The ground's height at (x, z): gentle hills, the same function the trees stand on.
+float ground_height(float x, float z) {
+  return 1.2f * std::sin(0.031f * x) * std::cos(0.027f * z) + 0.5f * std::sin(0.11f * x + 0.7f) * std::sin(0.09f * z);
+}
+
+// Appends what `build` adds to the scene as one mesh named `name`.
+template <typename F>
+uint32_t forest_mesh(Scene& scene, const std::string& name, F&& build) {
+  SceneMesh mesh;
+  mesh.name = name;
+  mesh.first_vertex = uint32_t(scene.vertices.size());
+  mesh.first_triangle = uint32_t(scene.triangles.size());
+  build();
+  mesh.vertex_count = uint32_t(scene.vertices.size()) - mesh.first_vertex;
+  mesh.triangle_count = uint32_t(scene.triangles.size()) - mesh.first_triangle;
+  scene.meshes.push_back(mesh);
+  return uint32_t(scene.meshes.size() - 1);
+}
+
+constexpr float kTreeSpacing = 7.0f;  // grid cell (m); a tree stands within the cell's middle 60%
+
+Scene forest_instanced(const std::string& name, uint32_t trees) {
+  Scene scene;
+  scene.name = name;
+  scene.source = "procedural:" + name;
+  scene.licence = "generated by rtsim (no third-party data)";
+  const uint32_t ground = add_material(scene, "ground", vec3(0.42f, 0.38f, 0.30f));
+  const uint32_t bark = add_material(scene, "bark", vec3(0.33f, 0.24f, 0.16f));
+  const uint32_t needles = add_material(scene, "needles", vec3(0.13f, 0.32f, 0.16f));
+  const uint32_t leaf = add_material(scene, "leaf", vec3(0.30f, 0.55f, 0.20f));
+  const uint32_t autumn = add_material(scene, "autumn_leaf", vec3(0.70f, 0.42f, 0.12f));
+  MeshBuilder mb{scene, ground};
+
+  // The trees, in object space (base at the origin, +Y up).
+  uint32_t species[4];
+  {
+    KeyedRng rng(kForestSeed, {1});
+    species[0] = forest_mesh(scene, "spruce", [&] { conifer(mb, bark, needles, rng, 16.0f, 10, 12, 44); });
+  }
+  {
+    KeyedRng rng(kForestSeed, {2});
+    species[1] = forest_mesh(scene, "fir", [&] { conifer(mb, bark, needles, rng, 11.0f, 7, 10, 36); });
+  }
+  {
+    KeyedRng rng(kForestSeed, {3});
+    species[2] = forest_mesh(scene, "oak", [&] { broadleaf(mb, bark, leaf, rng, 13.0f, 14, 7000); });
+  }
+  {
+    KeyedRng rng(kForestSeed, {4});
+    species[3] = forest_mesh(scene, "birch", [&] { broadleaf(mb, bark, autumn, rng, 10.0f, 9, 3500); });
+  }
+
+  // The grid: as square as the count allows, centred on the origin.
+  const uint32_t side = std::max(1u, uint32_t(std::ceil(std::sqrt(double(trees)))));
+  const float extent = float(side) * kTreeSpacing, half = 0.5f * extent;
+  const float margin = 2 * kTreeSpacing;
+  // The ground: a height field over the forest and a margin, in world space.
+  const uint32_t ground_mesh = forest_mesh(scene, "ground", [&] {
+    constexpr int kCells = 200;
+    const float lo = -half - margin, step = (extent + 2 * margin) / kCells;
+    const uint32_t base = uint32_t(scene.vertices.size());
+    for (int j = 0; j <= kCells; ++j)
+      for (int i = 0; i <= kCells; ++i) {
+        const float x = lo + i * step, z = lo + j * step;
+        scene.vertices.push_back(vec3(x, ground_height(x, z), z));
+      }
+    const auto at = [&](int i, int j) { return base + uint32_t(j * (kCells + 1) + i); };
+    for (int j = 0; j < kCells; ++j)
+      for (int i = 0; i < kCells; ++i) {  // facing +y
+        scene.triangles.push_back(uvec3(at(i, j), at(i, j + 1), at(i + 1, j + 1)));
+        scene.triangles.push_back(uvec3(at(i, j), at(i + 1, j + 1), at(i + 1, j)));
+        scene.material_ids.insert(scene.material_ids.end(), {ground, ground});
+      }
+  });
+  scene.instances.push_back({ground_mesh, glm::mat4(1.0f)});
+  for (uint32_t k = 0; k < trees; ++k) {
+    KeyedRng rng(kForestSeed, {5, k});
+    const uint32_t gx = k % side, gz = k / side;
+    const float x = -half + (float(gx) + 0.5f + 0.6f * (rng.next_float() - 0.5f)) * kTreeSpacing;
+    const float z = -half + (float(gz) + 0.5f + 0.6f * (rng.next_float() - 0.5f)) * kTreeSpacing;
+    const uint32_t kind = uint32_t(rng.next_u64() % 4);
+    const float turn = 2 * kPi * rng.next_float(), scale = 0.75f + 0.5f * rng.next_float();
+    glm::mat4 m = glm::translate(glm::mat4(1.0f), vec3(x, ground_height(x, z), z));
+    m = glm::rotate(m, turn, vec3(0, 1, 0));
+    m = glm::scale(m, vec3(scale));
+    scene.instances.push_back({species[kind], m});
+  }
+
+  scene.ao = {true, 0.05f, 4};
+  // view1: over the forest from beyond a corner, looking at its middle.
+  const float h = 0.45f * extent + 20.0f;
+  scene.cameras.push_back(make_camera("view1", {-half - margin, h, -half - margin}, {0, 0, 0}, 55));
+  // view2: inside, at eye height on a cell corner near the middle (no trunk stands
+  // there), looking along a row towards the far edge.
+  const float cx = -half + float(side / 2) * kTreeSpacing, cz = -half + float(side / 2) * kTreeSpacing;
+  scene.cameras.push_back(make_camera("view2", {cx, ground_height(cx, cz) + 1.7f, cz},
+                                      {half, ground_height(half, cz) + 3.0f, cz + 0.3f * half}, 65));
+  return scene;
+}
+
+// Trees of forest_instanced and forest_instanced_50m (about 1.4 M and 52 M instanced
+// triangles: the four trees average 9,270 triangles, the ground has 80,000).
+constexpr uint32_t kForestTrees = 144, kForest50mTrees = 5600;
+
 }  // namespace
 
 std::vector<std::string> procedural_scene_names() { return {"cornell", "interior", "foliage", "foliage_alpha"}; }
 
+std::vector<std::string> instanced_procedural_scene_names() { return {"forest_instanced", "forest_instanced_50m"}; }
+
 bool is_procedural_scene(const std::string& name) {
   for (const std::string& n : procedural_scene_names())
+    if (n == name) return true;
+  for (const std::string& n : instanced_procedural_scene_names())
     if (n == name) return true;
   return false;
 }
 
-Scene make_procedural_scene(const std::string& name) {
+Scene make_procedural_scene(const std::string& name, SceneForm form) {
   Scene scene;
   if (name == "cornell") scene = cornell();
   else if (name == "interior") scene = interior();
   else if (name == "foliage") scene = foliage(false);
   else if (name == "foliage_alpha") scene = foliage(true);
-  else throw InputError("scene '" + name + "'", "not a procedural scene (cornell, interior, foliage, foliage_alpha)");
-  validate_scene(scene);
-  return scene;
+  else if (name == "forest_instanced") scene = forest_instanced(name, kForestTrees);
+  else if (name == "forest_instanced_50m") scene = forest_instanced(name, kForest50mTrees);
+  else
+    throw InputError("scene '" + name + "'", "not a procedural scene (cornell, interior, foliage, foliage_alpha, "
+                                             "forest_instanced, forest_instanced_50m)");
+  return scene_in_form(std::move(scene), form);
+}
+
+Scene make_forest_instanced(uint32_t trees, SceneForm form) {
+  return scene_in_form(forest_instanced("forest_instanced_" + std::to_string(trees), trees), form);
 }
 
 }  // namespace rtsim

@@ -12,7 +12,9 @@ namespace {
 
 // "RTSIMSCN" and the format's version: a new Scene field is a new version.
 constexpr char kMagic[8] = {'R', 'T', 'S', 'I', 'M', 'S', 'C', 'N'};
-constexpr uint32_t kVersion = 2;  // 2: alpha textures and texture coordinates
+// 2: alpha textures and texture coordinates; 3: the scene as parsed (validated on
+// every load), meshes and instances.
+constexpr uint32_t kVersion = 3;
 
 class Writer {
  public:
@@ -71,6 +73,9 @@ class Reader {
   const char* end_;
 };
 
+// Instances are written as they lie in memory: no padding, so no indeterminate bytes.
+static_assert(sizeof(Instance) == sizeof(uint32_t) + sizeof(glm::mat4), "Instance has padding");
+
 void write_body(Writer& w, const Scene& s) {
   w.text(s.name);
   w.text(s.source);
@@ -114,6 +119,13 @@ void write_body(Writer& w, const Scene& s) {
   w.pod(s.ao.cutoff_relative);
   w.pod(s.ao.samples);
   w.pod(s.validation);
+  w.pod(uint64_t(s.meshes.size()));
+  for (const SceneMesh& m : s.meshes) {
+    w.text(m.name);
+    const uint32_t range[] = {m.first_vertex, m.vertex_count, m.first_triangle, m.triangle_count};
+    w.pod(range);
+  }
+  w.array(s.instances);
 }
 
 bool read_body(Reader& r, Scene* s) {
@@ -164,13 +176,32 @@ bool read_body(Reader& r, Scene* s) {
   if (!r.pod(&enabled) || !r.pod(&s->ao.cutoff_relative) || !r.pod(&s->ao.samples) || !r.pod(&s->validation))
     return false;
   s->ao.enabled = enabled != 0;
-  // What validation promises of a loaded scene: every index in range, one material
-  // id per triangle naming a material.
-  for (const uvec3& t : s->triangles)
-    if (t.x >= s->vertices.size() || t.y >= s->vertices.size() || t.z >= s->vertices.size()) return false;
+  if (!r.pod(&n)) return false;
+  for (uint64_t i = 0; i < n; ++i) {
+    SceneMesh m;
+    uint32_t range[4];
+    if (!r.text(&m.name) || !r.pod(&range)) return false;
+    m.first_vertex = range[0], m.vertex_count = range[1], m.first_triangle = range[2], m.triangle_count = range[3];
+    s->meshes.push_back(std::move(m));
+  }
+  if (!r.array(&s->instances)) return false;
+  // The image holds the scene before validation (which drops bad indices, so they
+  // may be here). What a parsed scene always has: one material id per triangle
+  // naming a material; meshes that cover the triangles in order within the
+  // vertices, and instances that name one (validation would refuse the rest, an
+  // image that could not have been written).
   if (s->material_ids.size() != s->triangles.size()) return false;
   for (uint32_t m : s->material_ids)
     if (m >= s->materials.size()) return false;
+  if (s->meshes.empty() != s->instances.empty()) return false;
+  uint64_t next = 0;
+  for (const SceneMesh& m : s->meshes) {
+    if (m.first_triangle != next || uint64_t(m.first_vertex) + m.vertex_count > s->vertices.size()) return false;
+    next += m.triangle_count;
+  }
+  if (!s->meshes.empty() && next != s->triangles.size()) return false;
+  for (const Instance& i : s->instances)
+    if (i.mesh >= s->meshes.size()) return false;
   return r.at_end();
 }
 
@@ -208,7 +239,9 @@ std::optional<Scene> scene_from_image(const std::string& bytes, const std::strin
 }
 
 std::filesystem::path scene_image_path(const std::string& key) {
-  return scene_cache_dir() / "scene-images" / (key + ".scene");
+  // The format's version in the name: binaries of two versions sharing a cache keep
+  // an image each instead of replacing each other's as damaged.
+  return scene_cache_dir() / "scene-images" / (key + ".v" + std::to_string(kVersion) + ".scene");
 }
 
 bool scene_cache_enabled() {

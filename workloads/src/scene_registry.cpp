@@ -7,6 +7,7 @@
 
 #include <rtsim/workloads/config_reader.h>
 #include <rtsim/workloads/random.h>
+#include <rtsim/workloads/validate.h>
 
 #include <algorithm>
 #include <cctype>
@@ -62,25 +63,37 @@ std::filesystem::path descriptor_to_load(const std::string& name_or_path) {
 }
 }  // namespace
 
-Scene load_scene(const std::string& name_or_path) {
-  if (is_procedural_scene(name_or_path)) return make_procedural_scene(name_or_path);
+Scene scene_in_form(Scene parsed, SceneForm form) {
+  // Flat: flattened before validation, so that validation drops and counts the
+  // world's triangles, as it did when the loaders made flat scenes.
+  if (form == SceneForm::Flat && parsed.instanced()) parsed = flatten(parsed);
+  validate_scene(parsed);
+  return parsed;
+}
+
+Scene load_scene(const std::string& name_or_path, SceneForm form) {
+  if (is_procedural_scene(name_or_path)) return make_procedural_scene(name_or_path, form);
   const std::filesystem::path descriptor = descriptor_to_load(name_or_path);
-  if (!scene_cache_enabled()) return load_scene_descriptor(descriptor);
-  // The image of these very input files, if one was written and is whole.
+  if (!scene_cache_enabled()) return load_scene_descriptor(descriptor, form);
+  // The image of these very input files, if one was written and is whole. It holds
+  // the scene as parsed (instanced where the scene is), before validation: either
+  // form is made from it.
   const std::string key = files_hash(descriptor_source_files(descriptor));
   const std::filesystem::path image = scene_image_path(key);
   if (is_file(image)) {
     if (std::optional<Scene> scene = scene_from_image(read_input_file(image, kMaxDataFileBytes), key)) {
       scene->source = descriptor.string();  // where it is now, not where it was parsed
-      return std::move(*scene);
+      return scene_in_form(std::move(*scene), form);
     }
     std::fprintf(stderr, "rtsim: the scene image %s is damaged; parsing the scene again\n", image.string().c_str());
   }
-  Scene scene = load_scene_descriptor(descriptor);
+  Scene parsed = read_scene_descriptor(descriptor);
+  const std::string bytes = scene_image(parsed, key);
+  Scene scene = scene_in_form(std::move(parsed), form);  // a scene that does not validate is not kept
   // Best effort: a cache that cannot be written costs the next load its parse, nothing else.
   try {
     std::filesystem::create_directories(image.parent_path());
-    write_file_atomic(image, scene_image(scene, key));
+    write_file_atomic(image, bytes);
   } catch (const std::exception& e) {
     static bool told = false;
     if (!told) std::fprintf(stderr, "rtsim: warning: the scene image cannot be written (%s); scenes are parsed every time\n", e.what());
@@ -95,6 +108,7 @@ namespace rtsim {
 
 std::vector<std::string> known_scene_names() {
   std::vector<std::string> names = procedural_scene_names();
+  for (const std::string& n : instanced_procedural_scene_names()) names.push_back(n);
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(scene_cache_dir(), ec))
     if (path_exists(entry.path() / "scene.toml"))

@@ -1,4 +1,5 @@
-// SuperTuxKart: .spm meshes and scene.xml tracks flattened into one mesh.
+// SuperTuxKart: .spm meshes and scene.xml tracks (each model file a mesh, each
+// placement an instance).
 //
 // Coordinates: STK (Irrlicht) is Y-up and left-handed. We mirror Z,
 // (x, y, z) -> (x, y, -z), so the space is right-handed and the track is not
@@ -182,18 +183,19 @@ std::string lower_ascii(std::string s) {
 // opaque like every other shader here.
 bool alpha_tested_shader(const std::string& shader) { return shader == "alphatest" || shader == "grass"; }
 
-class TrackFlattener {
+// Reads a track's scene.xml (and its libraries) into one Mesh of meshes and instances.
+class TrackReader {
  public:
   // decode_textures false: find the alpha-tested textures' files but read none
   // (what `scenes fetch` needs to know which to copy); materials stay opaque.
-  TrackFlattener(std::filesystem::path track_dir, bool decode_textures)
+  TrackReader(std::filesystem::path track_dir, bool decode_textures)
       : track_dir_(std::move(track_dir)), decode_textures_(decode_textures) {
     const std::filesystem::path data = track_dir_.parent_path().parent_path();
     library_dir_ = data / "library";
     textures_dir_ = data / "textures";
   }
 
-  void flatten_scene(const std::filesystem::path& xml_path, const std::filesystem::path& model_dir,
+  void read_scene(const std::filesystem::path& xml_path, const std::filesystem::path& model_dir,
                      const glm::mat4& parent, int depth) {
     pugi::xml_document doc;
     const std::string xml = read_input_file(xml_path, kMaxConfigFileBytes);  // bounded, regular files only
@@ -239,7 +241,7 @@ class TrackFlattener {
         const std::filesystem::path dir = library_dir_ / library;
         if (!path_exists(dir / "node.xml"))
           throw InputError(file, "library '" + library + "' not found (" + (dir / "node.xml").string() + ")");
-        flatten_scene(dir / "node.xml", dir, parent * object_transform(node, file), depth + 1);
+        read_scene(dir / "node.xml", dir, parent * object_transform(node, file), depth + 1);
       }
     }
   }
@@ -290,7 +292,8 @@ class TrackFlattener {
     add_model(model_dir, model, parent * object_transform(node, file), file);
   }
 
-  // A model file of the folder model_dir (a track's or a library object's).
+  // A model file of the folder model_dir (a track's or a library object's): its mesh
+  // (added at its first placement) and one instance placing it.
   void add_model(const std::filesystem::path& model_dir, const std::string& model_name,
                  const glm::mat4& irrlicht_transform, const std::string& referenced_by) {
     const std::filesystem::path path = model_dir / model_name;
@@ -299,17 +302,29 @@ class TrackFlattener {
       if (!path_exists(path))
         throw InputError(referenced_by, "model '" + path.filename().string() + "' not found (" +
                                             path.string() + ")");
-      auto loaded = std::make_unique<Mesh>(load_mesh(path));
+      // A model is one mesh: one that brings instances of its own is placed flat.
+      auto loaded = std::make_unique<Mesh>(flatten(load_mesh(path)));
       adopt_alpha_textures(*loaded, model_dir);
-      it = models_.emplace(path.string(), std::move(loaded)).first;
+      it = models_.emplace(path.string(), Model{std::move(loaded), ~0u}).first;
     }
-    const Mesh& model = *it->second;
+    Model& model = it->second;
     // Models are already mirrored; M in Irrlicht space acts as F*M*F on mirrored points.
     const glm::mat4 mirror = glm::scale(glm::mat4(1.0f), vec3(1, 1, -1));
     const glm::mat4 transform = mirror * irrlicht_transform * mirror;
-    const bool flips = glm::determinant(glm::mat3(transform)) < 0.0f;  // negative scale
-    const uint32_t base = uint32_t(mesh_.vertices.size());
-    for (const vec3& v : model.vertices) mesh_.vertices.push_back(vec3(transform * glm::vec4(v, 1.0f)));
+    if (!instance_transform_problem(transform).empty()) {
+      // STK collapses objects with a zero scale; no instance can hold that, so the
+      // placed copy becomes a mesh of its own, in world space.
+      mesh_.instances.push_back({add_mesh(*model.mesh, path.string() + " (placed flat)", &transform), glm::mat4(1.0f)});
+      return;
+    }
+    if (model.index == ~0u) model.index = add_mesh(*model.mesh, path.string(), nullptr);
+    mesh_.instances.push_back({model.index, transform});
+  }
+
+  // Appends a model's vertices and triangles as a mesh, its materials mapped into
+  // the track's (materials first met here are added, as the flat track added them).
+  // bake: the transform to apply to the vertices (a placed-flat copy), else none.
+  uint32_t add_mesh(const Mesh& model, const std::string& name, const glm::mat4* bake) {
     std::vector<uint32_t> material_map(model.materials.size());
     for (size_t m = 0; m < model.materials.size(); ++m) {
       // By name and texture: one name can be alpha-tested with different files in
@@ -323,8 +338,17 @@ class TrackFlattener {
       }
       material_map[m] = found->second;
     }
+    SceneMesh mesh;
+    mesh.name = name;
+    mesh.first_vertex = uint32_t(mesh_.vertices.size());
+    mesh.vertex_count = uint32_t(model.vertices.size());
+    mesh.first_triangle = uint32_t(mesh_.triangles.size());
+    mesh.triangle_count = uint32_t(model.triangles.size());
+    // The flat track's expressions: a baked copy is the very vertices it had there.
+    const bool flips = bake && glm::determinant(glm::mat3(*bake)) < 0.0f;
+    for (const vec3& v : model.vertices) mesh_.vertices.push_back(bake ? vec3(*bake * glm::vec4(v, 1.0f)) : v);
     for (size_t t = 0; t < model.triangles.size(); ++t) {
-      uvec3 tri = model.triangles[t] + uvec3(base);
+      uvec3 tri = model.triangles[t] + uvec3(mesh.first_vertex);
       TriangleUv uv = t < model.triangle_uvs.size() ? model.triangle_uvs[t] : TriangleUv{};
       if (flips) std::swap(tri.y, tri.z), std::swap(uv[1], uv[2]);  // the coordinates follow their vertices
       mesh_.triangles.push_back(tri);
@@ -334,6 +358,8 @@ class TrackFlattener {
                                        : 0);
     }
     if (mesh_.materials.empty()) mesh_.materials.push_back(Material{});
+    mesh_.meshes.push_back(std::move(mesh));
+    return uint32_t(mesh_.meshes.size() - 1);
   }
 
   // Gives a freshly loaded model's materials their alpha textures, as indices into
@@ -439,7 +465,11 @@ class TrackFlattener {
 
   std::filesystem::path track_dir_, library_dir_, textures_dir_;
   bool decode_textures_;
-  std::map<std::string, std::unique_ptr<Mesh>> models_;
+  struct Model {
+    std::unique_ptr<Mesh> mesh;  // as loaded, its alpha textures adopted
+    uint32_t index;              // its mesh in mesh_.meshes, ~0u until first placed
+  };
+  std::map<std::string, Model> models_;
   std::map<std::pair<std::string, int32_t>, uint32_t> material_index_;
   std::map<std::string, std::map<std::string, std::string>> material_files_;  // by folder
   std::map<std::string, int32_t> texture_index_;  // file -> mesh_.alpha_textures index, -1 unreadable
@@ -505,10 +535,12 @@ std::vector<Camera> quad_cameras(const std::filesystem::path& quads_path) {
 Mesh load_stk_track(const std::filesystem::path& track_dir) {
   const std::filesystem::path scene_xml = track_dir / "scene.xml";
   if (!path_exists(scene_xml)) throw InputError(track_dir.string(), "no scene.xml in this folder");
-  TrackFlattener flattener(track_dir, true);
-  flattener.flatten_scene(scene_xml, track_dir, glm::mat4(1.0f), 0);
-  Mesh mesh = flattener.take();
-  if (mesh.triangles.empty()) throw InputError(scene_xml.string(), "the track has no geometry");
+  TrackReader reader(track_dir, true);
+  reader.read_scene(scene_xml, track_dir, glm::mat4(1.0f), 0);
+  Mesh mesh = reader.take();
+  uint64_t placed = 0;
+  for (const Instance& i : mesh.instances) placed += mesh.meshes[i.mesh].triangle_count;
+  if (placed == 0) throw InputError(scene_xml.string(), "the track has no geometry");
   mesh.suggested_cameras = quad_cameras(track_dir / "quads.xml");
   return mesh;
 }
@@ -516,9 +548,9 @@ Mesh load_stk_track(const std::filesystem::path& track_dir) {
 std::vector<std::filesystem::path> stk_track_alpha_texture_files(const std::filesystem::path& track_dir) {
   const std::filesystem::path scene_xml = track_dir / "scene.xml";
   if (!path_exists(scene_xml)) throw InputError(track_dir.string(), "no scene.xml in this folder");
-  TrackFlattener flattener(track_dir, false);
-  flattener.flatten_scene(scene_xml, track_dir, glm::mat4(1.0f), 0);
-  const auto& files = flattener.texture_files();
+  TrackReader reader(track_dir, false);
+  reader.read_scene(scene_xml, track_dir, glm::mat4(1.0f), 0);
+  const auto& files = reader.texture_files();
   return {files.begin(), files.end()};
 }
 

@@ -1,7 +1,10 @@
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/validate.h>
 
+#include <algorithm>
 #include <cmath>
+#include <string>
+#include <vector>
 
 namespace rtsim {
 
@@ -10,6 +13,38 @@ bool zero_area(const vec3& a, const vec3& b, const vec3& c) {
   // Double precision so that tiny but valid triangles are not called degenerate.
   const dvec3 n = glm::cross(dvec3(b) - dvec3(a), dvec3(c) - dvec3(a));
   return glm::dot(n, n) == 0.0;
+}
+
+// An instanced scene's structure: InputError for what no dropping can repair.
+void check_instancing(const Scene& scene, const std::string& where) {
+  if (scene.instances.empty())
+    throw InputError(where, "has " + std::to_string(scene.meshes.size()) + " meshes but no instance places them");
+  uint64_t next = 0;  // meshes cover the triangles in order
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const SceneMesh& mesh = scene.meshes[m];
+    const std::string what = where + " mesh " + std::to_string(m) + " ('" + mesh.name + "')";
+    if (mesh.first_triangle != next)
+      throw InputError(what, "starts at triangle " + std::to_string(mesh.first_triangle) + ", not at " +
+                                 std::to_string(next) + " where the mesh before it ends (meshes cover the "
+                                 "triangles in order)");
+    next += mesh.triangle_count;
+    if (next > scene.triangles.size())
+      throw InputError(what, "its triangles run past the scene's " + std::to_string(scene.triangles.size()));
+    if (uint64_t(mesh.first_vertex) + mesh.vertex_count > scene.vertices.size())
+      throw InputError(what, "its vertices run past the scene's " + std::to_string(scene.vertices.size()));
+  }
+  if (next != scene.triangles.size())
+    throw InputError(where, "its meshes cover " + std::to_string(next) + " of its " +
+                                std::to_string(scene.triangles.size()) + " triangles");
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    const Instance& instance = scene.instances[i];
+    const std::string what = where + " instance " + std::to_string(i);
+    if (instance.mesh >= scene.meshes.size())
+      throw InputError(what, "places mesh " + std::to_string(instance.mesh) + ", which does not exist (" +
+                                 std::to_string(scene.meshes.size()) + " meshes)");
+    if (const std::string problem = instance_transform_problem(instance.object_to_world); !problem.empty())
+      throw InputError(what + " (mesh '" + scene.meshes[instance.mesh].name + "')", problem);
+  }
 }
 }  // namespace
 
@@ -26,8 +61,14 @@ void validate_scene(Scene& scene) {
     throw InputError(where, "texture coordinate count " + std::to_string(scene.triangle_uvs.size()) +
                                 " differs from triangle count " + std::to_string(scene.triangles.size()));
 
+  const bool instanced = !scene.instances.empty() || !scene.meshes.empty();
+  if (instanced) check_instancing(scene, where);
+
   ValidationReport report;
-  report.input_triangles = scene.triangles.size();
+  report.input_triangles = scene.triangles.size();  // instanced: the unique (object-space) triangles
+  // What the loader left out before triangles existed: kept, the loader counted them.
+  report.dropped_sky_faces = scene.validation.dropped_sky_faces;
+  report.dropped_tool_faces = scene.validation.dropped_tool_faces;
   // Per vertex: 1 usable, 0 non-finite, 2 finite but beyond kMaxSceneCoordinate.
   std::vector<char> vertex_finite(scene.vertices.size());
   for (size_t i = 0; i < scene.vertices.size(); ++i) {
@@ -39,33 +80,53 @@ void validate_scene(Scene& scene) {
     report.non_finite_vertices += !finite;
   }
 
+  // The triangle ranges checked, each with the vertices its indices may name: every
+  // mesh of an instanced scene (its own vertices only), or the whole flat scene.
+  struct Range {
+    size_t first, count;
+    uint64_t lo, hi;
+    SceneMesh* mesh;
+  };
+  std::vector<Range> ranges;
+  if (instanced) {
+    for (SceneMesh& m : scene.meshes)
+      ranges.push_back({m.first_triangle, m.triangle_count, m.first_vertex, uint64_t(m.first_vertex) + m.vertex_count, &m});
+  } else {
+    ranges.push_back({0, scene.triangles.size(), 0, scene.vertices.size(), nullptr});
+  }
   size_t kept = 0;
-  const size_t nv = scene.vertices.size();
-  for (size_t i = 0; i < scene.triangles.size(); ++i) {
-    const uvec3 t = scene.triangles[i];
-    if (t.x >= nv || t.y >= nv || t.z >= nv) {
-      ++report.dropped_bad_index;
-      continue;
+  for (const Range& r : ranges) {
+    const size_t kept_before = kept;
+    for (size_t i = r.first; i < r.first + r.count; ++i) {
+      const uvec3 t = scene.triangles[i];
+      if (t.x < r.lo || t.y < r.lo || t.z < r.lo || t.x >= r.hi || t.y >= r.hi || t.z >= r.hi) {
+        ++report.dropped_bad_index;
+        continue;
+      }
+      if (!vertex_finite[t.x] || !vertex_finite[t.y] || !vertex_finite[t.z]) {
+        ++report.dropped_non_finite;
+        continue;
+      }
+      if (vertex_finite[t.x] == 2 || vertex_finite[t.y] == 2 || vertex_finite[t.z] == 2) {
+        ++report.dropped_out_of_range;
+        continue;
+      }
+      uint32_t material = scene.material_ids[i];
+      if (material >= scene.materials.size())
+        throw InputError(where, "triangle " + std::to_string(i) + " has material id " +
+                                    std::to_string(material) + " but only " +
+                                    std::to_string(scene.materials.size()) + " materials exist");
+      if (zero_area(scene.vertices[t.x], scene.vertices[t.y], scene.vertices[t.z]))
+        ++report.degenerate_kept;
+      scene.triangles[kept] = t;
+      scene.material_ids[kept] = material;
+      if (has_uvs) scene.triangle_uvs[kept] = scene.triangle_uvs[i];
+      ++kept;
     }
-    if (!vertex_finite[t.x] || !vertex_finite[t.y] || !vertex_finite[t.z]) {
-      ++report.dropped_non_finite;
-      continue;
+    if (r.mesh) {  // the mesh keeps its surviving triangles, now from kept_before
+      r.mesh->first_triangle = uint32_t(kept_before);
+      r.mesh->triangle_count = uint32_t(kept - kept_before);
     }
-    if (vertex_finite[t.x] == 2 || vertex_finite[t.y] == 2 || vertex_finite[t.z] == 2) {
-      ++report.dropped_out_of_range;
-      continue;
-    }
-    uint32_t material = scene.material_ids[i];
-    if (material >= scene.materials.size())
-      throw InputError(where, "triangle " + std::to_string(i) + " has material id " +
-                                  std::to_string(material) + " but only " +
-                                  std::to_string(scene.materials.size()) + " materials exist");
-    if (zero_area(scene.vertices[t.x], scene.vertices[t.y], scene.vertices[t.z]))
-      ++report.degenerate_kept;
-    scene.triangles[kept] = t;
-    scene.material_ids[kept] = material;
-    if (has_uvs) scene.triangle_uvs[kept] = scene.triangle_uvs[i];
-    ++kept;
   }
   scene.triangles.resize(kept);
   scene.material_ids.resize(kept);
@@ -75,6 +136,21 @@ void validate_scene(Scene& scene) {
   if (scene.triangles.empty())
     throw InputError(where, "no valid triangle (" + std::to_string(report.input_triangles) +
                                 " in the input, all dropped or none given)");
+  if (instanced) {
+    // Object coordinates are checked above; a transform may still carry a mesh past
+    // the range (the flat form drops those triangles; one instance cannot be split).
+    const Aabb world = scene.bounds();
+    const auto beyond = [](const Aabb& box) {
+      return !box.empty() && !(glm::all(glm::lessThanEqual(glm::abs(box.lo), vec3(kMaxSceneCoordinate))) &&
+                               glm::all(glm::lessThanEqual(glm::abs(box.hi), vec3(kMaxSceneCoordinate))));
+    };
+    if (beyond(world))
+      for (uint32_t i = 0; i < scene.instances.size(); ++i)
+        if (beyond(scene.instance_bounds(i)))
+          throw InputError(where + " instance " + std::to_string(i) + " (mesh '" +
+                               scene.meshes[scene.instances[i].mesh].name + "')",
+                           "places its mesh beyond +-1e18 (kMaxSceneCoordinate), past Embree's range");
+  }
   for (const Material& m : scene.materials) {
     const float values[] = {m.albedo.x, m.albedo.y, m.albedo.z, m.reflectance, m.transmittance,
                             m.ior};

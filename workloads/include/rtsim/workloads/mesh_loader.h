@@ -22,6 +22,11 @@ struct Mesh {
   // alpha_texture index, and one TriangleUv per triangle or none.
   std::vector<AlphaTexture> alpha_textures;
   std::vector<TriangleUv> triangle_uvs;
+  // Instancing (Scene's fields of the same names): both empty for a flat mesh.
+  // SuperTuxKart tracks keep their model files as meshes and their objects as
+  // instances; flatten() gives the flat mesh.
+  std::vector<SceneMesh> meshes;
+  std::vector<Instance> instances;
   std::vector<Camera> suggested_cameras;  // spawn points, track quads
   // Quake 3 faces left out on purpose (counted so that `scenes info` can say so):
   // sky faces (when MeshOptions::bsp_drop_sky) and tool faces (textures/common/:
@@ -40,7 +45,11 @@ struct MeshOptions {
 };
 
 // Dispatches on the file name: .bsp/.pk3, .spm, scene.xml (a STK track), else assimp.
+// A track keeps its instances (flatten() for its flat triangles).
 Mesh load_mesh(const std::filesystem::path& path, const MeshOptions& options = {});
+// The flat mesh (every instance's triangles in world space, as flatten(Scene)); a
+// flat mesh is returned unchanged.
+Mesh flatten(const Mesh& mesh);
 // load_mesh calls so far in this process, each of which reads and parses its file
 // (a scene descriptor loads a file named by many [[mesh]] tables once).
 uint64_t mesh_files_loaded();
@@ -61,7 +70,12 @@ Mesh parse_q3bsp(const std::vector<uint8_t>& bytes, const std::string& file_name
 // An SPM's triangle_uvs are its texture 1 coordinates (0, 0 for untextured
 // materials); its materials are opaque (materials.xml lies beside it, see below).
 Mesh parse_spm(const std::vector<uint8_t>& bytes, const std::string& file_name);
-// A track folder's scene.xml flattened. Materials whose SuperTuxKart shader is
+// A track folder's scene.xml: each model file once (a mesh, untransformed, in the
+// track's materials) and each placement of one an instance (transform
+// mirror * Irrlicht transform * mirror), the track's own model first; a placement
+// whose transform is singular (STK's zero scales) is baked into a mesh of its own,
+// placed by the identity. flatten() gives the flat track, exactly what this loader
+// returned before it kept instances. Materials whose SuperTuxKart shader is
 // "alphatest" (materials.xml of the object's folder, the track's, data/textures')
 // get their texture's alpha channel from the first of those folders holding it.
 Mesh load_stk_track(const std::filesystem::path& track_dir);

@@ -102,6 +102,29 @@ struct ValidationReport {
   uint64_t dropped_tool_faces = 0;
 };
 
+// Instancing (docs/scene-descriptor.md "Instances"). An instanced scene stores
+// each mesh once, in its own object space, as a range of the scene's vertices and
+// triangles; instances place meshes in the world, each with an affine transform.
+// A flat scene (every scene unless asked for its instances) has neither list and
+// its triangles are in world space.
+struct SceneMesh {
+  std::string name;  // the model file or [[mesh]] name, for messages and `scenes info`
+  uint32_t first_vertex = 0, vertex_count = 0;
+  uint32_t first_triangle = 0, triangle_count = 0;  // their indices are into Scene::vertices
+};
+
+struct Instance {
+  uint32_t mesh = 0;  // into Scene::meshes
+  // Object to world; affine (bottom row 0 0 0 1), finite and invertible (validated).
+  glm::mat4 object_to_world{1.0f};
+};
+
+// Why `object_to_world` cannot place an instance, or "" if it can: it must be finite,
+// affine (bottom row 0 0 0 1) and invertible, |det| of its 3x3 (in double) above
+// kMinInstanceDeterminant (a ray moved into object space divides by it).
+constexpr double kMinInstanceDeterminant = 1e-30;
+std::string instance_transform_problem(const glm::mat4& object_to_world);
+
 struct Scene {
   std::string name;
   std::string source;  // file or "procedural:<name>"
@@ -117,30 +140,51 @@ struct Scene {
   // Triangles make_opaque turned opaque (a run's --opaque), for its effect plan to
   // say; not part of the content (hash, cache).
   uint64_t alpha_made_opaque = 0;
+  // Instancing: both empty for a flat scene. Every triangle belongs to one mesh
+  // (meshes cover the triangles in order); a mesh no instance places is allowed.
+  std::vector<SceneMesh> meshes;
+  std::vector<Instance> instances;
   std::vector<Light> lights;
   std::vector<Camera> cameras;
   AoSettings ao;
   ValidationReport validation;
 
-  size_t triangle_count() const { return triangles.size(); }
+  size_t triangle_count() const { return triangles.size(); }  // instanced: unique (object-space) triangles
+  bool instanced() const { return !instances.empty(); }
+  // Triangles the world holds: the sum over instances of their mesh's triangles
+  // (triangle_count() for a flat scene). What flatten() produces.
+  uint64_t instanced_triangle_count() const;
+  // Instanced scenes: triangle `tri` (of instance's mesh) vertex k in world space.
+  vec3 world_vertex(uint32_t instance, uint32_t tri, int k) const {
+    return vec3(instances[instance].object_to_world * glm::vec4(vertex(tri, k), 1.0f));
+  }
+  // World to object: the inverse in double, stored as float - what the hardware's
+  // instance record holds, and what the model, its referee and Embree's check use.
+  glm::mat4 world_to_object(uint32_t instance) const {
+    return glm::mat4(glm::inverse(glm::dmat4(instances[instance].object_to_world)));
+  }
+  // The world box of an instance: its mesh's object box transformed (the box of
+  // the eight corners, so it may be larger than the placed triangles' own box).
+  Aabb instance_bounds(uint32_t instance) const;
   vec3 vertex(uint32_t tri, int k) const { return vertices[triangles[tri][k]]; }
   Aabb triangle_bounds(uint32_t tri) const {
     return Aabb::of_triangle(vertex(tri, 0), vertex(tri, 1), vertex(tri, 2));
   }
-  Aabb bounds() const;
+  Aabb bounds() const;  // in world space: an instanced scene's placed triangles, the flat scene's box exactly
   float diagonal() const { return bounds().diagonal(); }
   float ao_cutoff() const { return ao.cutoff_relative * diagonal(); }
   // The triangle's material is alpha-tested (so a hit on it needs an any-hit test).
   bool alpha_tested(uint32_t tri) const {
     return !alpha_textures.empty() && materials[material_ids[tri]].alpha_tested();
   }
-  size_t alpha_tested_triangles() const;
+  size_t alpha_tested_triangles() const;  // unique: an instanced scene's meshes once each
   // The any-hit test of a hit at barycentrics (u, v) (Embree's convention, ray.h) on
   // alpha-tested triangle `tri`: the texel at the interpolated coordinates. One
   // definition for the model's any-hit stage and Embree's intersection filter.
   AlphaSample alpha_sample(uint32_t tri, float u, float v) const;
   // Makes every material opaque (drops the textures and coordinates): the same
-  // geometry as an opaque scene, for comparison.
+  // geometry as an opaque scene, for comparison. alpha_made_opaque counts placed
+  // triangles (an instanced scene's as its flat form would), so both forms agree.
   void make_opaque();
   const Camera* find_camera(const std::string& camera_name) const;
   const Camera& camera(const std::string& camera_name) const;  // throws InputError
@@ -152,6 +196,13 @@ struct Scene {
   uint64_t content_hash() const;
 };
 
+// The flat scene of the same content: every instance's triangles in world space,
+// instance by instance, each mesh's vertices and triangles in their stored order
+// (a mirroring transform swaps a triangle's last two vertices, with their texture
+// coordinates, to keep it front-facing). Materials, textures, cameras and lights are
+// kept; meshes and instances are dropped. A flat scene is returned unchanged.
+Scene flatten(const Scene& scene);
+
 // A strict order of a scene's triangles by their geometry alone: the centroid of
 // the bounds, then the bounds, then the vertices as stored; exact duplicates by
 // material, then by index. Builders break ties with it and the memory layout orders
@@ -162,7 +213,8 @@ bool triangle_geometric_less(const Scene& scene, uint32_t a, uint32_t b);
 // code of each triangle's bounds centre (2^21 cells per axis of the scene's box),
 // ties by triangle_geometric_less. The builders see the triangles in this order
 // (build_bvh), so that the same geometry in another face order gives the same tree,
-// float sums included.
+// float sums included. An instanced scene's triangles are ordered in object space,
+// on a grid over their own box.
 std::vector<uint32_t> geometric_order(const Scene& scene);
 
 // A 64-bit key of a triangle's vertices (in their stored order): keys the random
@@ -170,7 +222,9 @@ std::vector<uint32_t> geometric_order(const Scene& scene);
 uint64_t triangle_geometry_key(const Scene& scene, uint32_t tri);
 
 // Permutes the triangles (with their material ids) by a seeded shuffle: the same
-// geometry in another face order, to check that results do not depend on it.
+// geometry in another face order, to check that results do not depend on it. An
+// instanced scene is shuffled within each mesh's range, the ranges kept (a flat
+// scene's permutation is what it always was).
 void shuffle_triangles(Scene& scene, uint64_t seed);
 
 }  // namespace rtsim

@@ -6,7 +6,11 @@
 // or descriptor is parsed again; it carries a checksum of its body, so a damaged
 // image is detected and rebuilt, never trusted.
 //
-// Where: $RTSIM_CACHE/scene-images/<key>.scene. RTSIM_SCENE_CACHE=off turns it off.
+// The image holds the scene as its loader parsed it, before validation (instanced
+// where the scene is: meshes and instances); load_scene validates it in the form
+// asked (scene_in_form), so both forms come from one image.
+//
+// Where: $RTSIM_CACHE/scene-images/<key>.v<format>.scene. RTSIM_SCENE_CACHE=off turns it off.
 #include <rtsim/workloads/scene.h>
 
 #include <filesystem>

@@ -12,7 +12,18 @@ namespace rtsim {
 // else ~/.cache/rtsim.
 std::filesystem::path scene_cache_dir();
 std::string default_scene_name();  // "interior"
-Scene load_scene(const std::string& name_or_path);  // validated; throws InputError
+// The form a scene is loaded in. Flat: every triangle in world space, as every
+// scene was before instancing (the same content hash). Instanced: the meshes
+// once each and the instances placing them (Scene::instances); a scene without
+// instances comes flat (instanced() false) either way.
+enum class SceneForm { Flat, Instanced };
+
+// Validated; throws InputError. The flat form is flatten() of the scene as parsed,
+// then validated (so validation sees, and reports, the world's triangles).
+Scene load_scene(const std::string& name_or_path, SceneForm form = SceneForm::Flat);
+// A loader's scene, as parsed (unvalidated), in the form asked, validated: what
+// load_scene returns for it. The procedural scenes and descriptors use it.
+Scene scene_in_form(Scene parsed, SceneForm form);
 std::vector<std::string> known_scene_names();  // procedural + fetchable real scenes
 
 // The files a scene is read from, found the way load_scene finds the scene: its
