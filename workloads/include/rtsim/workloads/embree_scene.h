@@ -1,6 +1,9 @@
 #pragma once
 // Embree is the oracle and the fast ray caster. This wraps one committed Embree
 // scene of a rtsim::Scene's triangles; geometry id 0, primitive id = triangle index.
+// An instanced scene (Scene::instances) becomes Embree's own two levels: one
+// scene per mesh, placed by RTC_GEOMETRY_TYPE_INSTANCE geometries (geometry id =
+// instance index); hits report the instance and the scene's triangle index.
 // Alpha-tested triangles count only where their texel is opaque (an intersection
 // filter runs Scene::alpha_sample): every user of Embree (the builders' AO and
 // visibility rays, validation, previews) sees the surfaces the accelerator sees.
@@ -11,6 +14,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace rtsim {
 
@@ -19,7 +23,8 @@ struct EmbreeHit {
   float t = 0.0f;
   uint32_t prim = ~0u;
   float u = 0.0f, v = 0.0f;
-  vec3 geometric_normal{0.0f};  // unnormalised, as Embree reports it
+  vec3 geometric_normal{0.0f};  // unnormalised, as Embree reports it (in world space)
+  uint32_t instance = ~0u;      // instanced scenes: the instance hit (prim is its mesh's triangle)
 };
 
 class EmbreeScene {
@@ -44,10 +49,21 @@ class EmbreeScene {
   RTCDevice device() const { return device_; }
   RTCScene handle() const { return scene_; }
 
+  // A triangle geometry's source (its alpha filter's user data): the scene, and the
+  // first triangle of its mesh (0 in a flat scene).
+  struct MeshGeometry {
+    const Scene* scene;
+    uint32_t first_triangle;
+  };
+
  private:
   void build(const Scene& scene, const std::string& device_config, Quality quality);
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
+  // Each mesh's Embree scene (instanced scenes), and every triangle geometry's source.
+  std::vector<RTCScene> mesh_scenes_;
+  std::vector<MeshGeometry> mesh_geometry_;
+  const Scene* source_ = nullptr;
 };
 
 // One device per process is enough; Embree reports errors through this callback,
