@@ -7,6 +7,7 @@
 #include <rtsim/workloads/error.h>
 
 #include "builders/builders.h"
+#include "two_level.h"
 
 #include <chrono>
 #include <optional>
@@ -76,6 +77,7 @@ Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report
   BuildReport& r = report ? *report : local;
   r = BuildReport{};
   r.builder = params.builder;
+  if (scene.instanced()) return detail::build_two_level(scene, params, r);
   const size_t n = scene.triangle_count();
   if (n == 0) throw InputError("scene '" + scene.name + "'", "has no triangles to build a BVH over");
   if (detail::levels_needed(n, params.max_leaf_size) > params.max_depth)

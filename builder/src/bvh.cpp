@@ -15,6 +15,11 @@ uint64_t bvh_content_hash(const Bvh& bvh) {
     // Binary trees keep the names they had before trees could be wide.
     if (n.children > 2) h = hash_bytes(h, &n.children, sizeof n.children);
   }
+  // One-level trees keep their names: only a two-level tree hashes its levels.
+  if (bvh.two_level()) {
+    h = hash_bytes(h, &bvh.tlas_nodes, sizeof bvh.tlas_nodes);
+    h = hash_bytes(h, bvh.blas_roots.data(), bvh.blas_roots.size() * sizeof(uint32_t));
+  }
   return h;
 }
 

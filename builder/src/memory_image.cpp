@@ -15,11 +15,11 @@ bool is_power_of_two(uint64_t v) { return v != 0 && (v & (v - 1)) == 0; }
 
 // Nodes in the configured order. Children always follow their parent in the
 // flat array (checked), so no walk can loop.
-std::vector<uint32_t> node_order(const Bvh& bvh, NodeOrder order, bool siblings_adjacent) {
-  std::vector<uint32_t> out;
-  out.reserve(bvh.nodes.size());
+// A two-level tree: the TLAS's nodes, then each BLAS's (by mesh), each tree in this order.
+void node_order(const Bvh& bvh, uint32_t root, NodeOrder order, bool siblings_adjacent,
+                std::vector<uint32_t>& out) {
   if (order == NodeOrder::DepthFirst && !siblings_adjacent) {
-    std::vector<uint32_t> stack{0};
+    std::vector<uint32_t> stack{root};
     while (!stack.empty()) {
       const uint32_t n = stack.back();
       stack.pop_back();
@@ -29,8 +29,8 @@ std::vector<uint32_t> node_order(const Bvh& bvh, NodeOrder order, bool siblings_
     }
   } else if (order == NodeOrder::DepthFirst) {
     // A node's children together, then each child's family in turn.
-    out.push_back(0);
-    std::vector<uint32_t> stack{0};
+    out.push_back(root);
+    std::vector<uint32_t> stack{root};
     while (!stack.empty()) {
       const uint32_t n = stack.back();
       stack.pop_back();
@@ -39,7 +39,7 @@ std::vector<uint32_t> node_order(const Bvh& bvh, NodeOrder order, bool siblings_
       for (uint32_t c = node.index + node.children; c-- > node.index;) stack.push_back(c);
     }
   } else {
-    std::deque<uint32_t> queue{0};
+    std::deque<uint32_t> queue{root};
     while (!queue.empty()) {
       const uint32_t n = queue.front();
       queue.pop_front();
@@ -48,6 +48,14 @@ std::vector<uint32_t> node_order(const Bvh& bvh, NodeOrder order, bool siblings_
       for (uint32_t c = node.index; c < node.index + node.children; ++c) queue.push_back(c);
     }
   }
+}
+
+std::vector<uint32_t> node_order(const Bvh& bvh, NodeOrder order, bool siblings_adjacent) {
+  std::vector<uint32_t> out;
+  out.reserve(bvh.nodes.size());
+  node_order(bvh, 0, order, siblings_adjacent, out);
+  for (uint32_t root : bvh.blas_roots)
+    if (root != Bvh::kNoBlas) node_order(bvh, root, order, siblings_adjacent, out);
   return out;
 }
 }  // namespace
@@ -87,8 +95,32 @@ MemoryImage::MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutC
                            std::to_string(n.children) + " (build the tree for this format)");
     }
   }
+  // A two-level tree's TLAS leaves hold instances; its BLAS roots start trees.
+  std::vector<uint8_t> instance_ref(bvh.two_level() ? bvh.prim_refs.size() : 0, 0);
+  std::vector<uint8_t> is_root(node_count, 0);
+  if (node_count) is_root[0] = 1;
+  if (bvh.two_level()) {
+    if (bvh.tlas_nodes == 0 || bvh.tlas_nodes > node_count || bvh.blas_roots.size() != scene.meshes.size())
+      throw InputError("bvh", "a two-level tree whose TLAS or BLAS roots do not fit the scene's meshes");
+    for (uint32_t n = 0; n < bvh.tlas_nodes; ++n) {
+      const BvhNode& node = bvh.nodes[n];
+      if (!node.is_leaf()) continue;
+      for (uint32_t k = node.index; k < node.index + node.count; ++k) {
+        instance_ref[k] = 1;
+        if (bvh.prim_refs[k] >= scene.instances.size() ||
+            bvh.blas_roots[scene.instances[bvh.prim_refs[k]].mesh] == Bvh::kNoBlas)
+          throw InputError("bvh: prim_ref " + std::to_string(k), "TLAS leaf names no placed instance");
+      }
+    }
+    for (uint32_t root : bvh.blas_roots) {
+      if (root == Bvh::kNoBlas) continue;
+      if (root < bvh.tlas_nodes || root >= node_count)
+        throw InputError("bvh", "BLAS root " + std::to_string(root) + " lies outside the BLAS nodes");
+      is_root[root] = 1;
+    }
+  }
   for (size_t r = 0; r < bvh.prim_refs.size(); ++r)
-    if (bvh.prim_refs[r] >= tri_count)
+    if (!(bvh.two_level() && instance_ref[r]) && bvh.prim_refs[r] >= tri_count)
       throw InputError("bvh: prim_ref " + std::to_string(r), "triangle index out of range");
 
   record_address_.assign(node_count, kNoRecord);
@@ -108,17 +140,33 @@ MemoryImage::MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutC
   const uint32_t node_bytes = format_->record_bytes;
   uint64_t records = 0;
   for (uint32_t n : order) {
-    const bool own_record = !format_->leaves_in_parent || !bvh.nodes[n].is_leaf() || n == 0;
+    const bool own_record = !format_->leaves_in_parent || !bvh.nodes[n].is_leaf() || is_root[n];
     if (!own_record) continue;
     record_ordinal_[n] = uint32_t(records);
     record_address_[n] = nodes_base_ + records++ * node_bytes;
   }
   encode_records(bvh);
 
+  // Instance records (two-level trees) after the nodes, one per instance in the
+  // scene's order; a TLAS leaf's leaf_first is its instance.
+  const uint64_t nodes_end = nodes_base_ + records * node_bytes;
+  uint64_t instances_end = nodes_end;
+  if (bvh.two_level()) {
+    instances_base_ = align_up(nodes_end, config_.region_alignment);
+    instances_end = instances_base_ + scene.instances.size() * kInstanceRecordBytes;
+    footprint_.instance_records = scene.instances.size();
+    footprint_.instance_bytes = scene.instances.size() * kInstanceRecordBytes;
+    for (uint32_t n = 0; n < bvh.tlas_nodes; ++n) {
+      if (bvh.nodes[n].is_leaf()) leaf_first_[n] = bvh.prim_refs[bvh.nodes[n].index];
+      if (has_record(n)) ++footprint_.tlas_node_records;
+    }
+    blas_root_.assign(scene.meshes.size(), ~0u);
+    for (size_t m = 0; m < scene.meshes.size(); ++m) blas_root_[m] = bvh.blas_roots[m];
+  }
   // Leaf slots in the same order; a leaf's triangles sorted by geometry.
   for (uint32_t n : order) {
     const BvhNode& node = bvh.nodes[n];
-    if (!node.is_leaf()) continue;
+    if (!node.is_leaf() || bvh.is_instance_leaf(n)) continue;
     leaf_first_[n] = uint32_t(slot_triangle_.size());
     const auto begin = slot_triangle_.size();
     slot_triangle_.insert(slot_triangle_.end(), bvh.prim_refs.begin() + node.index,
@@ -127,7 +175,7 @@ MemoryImage::MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutC
               [&](uint32_t a, uint32_t b) { return triangle_geometric_less(scene, a, b); });
   }
   const uint64_t slots = slot_triangle_.size();
-  prim_refs_base_ = align_up(nodes_base_ + records * node_bytes, config_.region_alignment);
+  prim_refs_base_ = align_up(instances_end, config_.region_alignment);
   const uint64_t prim_ref_bytes = indexed() ? slots * 4 : 0;
   triangles_base_ = align_up(prim_refs_base_ + prim_ref_bytes, config_.region_alignment);
 
@@ -221,6 +269,14 @@ std::string MemoryImage::describe() const {
                 (unsigned long long)triangles_base_, (unsigned long long)footprint_.triangle_bytes,
                 (unsigned long long)footprint_.triangle_records, config_.triangle_bytes);
   std::string out = buf;
+  if (footprint_.instance_records) {
+    std::snprintf(buf, sizeof buf,
+                  "instances  0x%010llx  %llu B (%llu records of %u B; %llu of the node records are the TLAS's)\n",
+                  (unsigned long long)instances_base_, (unsigned long long)footprint_.instance_bytes,
+                  (unsigned long long)footprint_.instance_records, kInstanceRecordBytes,
+                  (unsigned long long)footprint_.tlas_node_records);
+    out += buf;
+  }
   if (footprint_.uv_bytes) {
     std::snprintf(buf, sizeof buf,
                   "uvs        0x%010llx  %llu B (%u B per triangle record)\n"

@@ -114,12 +114,19 @@ struct BuildReport {
   uint64_t rdh_rays = 0;        // rdh: sample rays cast (primary + AO)
   double collapse_seconds = 0;  // width > 2: the collapse pass (not in build_seconds)
   uint64_t binary_nodes = 0;    // width > 2: nodes of the binary tree collapsed (0 = none)
+  // Two-level trees (instanced scenes): the TLAS's build, and (aobvh) the mean
+  // absolute difference between a placement's occlusion and its triangle's mean
+  // over placements, which the shared BLAS is built with.
+  double tlas_seconds = 0;
+  double placement_spread = 0;
 };
 
 // Limits a tree from `params` must satisfy (for validate_bvh).
 BvhLimits limits_for(const BuildParams& params);
 
-// Throws InputError for unknown builders, bad parameters or an empty scene.
+// Throws InputError for unknown builders, bad parameters or an empty scene. An
+// instanced scene (Scene::instanced) gets a two-level tree (Bvh::two_level):
+// the builder's tree per mesh and an SAH TLAS over the instances (two_level.cpp).
 Bvh build_bvh(const Scene& scene, const BuildParams& params, BuildReport* report = nullptr);
 // What build_bvh checks first: InputError naming the BuildParams field (e.g.
 // "sbvh_reference_budget") for a value out of the range builder_parameters() gives.

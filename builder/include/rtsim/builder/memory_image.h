@@ -11,6 +11,11 @@
 //              bvh2-32: every node). Formats with one child base pointer keep a
 //              node's inner children adjacent: depth-first order then places a
 //              node's children together and descends into them in turn.
+//   instances  (two-level trees, instanced scenes) one 64-byte record per
+//              instance: its world-to-object 3x4 transform (48 B), its BLAS's
+//              root address (8 B), its index and mask (8 B) - the size of a DXR
+//              instance descriptor. The TLAS's node records come first in
+//              `nodes`, then each BLAS's, tree by tree.
 //   prim_refs  (indexed storage) each leaf's list of 4-byte triangle record
 //              indices, leaves in the same order as the node records
 //   triangles  triangle records. Indexed: one record per triangle, placed where
@@ -71,7 +76,11 @@ struct MemoryFootprint {
   uint64_t prim_refs = 0, prim_ref_bytes = 0;
   uint64_t triangle_records = 0, triangle_bytes = 0;  // triangle bytes include packing padding
   uint64_t uv_bytes = 0, texture_bytes = 0;  // alpha testing only
-  uint64_t total_bytes() const { return node_bytes + prim_ref_bytes + triangle_bytes + uv_bytes + texture_bytes; }
+  // Two-level trees: instance records, and how many node records are the TLAS's.
+  uint64_t instance_records = 0, instance_bytes = 0, tlas_node_records = 0;
+  uint64_t total_bytes() const {
+    return node_bytes + instance_bytes + prim_ref_bytes + triangle_bytes + uv_bytes + texture_bytes;
+  }
 };
 
 class MemoryImage {
@@ -120,6 +129,16 @@ class MemoryImage {
     return t.base + (uint64_t(y) * t.width + x) * kTexelBytes;
   }
 
+  // Two-level trees (Bvh::two_level): instance i's record, and node where mesh m's
+  // BLAS starts (Bvh::kNoBlas for a mesh without triangles). A TLAS leaf's
+  // leaf_first() is its instance.
+  static constexpr uint32_t kInstanceRecordBytes = 64;
+  bool two_level() const { return !blas_root_.empty(); }
+  uint64_t instance_address(uint32_t instance) const {
+    return instances_base_ + uint64_t(instance) * kInstanceRecordBytes;
+  }
+  uint32_t blas_root(uint32_t mesh) const { return blas_root_[mesh]; }
+
   uint64_t nodes_base() const { return nodes_base_; }
   uint64_t prim_refs_base() const { return prim_refs_base_; }
   uint64_t triangles_base() const { return triangles_base_; }
@@ -146,7 +165,8 @@ class MemoryImage {
     uint32_t width;
   };
   std::vector<TexturePlace> texture_;
-  uint64_t uvs_base_ = 0, textures_base_ = 0;
+  uint64_t uvs_base_ = 0, textures_base_ = 0, instances_base_ = 0;
+  std::vector<uint32_t> blas_root_;  // two-level trees, per mesh
   MemoryFootprint footprint_;
 };
 
