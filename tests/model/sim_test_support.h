@@ -121,4 +121,21 @@ inline std::map<std::string, double> flat_stats(const std::string& json_text) {
   return out;
 }
 
+// Stats of a small run from the scene's view1 (res x res pixels, 2 AO rays each) on
+// the mobile preset: functional in this process, lt and cycle in a child (SystemC
+// runs once per process).
+inline std::map<std::string, double> small_run_stats(const Scene& scene, const Bvh& bvh, Fidelity level,
+                                                     uint32_t res) {
+  SimulationRequest r;
+  r.scene = &scene;
+  r.bvh = &bvh;
+  r.camera = &scene.camera("view1");
+  r.settings.width = r.settings.height = res;
+  r.settings.ao_samples = 2;
+  r.config = preset("mobile");
+  r.fidelity = level;
+  if (level == Fidelity::Functional) return flat_stats(simulate(r).stats.to_json());
+  return flat_stats(in_child([&] { return simulate(r).stats.to_json(); }));
+}
+
 }  // namespace rtsim::sim::test

@@ -189,16 +189,7 @@ TEST(CoreAlpha, TheRefereeDropsClearTexelsAndKeepsOpaqueOnes) {
 
 namespace {
 std::map<std::string, double> simulate_at(const Scene& scene, const Bvh& bvh, Fidelity level) {
-  SimulationRequest r;
-  r.scene = &scene;
-  r.bvh = &bvh;
-  r.camera = &scene.camera("view1");
-  r.settings.width = r.settings.height = 20;
-  r.settings.ao_samples = 2;
-  r.config = preset("mobile");
-  r.fidelity = level;
-  if (level == Fidelity::Functional) return flat_stats(simulate(r).stats.to_json());
-  return flat_stats(in_child([&] { return simulate(r).stats.to_json(); }));
+  return small_run_stats(scene, bvh, level, 20);
 }
 }  // namespace
 

@@ -101,13 +101,33 @@ ExactReferee::ExactReferee(const Scene& scene, float relative_bound, float absol
 
 std::vector<RefereeCandidate> ExactReferee::candidates(const Ray& ray) const {
   std::vector<RefereeCandidate> out;
+  if (!scene_.instanced()) {
+    add_candidates(ray, 0, uint32_t(scene_.triangle_count()), kNoInstance, out);
+    return out;
+  }
+  // Each instance's triangles against the ray in its object space, transformed as
+  // the core's Transform step does (Scene::world_to_object, then float): the exact
+  // answer for the ray the hardware tests.
+  for (uint32_t i = 0; i < scene_.instances.size(); ++i) {
+    const glm::mat4 m = scene_.world_to_object(i);
+    Ray local = ray;
+    local.origin = glm::mat3(m) * ray.origin + vec3(m[3]);
+    local.direction = glm::mat3(m) * ray.direction;
+    const SceneMesh& mesh = scene_.meshes[scene_.instances[i].mesh];
+    add_candidates(local, mesh.first_triangle, mesh.first_triangle + mesh.triangle_count, i, out);
+  }
+  return out;
+}
+
+void ExactReferee::add_candidates(const Ray& ray, uint32_t first, uint32_t end, uint32_t instance,
+                                  std::vector<RefereeCandidate>& out) const {
   const dvec3 o(ray.origin), d(ray.direction);
   const long double bound_min = (long double)relative_bound_ * std::fabs(ray.tmin) + absolute_bound_;
   const bool finite_max = std::isfinite(ray.tmax);
   const long double bound_max = finite_max ? (long double)relative_bound_ * ray.tmax + absolute_bound_ : 0;
   const double t_low = double(ray.tmin) - double(bound_min);
   const double t_high = finite_max ? double(ray.tmax) + double(bound_max) : INFINITY;
-  for (uint32_t tri = 0; tri < scene_.triangle_count(); ++tri) {
+  for (uint32_t tri = first; tri < end; ++tri) {
     const vec3 v0 = scene_.vertex(tri, 0), v1 = scene_.vertex(tri, 1), v2 = scene_.vertex(tri, 2);
     // Cull by the triangle's box, grown by far more than the rounding of this
     // double slab test, so that no triangle the exact ray touches is culled.
@@ -155,6 +175,7 @@ std::vector<RefereeCandidate> ExactReferee::candidates(const Ray& ray) const {
     if (finite_max && t > (ldvec)ray.tmax + bound_max) continue;
     RefereeCandidate c;
     c.prim = tri;
+    c.instance = instance;
     c.t = t;
     if (scene_.alpha_tested(tri)) {
       // The barycentrics of the exact hit point p = o + t d (Embree's convention):
@@ -182,7 +203,6 @@ std::vector<RefereeCandidate> ExactReferee::candidates(const Ray& ray) const {
                     (finite_max && std::fabs((ldvec)ray.tmax - t) <= bound_max);
     out.push_back(c);
   }
-  return out;
 }
 
 bool ExactReferee::admissible(const Ray& ray, const std::vector<RefereeCandidate>& candidates,
@@ -195,7 +215,7 @@ bool ExactReferee::admissible(const Ray& ray, const std::vector<RefereeCandidate
   const long double bound = (long double)relative_bound_ * std::fabs(answer.t) + absolute_bound_;
   const RefereeCandidate* named = nullptr;
   for (const RefereeCandidate& c : candidates)
-    if (c.prim == answer.prim) named = &c;
+    if (c.prim == answer.prim && c.instance == answer.instance) named = &c;
   if (!named || std::fabs(named->t - (long double)answer.t) > bound + (long double)relative_bound_ * std::fabs(named->t))
     return false;
   for (const RefereeCandidate& c : candidates)

@@ -27,6 +27,8 @@ void CounterTotals::add(const RayCounters& c, bool hit) {
   stack_refills += c.stack_refills;
   anyhit_tests += c.anyhit_tests, anyhit_rejects += c.anyhit_rejects;
   uv_bytes += c.uv_bytes, texel_bytes += c.texel_bytes;
+  tlas_trv_ops += c.tlas_trv_ops, tlas_node_fetches += c.tlas_node_fetches, tlas_node_bytes += c.tlas_node_bytes;
+  xfm_ops += c.xfm_ops, instance_bytes += c.instance_bytes;
   max_stack_depth = std::max(max_stack_depth, c.max_stack_depth);
 }
 
@@ -47,6 +49,8 @@ void CounterTotals::add(const CounterTotals& o) {
   stack_refills += o.stack_refills;
   anyhit_tests += o.anyhit_tests, anyhit_rejects += o.anyhit_rejects;
   uv_bytes += o.uv_bytes, texel_bytes += o.texel_bytes;
+  tlas_trv_ops += o.tlas_trv_ops, tlas_node_fetches += o.tlas_node_fetches, tlas_node_bytes += o.tlas_node_bytes;
+  xfm_ops += o.xfm_ops, instance_bytes += o.instance_bytes;
   max_stack_depth = std::max(max_stack_depth, o.max_stack_depth);
 }
 

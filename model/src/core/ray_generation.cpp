@@ -156,9 +156,26 @@ std::vector<Ray> generate_primary_rays(const Camera& camera, const EffectSetting
   return rays;
 }
 
+namespace {
+// The hit triangle's vertex k in world space: an instance's through its transform,
+// computed as flatten() computes the flat scene's vertices.
+vec3 hit_vertex(const Scene& scene, const HitRecord& hit, int k) {
+  return hit.instance == kNoInstance ? scene.vertex(hit.prim, k) : scene.world_vertex(hit.instance, hit.prim, k);
+}
+// Its winding normal (v1-v0)x(v2-v0) in world space, front-facing as flatten() keeps
+// a mirrored instance's triangles.
+vec3 hit_winding(const Scene& scene, const HitRecord& hit) {
+  const vec3 v0 = hit_vertex(scene, hit, 0);
+  const vec3 n = glm::cross(hit_vertex(scene, hit, 1) - v0, hit_vertex(scene, hit, 2) - v0);
+  const bool mirrored = hit.instance != kNoInstance &&
+                        glm::determinant(glm::mat3(scene.instances[hit.instance].object_to_world)) < 0.0f;
+  return mirrored ? -n : n;
+}
+}  // namespace
+
 SurfaceHit surface_at(const Scene& scene, const Ray& ray, const HitRecord& hit) {
   SurfaceHit s;
-  const vec3 v0 = scene.vertex(hit.prim, 0), v1 = scene.vertex(hit.prim, 1), v2 = scene.vertex(hit.prim, 2);
+  const vec3 v0 = hit_vertex(scene, hit, 0), v1 = hit_vertex(scene, hit, 1), v2 = hit_vertex(scene, hit, 2);
   // From barycentrics, not origin + t * direction: no error growing with t.
   s.position = (1.0f - hit.u - hit.v) * v0 + hit.u * v1 + hit.v * v2;
   const vec3 n = glm::cross(v1 - v0, v2 - v0);
@@ -249,8 +266,7 @@ void spawn_secondary_rays(const Scene& scene, const EffectPlan& plan, const Effe
   }
   if (plan.on(RayType::Refraction) && s.material->transmittance > 0.0f) {
     // Entering when the ray meets the triangle's front (counter-clockwise) side.
-    const vec3 v0 = scene.vertex(hit.prim, 0);
-    const vec3 winding = glm::cross(scene.vertex(hit.prim, 1) - v0, scene.vertex(hit.prim, 2) - v0);
+    const vec3 winding = hit_winding(scene, hit);
     const bool entering = glm::dot(winding, ray.direction) < 0.0f;
     const float ior = s.material->ior > 0.0f ? s.material->ior : 1.0f;
     const float eta = entering ? 1.0f / ior : ior;

@@ -63,6 +63,7 @@ const char* access_kind_name(AccessKind kind) {
     case AccessKind::Stack: return "stack";
     case AccessKind::Uv: return "uv";
     case AccessKind::Texel: return "texel";
+    case AccessKind::Instance: return "instance";
   }
   return "unknown";
 }
@@ -89,6 +90,7 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
     const uint32_t t = image.slot_triangle(s);
     triangles_[s] = PackedTriangle{scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2)};
   }
+  if (image.two_level()) place_instances();
   if (own_box_records_ || bvh.empty()) return;
   const uint32_t width = image.format().width;
   const uint32_t quads = (width + 3) / 4;
@@ -111,11 +113,26 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
       const uint32_t c = node.index + k;
       const BvhNode& child = bvh.nodes[c];
       lanes[k / 4].set(int(k % 4), boxes[k]);
-      targets[k] = child.is_leaf() ? ChildTarget{c, image.leaf_first(c), child.count}
-                                   : ChildTarget{c, image.record_ordinal(c), 0};
+      targets[k] = bvh.is_instance_leaf(c) ? ChildTarget{c, image.leaf_first(c), kInstanceLeaf}
+                   : child.is_leaf()        ? ChildTarget{c, image.leaf_first(c), child.count}
+                                            : ChildTarget{c, image.record_ordinal(c), 0};
     }
   }
   root_record_ = image.record_ordinal(0);
+}
+
+void TraversalContext::place_instances() {
+  const Scene& scene = *scene_;
+  instances_.resize(scene.instances.size());
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    const glm::mat4 inverse = scene.world_to_object(uint32_t(i));
+    InstancePlacement& p = instances_[i];
+    p.linear = glm::mat3(inverse);
+    p.offset = vec3(inverse[3]);
+    p.root_node = image_->blas_root(scene.instances[i].mesh);
+    p.root_record = (p.root_node != Bvh::kNoBlas && image_->has_record(p.root_node))
+                        ? image_->record_ordinal(p.root_node) : 0;
+  }
 }
 
 RayTraversal::RayTraversal(const TraversalContext& context, uint32_t stack_slot)
@@ -138,6 +155,9 @@ void RayTraversal::reset(const Ray& ray, TraversalMode mode) {
   stack_accesses_.clear();
   candidates_.clear();
   candidate_ = 0;
+  instance_ = kNoInstance;
+  in_blas_ = false;
+  blas_stack_base_ = 0;
   leaf_slot_ = leaf_count_ = leaf_cursor_ = last_tests_ = last_box_tests_ = 0;
   current_node_ = 0;
   current_record_ = context_->root_record();
@@ -149,11 +169,16 @@ void RayTraversal::reset(const Ray& ray, TraversalMode mode) {
     action_ = TraversalAction::Done;
     return;
   }
-  box_ray_ = RayBoxLanes(RayBoxPrecompute(ray.origin, ray.direction));
-  tri_ray_ = RayTrianglePrecompute(ray.origin, ray.direction);
+  set_ray_space(ray.origin, ray.direction);
   // The root record is always fetched: it holds the child boxes (the root's own
   // box is never needed), or in bvh2-32 its own box.
   action_ = TraversalAction::FetchNode;
+}
+
+void RayTraversal::set_ray_space(const vec3& origin, const vec3& direction) {
+  box_ray_ = RayBoxLanes(RayBoxPrecompute(origin, direction));
+  tri_ray_ = RayTrianglePrecompute(origin, direction);
+  direction_ = direction;
 }
 
 uint64_t RayTraversal::spill_address(uint32_t position) const {
@@ -167,6 +192,7 @@ void RayTraversal::push(uint32_t node, uint32_t target, uint32_t leaf_count, flo
     ++counters_.stack_overflows;
     if (context_->config().overflow_policy == StackOverflowPolicy::DropOldest) {
       stack_.erase(stack_.begin());
+      if (in_blas_ && blas_stack_base_ > 0) --blas_stack_base_;  // the lost entry lay below the BLAS's
     } else {
       // The bottom on-chip entry (position size - limit) goes to memory.
       stack_accesses_.push_back({spill_address(uint32_t(stack_.size()) - limit),
@@ -181,6 +207,10 @@ void RayTraversal::push(uint32_t node, uint32_t target, uint32_t leaf_count, flo
 }
 
 void RayTraversal::enter_leaf(uint32_t node) {
+  if (context_->bvh().is_instance_leaf(node)) {
+    enter_instance(node, context_->image().leaf_first(node));
+    return;
+  }
   current_node_ = node;
   leaf_slot_ = context_->image().leaf_first(node);
   leaf_count_ = nodes_[node].count;
@@ -192,6 +222,8 @@ void RayTraversal::enter(uint32_t node, uint32_t target, uint32_t leaf_count) {
   current_node_ = node;
   if (context_->own_box_records()) {
     action_ = TraversalAction::FetchNode;
+  } else if (leaf_count == TraversalContext::kInstanceLeaf) {
+    enter_instance(node, target);
   } else if (leaf_count > 0) {
     // The leaf's range came with its parent's record: straight to IST.
     leaf_slot_ = target;
@@ -208,9 +240,38 @@ void RayTraversal::enter(uint32_t node, uint32_t target, uint32_t leaf_count) {
   }
 }
 
+void RayTraversal::enter_instance(uint32_t node, uint32_t instance) {
+  current_node_ = node;
+  instance_ = instance;
+  action_ = TraversalAction::Transform;
+}
+
+void RayTraversal::process_transform() {
+  ++counters_.xfm_ops;
+  counters_.instance_bytes += MemoryImage::kInstanceRecordBytes;
+  const TraversalContext::InstancePlacement& p = context_->instance(instance_);
+  set_ray_space(p.linear * ray_.origin + p.offset, p.linear * ray_.direction);
+  in_blas_ = true;
+  blas_stack_base_ = uint32_t(stack_.size());
+  current_node_ = p.root_node;
+  current_record_ = p.root_record;
+  action_ = TraversalAction::FetchNode;
+  if (!context_->own_box_records())
+    prefetch(context_->record_block(current_record_), context_->record_block_bytes());
+}
+
+void RayTraversal::leave_instance() {
+  set_ray_space(ray_.origin, ray_.direction);
+  in_blas_ = false;
+  instance_ = kNoInstance;
+}
+
 void RayTraversal::pop_next() {
   const uint32_t limit = context_->config().stack_limit;
-  while (!stack_.empty()) {
+  for (;;) {
+    // The BLAS's entries are all popped: back in the TLAS, with the world ray.
+    if (in_blas_ && stack_.size() <= blas_stack_base_) leave_instance();
+    if (stack_.empty()) break;
     const StackEntry entry = stack_.back();
     stack_.pop_back();
     if (stack_.size() >= limit) {
@@ -233,12 +294,18 @@ void RayTraversal::process() {
   if (action_ == TraversalAction::FetchNode) process_node();
   else if (action_ == TraversalAction::TestTriangles) process_triangles();
   else if (action_ == TraversalAction::AlphaTest) process_alpha_test();
+  else if (action_ == TraversalAction::Transform) process_transform();
 }
 
 void RayTraversal::process_node() {
   ++counters_.trv_ops;
   ++counters_.node_fetches;
   counters_.node_bytes += context_->image().node_bytes();
+  if (!in_blas_ && context_->two_level()) {
+    ++counters_.tlas_trv_ops;
+    ++counters_.tlas_node_fetches;
+    counters_.tlas_node_bytes += context_->image().node_bytes();
+  }
   if (context_->own_box_records())
     process_own_box_node();
   else
@@ -304,7 +371,7 @@ void RayTraversal::process_own_box_node() {
   // along the node's longest axis (builders put the lower half first).
   const vec3 extent = n.bounds.extent();
   const int axis = extent.x > extent.y ? (extent.x > extent.z ? 0 : 2) : (extent.y > extent.z ? 1 : 2);
-  const bool reversed = ray_.direction[axis] < 0.0f;
+  const bool reversed = direction_[axis] < 0.0f;
   const uint32_t first = reversed ? n.index + 1 : n.index;
   const uint32_t second = reversed ? n.index : n.index + 1;
   push(second, 0, 0, t_entry);
@@ -317,6 +384,7 @@ void RayTraversal::commit(float t, uint32_t slot, float u, float v) {
   hit_.prim = context_->image().slot_triangle(slot);
   hit_.u = u;
   hit_.v = v;
+  hit_.instance = instance_;
   tfar_ = t;
 }
 

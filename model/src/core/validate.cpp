@@ -65,7 +65,7 @@ ValidationResult validate_against_embree(const EmbreeScene& embree, const std::v
         const float bound = rule.relative_bound * std::max(e.t, mine.t) + rule.absolute_bound;
         if (!(std::fabs(e.t - mine.t) <= bound))
           verdict[i] = Verdict::Distance;
-        else if (e.prim != mine.prim)
+        else if (e.prim != mine.prim || e.instance != mine.instance)
           verdict[i] = Verdict::PrimTied;
       }
     });
@@ -80,9 +80,9 @@ ValidationResult validate_against_embree(const EmbreeScene& embree, const std::v
       const Ray& r = rays[i];
       const std::vector<RefereeCandidate> found = referee.candidates(r);
       const HitRecord& mine = results[i].hit;
-      const bool core_ok = referee.admissible(r, found, {mine.hit(), mine.t, mine.prim});
+      const bool core_ok = referee.admissible(r, found, {mine.hit(), mine.t, mine.prim, mine.instance});
       const bool embree_ok =
-          referee.admissible(r, found, {reference[i].hit, reference[i].t, reference[i].prim});
+          referee.admissible(r, found, {reference[i].hit, reference[i].t, reference[i].prim, reference[i].instance});
       ruling[i] = !core_ok ? Ruling::CoreWrong : embree_ok ? Ruling::BothAdmissible : Ruling::EmbreeWrong;
     });
   };

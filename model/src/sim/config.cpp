@@ -150,6 +150,13 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
       f64("anyhit.tests_per_cycle", c.anyhit_tests_per_cycle, 0.001, 64, "tests/cycle",
           "alpha tests the any-hit stage starts per cycle (its UV and texel reads go through "
           "l1_texture)"),
+      u32("xfm.latency", c.xfm_latency, 1, 10000, "cycles",
+          "the instance transform of each TRV unit (instanced scenes): the instance record's arrival "
+          "to the object-space ray; a multiply and a two-level add tree at the 4-cycle FP latency "
+          "of trv.box_test_latency's default"),
+      u32("xfm.passes", c.xfm_passes, 1, 64, "passes",
+          "passes of the TRV unit's box-test pipeline one instance transform occupies (it issues "
+          "into that pipeline at trv.nodes_per_cycle, so it counts in machine.trv_passes)"),
       u32("shading.latency", c.shading_latency, 1, 100000, "cycles",
           "finished ray to its shading result and spawned rays"),
       f64("shading.rays_per_cycle", c.shading_rays_per_cycle, 0.001, 64, "rays/cycle",
@@ -293,6 +300,9 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
       f64("energy.anyhit_test_pj", e.anyhit_test_pj, 0, 1e6, "pJ",
           "one alpha test of the any-hit stage: UV interpolation and texel address (8 multiplies, "
           "8 adds) and the alpha compare at SimTRaX's 65 nm unit energies"),
+      f64("energy.xfm_pj", e.xfm_pj, 0, 1e6, "pJ",
+          "one instance transform (XFM op): origin and direction through a 3x4 matrix, 18 "
+          "multiplies and 15 adds at SimTRaX's 65 nm unit energies"),
       f64("energy.noc_byte_pj", e.noc_byte_pj, 0, 1e6, "pJ",
           "one byte through the crossbar: 0.6 pJ/bit, a 45 nm 4x4 mesh's delivered energy "
           "(Park et al., DAC 2012: 892 Gb/s at 531 mW)"),

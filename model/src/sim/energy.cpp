@@ -91,6 +91,17 @@ void report_energy(StatsRegistry& s, const HardwareConfig& config, const EnergyC
     for (size_t t = 0; t < kRayTypeCount; ++t)
       if (r.rays) by_type[t] += pj * double(r.rays_by_type[t]) / double(r.rays);
   }
+  // The instance transforms (instanced scenes: a run whose rays entered instances).
+  uint64_t transforms = 0;
+  for (const CounterTotals& t : c.per_type) transforms += t.xfm_ops;
+  if (transforms) {
+    const double pj = double(transforms) * e.xfm_pj * at65;
+    s.set_real("energy.xfm.pj", pj, "pJ", "energy of the TRV units' instance transforms (XFM ops)");
+    s.set_real("energy.xfm.pj_per_ray", rays ? pj / double(rays) : 0, "pJ/ray",
+               "energy of the TRV units' instance transforms / rays");
+    total += pj;
+    for (size_t t = 0; t < kRayTypeCount; ++t) by_type[t] += pj * double(c.per_type[t].xfm_ops) / double(transforms);
+  }
   // The any-hit stages and their texture caches, only where built (alpha-tested scenes).
   if (c.anyhit_built) {
     uint64_t tests = 0;

@@ -98,6 +98,7 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
   shading_interval_ps_ = interval_ps(config.shading_rays_per_cycle, cycle_ps_);
   raygen_interval_ps_ = interval_ps(config.raygen_rays_per_cycle, cycle_ps_);
   box_latency_ps_ = uint64_t(config.trv_box_test_latency) * cycle_ps_;
+  xfm_latency_ps_ = uint64_t(config.xfm_latency) * cycle_ps_;
   test_latency_ps_ = uint64_t(config.ist_test_latency) * cycle_ps_;
   shading_latency_ps_ = uint64_t(config.shading_latency) * cycle_ps_;
   anyhit_tests_.assign(shape_.ist_units(), 0);
@@ -294,9 +295,10 @@ void RayEngine::run_rounds(Port& port, const std::function<void(uint64_t)>& prog
       uint64_t start = 0;
       if (!slot.active && !start_next_ray(slot, UINT64_MAX, &start)) continue;
       RayTraversal& trv = slot.traversal;
-      const bool node_step = trv.action() == TraversalAction::FetchNode;
+      const bool transform = trv.action() == TraversalAction::Transform;
+      const bool node_step = trv.action() == TraversalAction::FetchNode || transform;
       const bool alpha_step = trv.action() == TraversalAction::AlphaTest;
-      const uint32_t passes = node_step ? config_.trv_passes(trv.step_box_tests()) : 0;
+      const uint32_t passes = node_step ? config_.trv_step_passes(trv.step_box_tests(), transform) : 0;
       if (!trv.done()) {
         if (slot.probed) workload_->probe->next_step();
         const std::vector<MemoryAccess>& reads = trv.step_reads();
@@ -330,7 +332,8 @@ void RayEngine::issue_step(MemoryPort& port, uint32_t id, uint64_t t) {
   if (slot.probed) workload_->probe->next_step();
   // The TRV unit waits for its node's reads, or for the IST unit that tests the leaf
   // (and runs its any-hit stage).
-  const bool triangles = trv.action() != TraversalAction::FetchNode;
+  const bool triangles =
+      trv.action() == TraversalAction::TestTriangles || trv.action() == TraversalAction::AlphaTest;
   slot.step = triangles ? Slot::Step::Triangles : Slot::Step::Node;
   trv_account_[slot.unit].change(t, triangles ? UnitAccounting::Downstream : UnitAccounting::AtL1, +1);
   const std::vector<MemoryAccess>& reads = trv.step_reads();
@@ -376,15 +379,17 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
       case EventKind::Arrive: {
         uint64_t ready;
         const size_t type = size_t(trv.ray().type);
-        if (trv.action() == TraversalAction::FetchNode) {
-          // A node takes one pipeline pass per trv.boxes_per_pass child boxes.
-          const uint32_t passes = config_.trv_passes(trv.step_box_tests());
+        const bool transform = trv.action() == TraversalAction::Transform;
+        if (trv.action() == TraversalAction::FetchNode || transform) {
+          // A node takes one pipeline pass per trv.boxes_per_pass child boxes; an
+          // instance transform xfm.passes, with its own latency.
+          const uint32_t passes = config_.trv_step_passes(trv.step_box_tests(), transform);
           const uint64_t start = std::max(t, trv_free_[slot.unit]);
           trv_free_[slot.unit] = start + passes * trv_interval_ps_;
           UnitAccounting& unit = trv_account_[slot.unit];
           unit.change(t, UnitAccounting::AtL1, -1);
           unit.reserve(t, start, trv_free_[slot.unit]);
-          ready = start + (passes - 1) * trv_interval_ps_ + box_latency_ps_;
+          ready = start + (passes - 1) * trv_interval_ps_ + (transform ? xfm_latency_ps_ : box_latency_ps_);
           trv.process();
           trv_passes_[slot.unit] += passes;
           trv_passes_by_type_[type] += passes;

@@ -172,6 +172,7 @@ class RecordNames {
       case AccessKind::Triangle: return {{"triangle", id(triangles_, a.address)}};
       case AccessKind::Uv: return {{"uv_record", true}};
       case AccessKind::Texel: return {{"texel", true}};
+      case AccessKind::Instance: return {{"instance_record", true}};
       case AccessKind::Stack: {
         const uint64_t base = context_.stack_area(0);
         const uint64_t entry = a.address >= base ? (a.address - base) / context_.config().stack_entry_bytes : 0;

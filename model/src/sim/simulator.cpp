@@ -82,7 +82,26 @@ void report_rollup(StatsRegistry& s, UnitKind kind, const std::vector<CycleSplit
   });
 }
 
-void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCount>& per_type, bool anyhit) {
+// Two-level trees: TRV split into the TLAS's and the BLASes' share, and the XFM ops.
+void report_levels(StatsRegistry& s, const std::string& p, const CounterTotals& c, const std::string& whose) {
+  s.set(p + "tlas_trv_ops", c.tlas_trv_ops, "ops", "TRV ops in the TLAS" + whose);
+  s.set(p + "blas_trv_ops", c.trv_ops - c.tlas_trv_ops, "ops", "TRV ops in the BLASes" + whose);
+  s.set(p + "xfm_ops", c.xfm_ops, "ops",
+        "XFM ops: rays transformed into an instance's object space (one instance record each)" + whose);
+  s.set_real(p + "tlas_trv_ops_per_ray", c.per_ray(c.tlas_trv_ops), "ops/ray", "TLAS TRV ops / rays" + whose);
+  s.set_real(p + "blas_trv_ops_per_ray", c.per_ray(c.trv_ops - c.tlas_trv_ops), "ops/ray",
+             "BLAS TRV ops / rays" + whose);
+  s.set_real(p + "xfm_ops_per_ray", c.per_ray(c.xfm_ops), "ops/ray", "XFM ops / rays" + whose);
+  s.set_real(p + "tlas_node_bytes_per_ray", c.per_ray(c.tlas_node_bytes), "bytes/ray",
+             "TLAS node-record bytes (before caches) / rays" + whose);
+  s.set_real(p + "blas_node_bytes_per_ray", c.per_ray(c.node_bytes - c.tlas_node_bytes), "bytes/ray",
+             "BLAS node-record bytes (before caches) / rays" + whose);
+  s.set_real(p + "instance_bytes_per_ray", c.per_ray(c.instance_bytes), "bytes/ray",
+             "instance-record bytes (before caches) / rays" + whose);
+}
+
+void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCount>& per_type, bool anyhit,
+                   bool two_level) {
   CounterTotals total;
   for (auto& c : per_type) total.add(c);
   s.set("rays.total", total.rays, "rays", "rays simulated, all types");
@@ -112,6 +131,7 @@ void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCou
     s.set(p + ".node_fetches", c.node_fetches, "fetches", "node fetches of these rays");
     s.set(p + ".triangle_fetches", c.triangle_fetches, "fetches", "triangle fetches of these rays");
     s.set_real(p + ".ops_per_ray", c.per_ray(c.ops()), "ops/ray", "(TRV + IST ops) / rays");
+    if (two_level) report_levels(s, p + ".", c, " (these rays)");
     if (!anyhit) continue;
     s.set(p + ".anyhit_tests", c.anyhit_tests, "tests", "any-hit (alpha) tests of these rays");
     s.set_real(p + ".anyhit_tests_per_ray", c.per_ray(c.anyhit_tests), "tests/ray",
@@ -122,6 +142,11 @@ void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCou
                "texel bytes the any-hit stage read for these rays (before caches) / their count");
     s.set_real(p + ".uv_bytes_per_ray", c.per_ray(c.uv_bytes), "bytes/ray",
                "UV-record bytes the any-hit stage read for these rays (before caches) / their count");
+  }
+  if (two_level) {
+    report_levels(s, "ops.", total, "");
+    s.set("fetches.instance", total.xfm_ops, "fetches", "instance records read by TRV (before caches)");
+    s.set("fetches.instance_bytes", total.instance_bytes, "bytes", "instance-record bytes read (before caches)");
   }
   // The any-hit stage, only where built (a scene with alpha-tested materials).
   if (!anyhit) return;
@@ -312,8 +337,14 @@ void report_layout(StatsRegistry& s, const MemoryImage& image, uint64_t triangle
     s.set("memory.uv_bytes", f.uv_bytes, "bytes", "bytes of UV records (alpha testing)");
     s.set("memory.texture_bytes", f.texture_bytes, "bytes", "bytes of the alpha textures (RGBA8)");
   }
+  if (image.two_level()) {
+    s.set("memory.tlas_node_records", f.tlas_node_records, "records", "node records of the TLAS (in node_records)");
+    s.set("memory.instance_records", f.instance_records, "records", "instance records (64 B each)");
+    s.set("memory.instance_bytes", f.instance_bytes, "bytes", "bytes of instance records");
+  }
   s.set("memory.total_bytes", f.total_bytes(), "bytes",
-        "footprint of the BVH and its triangles (and UVs and textures, where alpha-tested)");
+        "footprint of the BVH and its triangles (and UVs and textures, where alpha-tested; instance "
+        "records, where instanced)");
   s.set_real("memory.bytes_per_triangle", triangles ? double(f.total_bytes()) / double(triangles) : 0,
              "bytes/triangle", "footprint / scene triangles");
 }
@@ -745,7 +776,7 @@ SimulationResult simulate(const SimulationRequest& request) {
   StatsRegistry& s = result.stats;
   const double cycle_ps = config.clock_period_ps();
   report_time(s, config, result.simulated_ps, result.rays, request.frames);
-  report_counts(s, result.per_type, image.has_alpha_data());
+  report_counts(s, result.per_type, image.has_alpha_data(), image.two_level());
   report_layout(s, image, request.scene->triangle_count());
   report_frames(s, result.frame_history, config, request.fidelity == Fidelity::Functional);
   result.cycles = uint64_t(std::llround(double(result.simulated_ps) / cycle_ps));

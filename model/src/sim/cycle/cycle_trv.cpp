@@ -134,18 +134,22 @@ void CycleTrv::handle(const Item& item) {
       if (slot.phase == Phase::WaitNode) {
         // Box-test pipeline: one pass per interval, a node of more than
         // trv.boxes_per_pass children takes several; the result after the last.
-        const uint32_t passes = config_.trv_passes(slot.traversal.step_box_tests());
+        // An instance transform issues into the same pipeline (xfm.passes, xfm.latency).
+        const bool transform = slot.traversal.action() == TraversalAction::Transform;
+        const uint32_t passes = config_.trv_step_passes(slot.traversal.step_box_tests(), transform);
         const uint64_t start = std::max(now, pipe_free_ps_);
         pipe_free_ps_ = start + passes * interval_ps_;
         accounting.reserve(now, start, pipe_free_ps_);
         busy_ps_by_type[size_t(slot.traversal.ray().type)] += passes * interval_ps_;
-        queue_.push(start + (passes - 1) * interval_ps_ + latency_ps_, Item{Item::NodeDone, item.slot});
+        const uint64_t latency = transform ? uint64_t(config_.xfm_latency) * cycle_ps_ : latency_ps_;
+        queue_.push(start + (passes - 1) * interval_ps_ + latency, Item{Item::NodeDone, item.slot});
       } else {
         next_action(item.slot);
       }
       break;
     case Item::NodeDone:
-      passes += config_.trv_passes(slot.traversal.step_box_tests());
+      passes += config_.trv_step_passes(slot.traversal.step_box_tests(),
+                                        slot.traversal.action() == TraversalAction::Transform);
       slot.traversal.process();
       after_step(item.slot);
       break;
@@ -166,6 +170,7 @@ void CycleTrv::next_action(uint32_t s) {
   const uint64_t now = now_ps();
   switch (slot.traversal.action()) {
     case TraversalAction::FetchNode:
+    case TraversalAction::Transform:  // the instance record, then the transform in the box-test pipeline
       slot.phase = Phase::WaitNode;
       if (slot.probed) system_.workload.probe->next_step();
       send(s, slot.traversal.step_reads());

@@ -17,6 +17,7 @@ namespace rtsim {
 // Where the exact ray meets one triangle.
 struct RefereeCandidate {
   uint32_t prim = 0;
+  uint32_t instance = kNoInstance;  // instanced scenes: whose placement of prim
   long double t = 0;
   bool on_boundary = false;  // exactly on an edge or a vertex: hit or miss are both admissible
   bool at_endpoint = false;  // t within the distance bound of tmin or tmax: likewise
@@ -32,6 +33,7 @@ struct RayAnswer {
   bool hit = false;
   float t = 0.0f;
   uint32_t prim = kNoPrim;
+  uint32_t instance = kNoInstance;
 };
 
 class ExactReferee {
@@ -42,6 +44,7 @@ class ExactReferee {
 
   // Every triangle the ray meets in [tmin, tmax] (closed triangles, endpoints
   // with the bound), by brute force over the scene: for the few rays in dispute.
+  // Instanced scenes: every instance's triangles, in its object space.
   std::vector<RefereeCandidate> candidates(const Ray& ray) const;
 
   // Whether an answer is admissible for the ray. Closest hit: a miss when no
@@ -52,6 +55,8 @@ class ExactReferee {
                   const RayAnswer& answer) const;
 
  private:
+  void add_candidates(const Ray& ray, uint32_t first, uint32_t end, uint32_t instance,
+                      std::vector<RefereeCandidate>& out) const;
   const Scene& scene_;
   float relative_bound_, absolute_bound_;
 };

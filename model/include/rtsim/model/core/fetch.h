@@ -11,9 +11,9 @@ namespace rtsim {
 
 // Uv and Texel: the any-hit stage's reads of an alpha-tested triangle's texture
 // coordinates and of the texel they pick (through the texture cache).
-enum class AccessKind : uint8_t { Node = 0, PrimRef = 1, Triangle = 2, Stack = 3, Uv = 4, Texel = 5 };
-constexpr int kAccessKindCount = 6;
-// "node", "prim_ref", "triangle", "stack", "uv", "texel"
+enum class AccessKind : uint8_t { Node = 0, PrimRef = 1, Triangle = 2, Stack = 3, Uv = 4, Texel = 5, Instance = 6 };
+constexpr int kAccessKindCount = 7;
+// "node", "prim_ref", "triangle", "stack", "uv", "texel", "instance"
 const char* access_kind_name(AccessKind kind);
 
 struct MemoryAccess {

@@ -25,9 +25,13 @@ struct CounterTotals {
   uint64_t node_bytes = 0, prim_ref_bytes = 0, triangle_bytes = 0;
   uint64_t stack_overflows = 0, stack_refills = 0;
   uint64_t anyhit_tests = 0, anyhit_rejects = 0, uv_bytes = 0, texel_bytes = 0;  // alpha testing
+  // Two-level trees (RayCounters): the TLAS's share of TRV, and the transforms.
+  uint64_t tlas_trv_ops = 0, tlas_node_fetches = 0, tlas_node_bytes = 0, xfm_ops = 0, instance_bytes = 0;
   uint32_t max_stack_depth = 0;
   uint64_t ops() const { return trv_ops + ist_ops; }
-  uint64_t bytes() const { return node_bytes + prim_ref_bytes + triangle_bytes + uv_bytes + texel_bytes; }
+  uint64_t bytes() const {
+    return node_bytes + prim_ref_bytes + triangle_bytes + uv_bytes + texel_bytes + instance_bytes;
+  }
   double per_ray(uint64_t value) const { return rays ? double(value) / double(rays) : 0.0; }
   void add(const RayCounters& c, bool hit);
   void add(const CounterTotals& o);

@@ -36,6 +36,7 @@ inline RayType diffuse_ray_type(uint32_t depth) { return RayType(uint32_t(RayTyp
 
 constexpr uint32_t kNoParent = ~0u;
 constexpr uint32_t kNoPrim = ~0u;
+constexpr uint32_t kNoInstance = ~0u;
 
 struct Ray {
   vec3 origin{0.0f};
@@ -53,8 +54,9 @@ struct Ray {
 // point is (1-u-v)*v0 + u*v1 + v*v2.
 struct HitRecord {
   float t = std::numeric_limits<float>::infinity();
-  uint32_t prim = kNoPrim;  // scene triangle index
+  uint32_t prim = kNoPrim;  // scene triangle index (instanced scenes: of the instance's mesh)
   float u = 0.0f, v = 0.0f;
+  uint32_t instance = kNoInstance;  // instanced scenes: the instance hit
   bool hit() const { return prim != kNoPrim; }
 };
 

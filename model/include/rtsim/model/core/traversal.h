@@ -42,6 +42,15 @@
 //    they pick, and tests its alpha (Scene::alpha_sample). An opaque texel commits
 //    the hit; a transparent one lets the ray go on (the next candidate, the rest
 //    of the leaf, the stack). The step's opaque hits commit at once, as before.
+//  - Transform (two-level trees, instanced scenes): a TLAS leaf holds one
+//    instance. The step reads its 64-byte record and is one XFM op: the ray's
+//    origin and direction go through the instance's world-to-object transform
+//    (the direction is not renormalised, so t keeps its meaning and the closest
+//    hit so far still culls). The ray then walks the instance's BLAS from its
+//    root record. The ray slot remembers the stack depth at which it entered
+//    (a register, not a stack entry): when a pop would go below it, the BLAS is
+//    done and the world ray is restored (no op, no fetch) before the TLAS entry
+//    is popped. One short stack holds both levels' entries.
 // Closest-hit rays skip popped entries whose entry distance lies beyond the
 // closest hit so far (no fetch, no op). Any-hit rays finish at their first hit
 // (an alpha-tested one: at the first that passes its test).
@@ -96,9 +105,14 @@ struct RayCounters {
   // let the ray through; each reads one UV record and one texel.
   uint32_t anyhit_tests = 0, anyhit_rejects = 0;
   uint32_t uv_bytes = 0, texel_bytes = 0;
+  // Two-level trees: the TLAS's share of trv_ops, node_fetches and node_bytes (the
+  // rest is the BLASes'), and the Transform steps (XFM ops), each reading one
+  // instance record. XFM ops are counted apart from trv_ops.
+  uint32_t tlas_trv_ops = 0, tlas_node_fetches = 0, tlas_node_bytes = 0;
+  uint32_t xfm_ops = 0, instance_bytes = 0;
   uint32_t ops() const { return trv_ops + ist_ops; }
   uint64_t bytes() const {
-    return uint64_t(node_bytes) + prim_ref_bytes + triangle_bytes + uv_bytes + texel_bytes;
+    return uint64_t(node_bytes) + prim_ref_bytes + triangle_bytes + uv_bytes + texel_bytes + instance_bytes;
   }
 };
 
@@ -125,8 +139,16 @@ class TraversalContext {
   };
   struct ChildTarget {
     uint32_t node;             // the child's node index
-    uint32_t target;           // inner child: its record; leaf: its first triangle slot
-    uint32_t leaf_count;       // 0: inner child
+    uint32_t target;           // inner child: its record; leaf: its first triangle slot; instance leaf: the instance
+    uint32_t leaf_count;       // 0: inner child; kInstanceLeaf: a TLAS leaf
+  };
+  static constexpr uint32_t kInstanceLeaf = ~0u;
+  // Two-level trees: what the Transform step applies and where the BLAS starts.
+  struct InstancePlacement {
+    glm::mat3 linear;          // world to object, linear part
+    vec3 offset;               // world to object, translation
+    uint32_t root_node;        // the BLAS root
+    uint32_t root_record;      // its record (child-box formats)
   };
 
   TraversalContext(const Scene& scene, const Bvh& bvh, const MemoryImage& image,
@@ -154,6 +176,8 @@ class TraversalContext {
   }
   size_t record_block_bytes() const { return block_bytes_; }
   uint32_t root_record() const { return root_record_; }
+  bool two_level() const { return !instances_.empty(); }
+  const InstancePlacement& instance(uint32_t i) const { return instances_[i]; }
   // Spill area of ray slot `slot`: past the memory image, kStackAreaEntries entries each.
   static constexpr uint32_t kStackAreaEntries = 256;
   uint64_t stack_area(uint32_t slot) const {
@@ -161,6 +185,7 @@ class TraversalContext {
   }
 
  private:
+  void place_instances();
   const Scene* scene_;
   const Bvh* bvh_;
   const MemoryImage* image_;
@@ -175,9 +200,10 @@ class TraversalContext {
   std::vector<Chunk> blocks_;
   size_t block_bytes_ = 0, targets_offset_ = 0;
   uint32_t root_record_ = 0;
+  std::vector<InstancePlacement> instances_;  // two-level trees
 };
 
-enum class TraversalAction : uint8_t { FetchNode, TestTriangles, AlphaTest, Done };
+enum class TraversalAction : uint8_t { FetchNode, TestTriangles, AlphaTest, Transform, Done };
 
 class RayTraversal {
  public:
@@ -198,8 +224,8 @@ class RayTraversal {
   // triangles whose addresses a prim-ref list holds). Valid until process().
   const std::vector<MemoryAccess>& step_reads() const;
   uint32_t step_independent_reads() const;
-  // The reads have arrived: one TRV op (FetchNode), one IST step (TestTriangles)
-  // or one any-hit test (AlphaTest).
+  // The reads have arrived: one TRV op (FetchNode), one IST step (TestTriangles),
+  // one any-hit test (AlphaTest) or one XFM op (Transform).
   void process();
   // Spill writes and refill reads the last process() caused, in order.
   const std::vector<MemoryAccess>& stack_accesses() const { return stack_accesses_; }
@@ -210,6 +236,9 @@ class RayTraversal {
   uint32_t step_box_tests() const;
 
   uint32_t node() const { return current_node_; }      // FetchNode: the node; else the leaf
+  // Two-level trees: the instance whose BLAS the ray is in (or the Transform step's); kNoInstance in the TLAS.
+  uint32_t instance() const { return instance_; }
+  bool in_blas() const { return in_blas_; }
   uint32_t leaf_size() const { return leaf_count_; }
   uint32_t leaf_cursor() const { return leaf_cursor_; }  // next triangle of the leaf to test
 
@@ -234,6 +263,10 @@ class RayTraversal {
   void process_child_boxes_node();
   void process_own_box_node();
   void process_alpha_test();
+  void process_transform();
+  void enter_instance(uint32_t node, uint32_t instance);  // a TLAS leaf: Transform next
+  void leave_instance();      // back to the world ray, in the TLAS
+  void set_ray_space(const vec3& origin, const vec3& direction);
   void commit(float t, uint32_t slot, float u, float v);
   void after_candidates();    // the next candidate to test, or on with the leaf
   void test_candidate(uint32_t index);  // AlphaTest of candidates_[index] comes next
@@ -251,6 +284,7 @@ class RayTraversal {
   Ray ray_;
   RayBoxLanes box_ray_;
   RayTrianglePrecompute tri_ray_;
+  vec3 direction_{0.0f};      // the ray's direction in the current space (world, or the BLAS's object space)
   TraversalMode mode_ = TraversalMode::ClosestHit;
   TraversalAction action_ = TraversalAction::Done;
   HitRecord hit_;
@@ -265,6 +299,9 @@ class RayTraversal {
   uint32_t candidate_ = 0;             // the one AlphaTest tests
   AlphaSample candidate_sample_;       // its texel, found once for the step's reads and its test
   bool alpha_scene_ = false;           // the scene has alpha-tested triangles
+  uint32_t instance_ = kNoInstance;    // two-level trees: the instance being entered or walked
+  bool in_blas_ = false;
+  uint32_t blas_stack_base_ = 0;       // stack depth when the BLAS was entered
   std::vector<MemoryAccess> stack_accesses_;
   mutable std::vector<MemoryAccess> reads_;  // built on demand by step_reads()
 };
@@ -293,6 +330,8 @@ inline const std::vector<MemoryAccess>& RayTraversal::step_reads() const {
     add(image.uv_address(candidates_[candidate_].slot), MemoryImage::kUvRecordBytes, AccessKind::Uv);
     const AlphaSample& s = candidate_sample_;
     add(image.texel_address(s.texture, s.x, s.y), MemoryImage::kTexelBytes, AccessKind::Texel);
+  } else if (action_ == TraversalAction::Transform) {
+    add(image.instance_address(instance_), MemoryImage::kInstanceRecordBytes, AccessKind::Instance);
   }
   return reads_;
 }
@@ -305,6 +344,7 @@ inline uint32_t RayTraversal::step_independent_reads() const {
       if (leaf_cursor_ == 0 && context_->image().indexed()) return 1;
       return std::min(leaf_count_ - leaf_cursor_, context_->config().triangles_per_step);
     case TraversalAction::AlphaTest: return 1;  // the texel's address needs the UVs
+    case TraversalAction::Transform: return 1;
     case TraversalAction::Done: break;
   }
   return 0;

@@ -98,6 +98,7 @@ struct EnergyConfig {
   double box_test_pj = 137;         // one ray-box slab test
   double triangle_test_pj = 721;    // one ray-triangle test
   double anyhit_test_pj = 173;      // one alpha test: UV interpolation, texel address, compare
+  double xfm_pj = 367;              // one instance transform of a ray's origin and direction
   double noc_byte_pj = 4.8;         // one byte across the crossbar (one hop)
 };
 // Energy of one access to an SRAM cache of size_bytes (64-byte lines, one bank):
@@ -150,6 +151,12 @@ struct HardwareConfig {
   uint32_t trv_passes(uint32_t boxes) const {
     return boxes <= trv_boxes_per_pass ? 1 : (boxes + trv_boxes_per_pass - 1) / trv_boxes_per_pass;
   }
+  // A TRV unit step's passes and latency (cycles): a node's box tests, or an
+  // instance transform (instanced scenes), which issues into the same pipeline.
+  uint32_t trv_step_passes(uint32_t boxes, bool transform) const {
+    return transform ? xfm_passes : trv_passes(boxes);
+  }
+  uint32_t trv_step_latency(bool transform) const { return transform ? xfm_latency : trv_box_test_latency; }
 
   // IST
   uint32_t ist_units = 2;
@@ -161,6 +168,8 @@ struct HardwareConfig {
   // only): interpolates the candidate's UVs, reads the texel through the unit's L1
   // texture cache and compares its alpha with the material's cutoff.
   uint32_t anyhit_test_latency = 4;   // cycles from the texel's arrival to the verdict
+  uint32_t xfm_latency = 12;          // cycles from the instance record's arrival to the object-space ray
+  uint32_t xfm_passes = 1;            // box-test pipeline passes one transform occupies in its TRV unit
   double anyhit_tests_per_cycle = 1.0;
 
   // Shading

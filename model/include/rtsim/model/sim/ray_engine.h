@@ -47,14 +47,16 @@ class Timeline;
 enum class ServedBy : uint8_t;
 
 // Which unit's L1 an access goes through: nodes and stack entries the TRV
-// unit's node cache, prim refs and triangles the IST unit's triangle cache, UVs
+// unit's node cache (instance records too), prim refs and triangles the IST unit's triangle cache, UVs
 // and texels (the IST unit's any-hit stage) its texture cache.
 enum class Requester : uint8_t { Trv = 0, Ist = 1, Texture = 2 };
 constexpr int kRequesterCount = 3;
 inline Requester requester_of(AccessKind kind) {
-  // By AccessKind's value (fetch.h): node, prim_ref, triangle, stack, uv, texel.
-  constexpr Requester kOf[kAccessKindCount] = {Requester::Trv, Requester::Ist,     Requester::Ist,
-                                               Requester::Trv, Requester::Texture, Requester::Texture};
+  // By AccessKind's value (fetch.h): node, prim_ref, triangle, stack, uv, texel,
+  // instance (the TRV unit's transform reads it through the node cache).
+  constexpr Requester kOf[kAccessKindCount] = {Requester::Trv,     Requester::Ist,     Requester::Ist,
+                                               Requester::Trv,     Requester::Texture, Requester::Texture,
+                                               Requester::Trv};
   return kOf[size_t(kind)];
 }
 
@@ -218,7 +220,7 @@ class RayEngine {
   std::vector<uint64_t> trv_free_, ist_free_;
   std::vector<uint64_t> shading_free_, raygen_free_;  // per core
   uint64_t trv_interval_ps_, ist_interval_ps_, shading_interval_ps_, raygen_interval_ps_;
-  uint64_t box_latency_ps_, test_latency_ps_, shading_latency_ps_;
+  uint64_t box_latency_ps_, test_latency_ps_, shading_latency_ps_, xfm_latency_ps_;
   std::vector<UnitAccounting> trv_account_, ist_account_, shading_account_;
   std::vector<uint64_t> trv_passes_, ist_tests_;
   std::array<uint64_t, kRayTypeCount> trv_passes_by_type_{}, ist_tests_by_type_{}, ray_ps_by_type_{};
