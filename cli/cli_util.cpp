@@ -241,11 +241,17 @@ void load_workload(Workload& out, const std::string& scene, const std::string& c
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
                    uint64_t shuffle_seed, uint32_t threads, const std::string& node_format,
                    const std::vector<std::string>& build_settings, float ao_cutoff_relative,
-                   bool builder_given, const std::function<void(const Scene&)>& check_scene, bool opaque) {
+                   bool builder_given, const std::function<void(const Scene&)>& check_scene, bool opaque,
+                   bool instanced) {
   if (!bvh_file.empty() && !build_settings.empty())
     throw InputError("--build-set", "cannot change a saved tree (--bvh); build it with these settings");
   if (bvh_file.empty()) builder_info(builder, typed_flag("--builder"));  // before the scene is loaded
-  out.scene = load_scene(scene.empty() ? default_scene_name() : scene);
+  if (instanced && !bvh_file.empty())
+    throw InputError("--instanced", "a saved tree (--bvh) is one-level; two-level trees are built in the run");
+  out.scene = load_scene(scene.empty() ? default_scene_name() : scene,
+                         instanced ? SceneForm::Instanced : SceneForm::Flat);
+  if (instanced && !out.scene.instanced())
+    throw InputError("--instanced", "scene '" + out.scene.name + "' has no instances (it is flat)");
   if (opaque) out.scene.make_opaque();
   if (check_scene) check_scene(out.scene);
   if (shuffle_seed != 0) shuffle_triangles(out.scene, shuffle_seed);

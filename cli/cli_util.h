@@ -140,7 +140,8 @@ void load_workload(Workload& out, const std::string& scene, const std::string& c
                    const std::string& node_format = "bvh2-64",
                    const std::vector<std::string>& build_settings = {},
                    float ao_cutoff_relative = -1, bool builder_given = false,
-                   const std::function<void(const Scene&)>& check_scene = {}, bool opaque = false);
+                   const std::function<void(const Scene&)>& check_scene = {}, bool opaque = false,
+                   bool instanced = false);
 
 // ---- the frame: trace's and simulate's image flags, checked alike
 

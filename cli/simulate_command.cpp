@@ -42,6 +42,7 @@ struct SimulateOptions {
   bool russian_roulette = false;
   uint64_t seed = 1, shuffle_faces = 0;
   bool opaque = false;
+  bool instanced = false;
   std::vector<std::string> build_settings;  // --build-set KEY=VALUE
   std::string dram_trace_out, dram_trace_format = "dramsim3", cache_trace_out, cache_trace = "l2";
   bool json = false;
@@ -157,7 +158,7 @@ void run_simulate(const SimulateOptions& o) {
                 request.config.node_format, o.build_settings, float(o.ao_cutoff), o.builder_flag->count() > 0,
                 [&](const Scene& loaded) {
                   if (o.rays_in.empty()) check_frame_memory(loaded, request.settings);
-                }, o.opaque);
+                }, o.opaque, o.instanced);
   const Scene& scene = workload.scene;
   const Camera& camera = *workload.camera;
   const BuildParams& params = workload.params;
@@ -239,6 +240,11 @@ void run_simulate(const SimulateOptions& o) {
     out["effects"][ray_type_name(t)] = {{"on", result.plan.on(t)},
                                         {"why", result.plan.reason[ray_type_index(t)]}};
   out["effects"]["anyhit"] = {{"on", result.plan.anyhit}, {"why", result.plan.anyhit_reason}};
+  if (o.instanced) {  // a flat run's config keeps its keys
+    out["instanced"] = true;
+    out["instances"] = scene.instances.size();
+    out["instanced_triangles"] = scene.instanced_triangle_count();
+  }
 
   if (timeline) {
     timeline->close();
@@ -274,6 +280,13 @@ void run_simulate(const SimulateOptions& o) {
   std::printf("  %llu cores, L2 slice balance %.3f, %.0f pJ/ray (dynamic)\n",
               static_cast<unsigned long long>(s.number("machine.cores")), s.number("l2.slice_balance"),
               s.number("energy.pj_per_ray"));
+  if (s.contains("ops.xfm_ops"))  // a two-level tree (--instanced)
+    std::printf("  instanced: TRV %.2f TLAS + %.2f BLAS ops/ray, %.3f XFM ops/ray; footprint %.1f MiB "
+                "(%llu instances, %.1f MiB of instance records)\n",
+                s.number("ops.tlas_trv_ops_per_ray"), s.number("ops.blas_trv_ops_per_ray"),
+                s.number("ops.xfm_ops_per_ray"), s.number("memory.total_bytes") / 1048576.0,
+                (unsigned long long)s.number("memory.instance_records"),
+                s.number("memory.instance_bytes") / 1048576.0);
   if (s.contains("anyhit.tests"))  // the any-hit stage was built (alpha-tested materials)
     std::printf("  any-hit %.3f tests/ray, %.1f%% let the ray through, L1 texture hit %.3f, %.1f texel B/ray\n",
                 s.number("anyhit.tests_per_ray"), 100.0 * s.number("anyhit.reject_ratio"),
@@ -324,6 +337,10 @@ void add_simulate_command(CLI::App& root) {
   cmd->add_option("--frames", opts->frames,
                   "run the same rays this many times back to back, caches warm; stats of the last")
       ->capture_default_str();
+  cmd->add_flag("--instanced", opts->instanced,
+                "the scene with its instances: a BLAS per mesh and a TLAS over\nthe instances, walked with an "
+                "instance transform (XFM op)\nper instance entered (docs/machine.md \"Instancing\");\n"
+                "default: the flat scene");
   cmd->add_flag("--opaque", opts->opaque,
                "alpha-tested materials as opaque: the same geometry\nwithout the any-hit stage and "
                "its texture caches (to compare)");

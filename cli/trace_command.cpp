@@ -41,6 +41,7 @@ struct TraceOptions {
   bool russian_roulette = false;
   uint64_t shuffle_faces = 0;
   bool opaque = false;
+  bool instanced = false;
   uint64_t seed = 1;
   float heat_max = 150.0f;
   bool json = false, validate = false;
@@ -68,7 +69,11 @@ nlohmann::json totals_json(const CounterTotals& t, uint64_t all_ops) {
           {"stack_overflows", t.stack_overflows},
           {"anyhit_tests_per_ray", t.per_ray(t.anyhit_tests)},
           {"anyhit_rejects", t.anyhit_rejects},
-          {"texel_bytes_per_ray", t.per_ray(t.texel_bytes)}};
+          {"texel_bytes_per_ray", t.per_ray(t.texel_bytes)},
+          // Two-level trees (--instanced): zero for a flat scene.
+          {"tlas_trv_ops_per_ray", t.per_ray(t.tlas_trv_ops)},
+          {"xfm_ops_per_ray", t.per_ray(t.xfm_ops)},
+          {"instance_bytes_per_ray", t.per_ray(t.instance_bytes)}};
 }
 
 // One cache level as a whole (an L2's slices summed).
@@ -302,7 +307,7 @@ void run_trace(const TraceOptions& o) {
   load_workload(workload, o.scene, o.camera, o.builder, o.seed, o.bvh_in, o.shuffle_faces, o.threads,
                 hardware.node_format, {}, -1, o.builder_flag->count() > 0, [&](const Scene& loaded) {
                   if (o.rays_in.empty()) check_frame_memory(loaded, settings);
-                }, o.opaque);
+                }, o.opaque, o.instanced);
   const Scene& scene = workload.scene;
   const MemoryImage image(scene, workload.bvh, sim::memory_layout_for(hardware));
   TraversalConfig traversal = sim::traversal_config_for(hardware);
@@ -371,6 +376,10 @@ void add_trace_command(CLI::App& root) {
                   "node record format: " + node_format_names("|") +
                       "\n(the tree is built for its width; default: memory.node_format)");
   cmd->add_option("--node-layout", options->node_layout, "deprecated: --node-format")->group("");
+  cmd->add_flag("--instanced", options->instanced,
+                "the scene with its instances: a BLAS per mesh and a TLAS over\nthe instances, walked with an "
+                "instance transform (XFM op)\nper instance entered (docs/machine.md \"Instancing\");\n"
+                "default: the flat scene");
   cmd->add_flag("--opaque", options->opaque,
                "alpha-tested materials as opaque: the same geometry\nwithout the any-hit stage and "
                "its texture caches (to compare)");
