@@ -34,7 +34,7 @@ constexpr size_t kMaxJobs = 200000;
 
 const char* const kAxes[] = {"scene",      "builder", "node_format", "camera", "preset", "fidelity", "seed",
                              "resolution", "ao",      "ao_cutoff",   "frames", "diffuse_bounces",
-                             "opaque"};
+                             "opaque",     "instanced"};
 
 // One axis value as the text passed on the command line. Integers stay integers;
 // reals use the shortest text that reads back to the same double.
@@ -270,6 +270,7 @@ std::vector<std::string> CampaignJob::simulate_arguments(const fs::path& out_dir
   job.frames = frames > 0 ? uint32_t(frames) : 0;
   job.diffuse_bounces = diffuse_bounces;
   job.opaque = opaque;
+  job.instanced = instanced;
   job.node_format = node_format;
   // With a hardware file the overrides are in it.
   if (hardware_file.empty()) job.overrides.assign(overrides.begin(), overrides.end());
@@ -394,6 +395,7 @@ std::string job_label(const CampaignJob& job) {
   if (job.frames > 0) label += "/frames" + std::to_string(job.frames);
   if (job.diffuse_bounces >= 0) label += "/diffuse" + std::to_string(job.diffuse_bounces);
   if (job.opaque) label += "/opaque";
+  if (job.instanced) label += "/instanced";
   if (!job.node_format.empty()) label += "/" + job.node_format;
   for (const auto& [k, v] : job.overrides) label += "/" + k + "=" + v;
   for (const auto& [k, v] : job.build_settings) label += "/build." + k + "=" + v;
@@ -578,6 +580,11 @@ void JobExpander::apply_value(Draft& draft, const std::string& name, const json&
     if (!v.is_boolean()) throw InputError(w, "opaque must be true or false (alpha-tested materials as opaque)");
     job.opaque = v.get<bool>();
     if (!job.opaque) draft.resolved.erase(name);  // the default: the plain run, its key unchanged
+  } else if (name == "instanced") {
+    if (!v.is_boolean())
+      throw InputError(w, "instanced must be true or false (the scene with its instances: a two-level tree)");
+    job.instanced = v.get<bool>();
+    if (!job.instanced) draft.resolved.erase(name);  // the default: the flat scene, its key unchanged
   }
 }
 

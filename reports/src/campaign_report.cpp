@@ -81,6 +81,7 @@ const WorkloadAxis kWorkloadAxes[] = {{"camera", "", nullptr},
                                       {"frames", "frames", 1},
                                       {"diffuse_bounces", "bounces", 0},
                                       {"opaque", "", false},
+                                      {"instanced", "", false},
                                       {"resolution", "pixels", nullptr}};
 
 std::string hardware_unit(const std::string& key) {

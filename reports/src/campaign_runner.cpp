@@ -218,7 +218,8 @@ JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, con
     write_file_atomic(hardware, "# " + job.label + "\n" + job.hardware_toml);
     args = job.simulate_arguments(dir, hardware);
   }
-  if (tree_cache.empty()) return {binary, args};
+  // Two-level trees are built in the run: BVH files hold one-level trees.
+  if (tree_cache.empty() || job.instanced) return {binary, args};
   const fs::path tree = cached_tree(tree_cache, campaign, job);
   fs::create_directories(tree_cache);
   discard_unusable_tree(tree, job);

@@ -181,6 +181,7 @@ Condition job_condition(const CampaignJob& job, const ClaimOptions& o) {
     else if (f.name == "cutoff") c[f.name] = job.ao_cutoff;
     else if (f.name == "diffuse") c[f.name] = std::to_string(std::max<int64_t>(0, job.diffuse_bounces));
     else if (f.name == "alpha") c[f.name] = job.opaque ? "off" : "on";
+    else if (f.name == "instanced") c[f.name] = job.instanced ? "on" : "off";
   }
   c[kTrees] = setting("rdh_cameras") == "none" ? "surfaces" : job.tree_camera() != job.camera ? "unseen" : "";
   return c;
@@ -305,6 +306,12 @@ std::string claim_campaign_json(const ClaimOptions& o) {
     if (f.name == "alpha")
       for (const std::string& scene : claim_scenes(o))
         if (load_scene(scene).alpha_tested_triangles() > 0) alpha_scenes.push_back(scene);
+  // Likewise the scenes that have instances, for the instanced=on level.
+  std::vector<std::string> instanced_scenes;
+  for (const ClaimFactor& f : o.factors)
+    if (f.name == "instanced")
+      for (const std::string& scene : claim_scenes(o))
+        if (load_scene(scene, SceneForm::Instanced).instanced()) instanced_scenes.push_back(scene);
   // One group per condition (and per traced camera where the trees are built for
   // another); a second one for the ray-distribution builders' own sampling setting.
   struct Part {
@@ -346,6 +353,11 @@ std::string claim_campaign_json(const ClaimOptions& o) {
       if (alpha_scenes.empty()) continue;  // no scene has alpha-tested materials
       g["opaque"] = true;
       g["scene"] = alpha_scenes;
+    }
+    if (c.count("instanced") && c.at("instanced") == "on") {
+      if (instanced_scenes.empty()) continue;  // no scene has instances
+      g["instanced"] = true;
+      g["scene"] = instanced_scenes;
     }
     json build = json::object();
     if (c.count("leaf")) build["max_leaf_size"] = number_text(c.at("leaf"));
@@ -432,7 +444,8 @@ ClaimFigures collect_figures(const ClaimOptions& o, const Campaign& campaign, co
     const Condition c = job_condition(job, o);
     bool comparable = true;
     for (const ClaimFactor& fac : o.factors)
-      if ((fac.name == "t2" || fac.name == "cutoff" || fac.name == "diffuse" || fac.name == "alpha") &&
+      if ((fac.name == "t2" || fac.name == "cutoff" || fac.name == "diffuse" || fac.name == "alpha" ||
+           fac.name == "instanced") &&
           c.at(fac.name) != fac.centre)
         comparable = false;
     if (c.at(kTrees) != "") comparable = false;  // the default's trees, or costs for rays not traced

@@ -34,6 +34,7 @@ std::vector<std::string> SimulationJob::arguments() const {
   if (frames > 0) a.insert(a.end(), {"--frames", std::to_string(frames)});
   if (diffuse_bounces >= 0) a.insert(a.end(), {"--diffuse-bounces", std::to_string(diffuse_bounces)});
   if (opaque) a.push_back("--opaque");
+  if (instanced) a.push_back("--instanced");
   if (!node_format.empty()) a.insert(a.end(), {"--node-format", node_format});
   if (!bvh.empty()) a.insert(a.end(), {"--bvh", bvh.string()});
   for (const auto& [k, v] : overrides) a.insert(a.end(), {"--set", k + "=" + v});

@@ -281,6 +281,21 @@ TEST(CampaignExpand, OpaqueIsAnAxisWhoseFalseIsThePlainRun) {
   EXPECT_EQ(std::count(build_args.begin(), build_args.end(), "--opaque"), 1);
 }
 
+TEST(CampaignExpand, InstancedIsAnAxisWhoseFalseIsThePlainRunAndWhoseTreesAreBuiltInTheRun) {
+  const std::string plain = "[sweep]\nscene = \"forest_instanced\"\nbuilder = \"sah\"\n";
+  const Campaign before = parse(plain);
+  const Campaign c = parse(plain + "instanced = [false, true]\n");
+  ASSERT_EQ(c.jobs.size(), 2u);
+  for (const CampaignJob& j : c.jobs) {
+    const auto args = j.simulate_arguments("/o");
+    EXPECT_EQ(std::count(args.begin(), args.end(), "--instanced"), j.instanced ? 1 : 0) << j.label;
+    EXPECT_EQ(j.label.find("/instanced") != std::string::npos, j.instanced) << j.label;
+    if (j.instanced) EXPECT_NE(j.key, before.jobs[0].key);
+    else EXPECT_EQ(j.key, before.jobs[0].key);
+  }
+  EXPECT_NE(error_of(plain + "instanced = \"yes\"\n").find("true or false"), std::string::npos);
+}
+
 TEST(CampaignExpand, BadInputNamesFileAndKey) {
   EXPECT_NE(error_of("[sweep]\nscene = \"a\"\nbuilder = \"sah\"\nbuildr = \"x\"\n")
                 .find("key 'sweep.buildr': is unknown"),

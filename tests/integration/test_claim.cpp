@@ -136,6 +136,34 @@ TEST(Claim, TheAlphaFactorRunsOpaqueOnlyWhereMaterialsAreAlphaTested) {
   for (const json& g : plain.at("group")) EXPECT_FALSE(g.contains("opaque")) << g.dump();
 }
 
+TEST(Claim, TheInstancedFactorRunsTwoLevelTreesOnlyWhereScenesHaveInstances) {
+  ClaimOptions o;
+  o.scenes = {"cornell", "forest_instanced"};
+  o.factors = {{"leaf", {"4", "8"}, "4"}, {"instanced", {"off", "on"}, "off"}};
+  const json doc = json::parse(claim_campaign_json(o));
+  size_t instanced_groups = 0;
+  for (const json& g : doc.at("group")) {
+    if (!g.contains("instanced")) continue;
+    ++instanced_groups;
+    EXPECT_EQ(g.at("scene"), json::array({"forest_instanced"})) << g.dump();
+    EXPECT_NE(g.at("name").get<std::string>().find("instanced=on"), std::string::npos) << g.dump();
+  }
+  EXPECT_GE(instanced_groups, 1u);
+  const Campaign campaign = parse_campaign(doc, "/tmp/claim-instanced.json", "test");
+  size_t instanced_jobs = 0;
+  for (const CampaignJob& j : campaign.jobs) {
+    if (!j.instanced) continue;
+    ++instanced_jobs;
+    EXPECT_EQ(j.scene, "forest_instanced");
+    const auto args = j.simulate_arguments("/o");
+    EXPECT_EQ(std::count(args.begin(), args.end(), "--instanced"), 1);
+  }
+  EXPECT_GT(instanced_jobs, 0u);
+  o.scenes = {"cornell"};  // flat: no on level at all
+  const json plain = json::parse(claim_campaign_json(o));
+  for (const json& g : plain.at("group")) EXPECT_FALSE(g.contains("instanced")) << g.dump();
+}
+
 TEST(Claim, BadInputIsNamed) {
   const CliResult r = run_rtsim("claim --replicates 1 --out-dir /tmp/rtsim-claim-bad");
   EXPECT_EQ(r.exit_code, 2) << r.output;

@@ -29,6 +29,7 @@ struct CampaignJob {
   int64_t frames = -1;      // frames of the same rays (stats of the last), < 1: simulate's default
   int64_t diffuse_bounces = -1;  // diffuse path bounces per primary hit (--diffuse-bounces), < 0: none
   bool opaque = false;           // alpha-tested materials as opaque (--opaque)
+  bool instanced = false;        // the scene with its instances, a two-level tree (--instanced)
   std::string node_format;  // node record format the tree is built for; "" = the preset's
   std::map<std::string, std::string> overrides;  // dotted hardware key -> value text
   // Builder parameters (builder_registry.h) -> value text: --build-set KEY=VALUE. A

@@ -2,7 +2,7 @@
 // rtsim claim: where the patent's claim holds. A campaign (resumable, and the same
 // file `rtsim campaign emit --slurm` takes) over scenes x cameras x builders x
 // seeds, in a star design: every factor (leaf size, T2/T1, node format, AO ray
-// length, diffuse bounces, alpha testing) is varied alone around the defaults, so the map costs the sum of the
+// length, diffuse bounces, alpha testing, instancing) is varied alone around the defaults, so the map costs the sum of the
 // factors' levels, not their product. Per patent relation (AO-BVH < SAH, < SBVH,
 // < OSAH, every tree < median) and per condition, metric (TRV+IST ops, node
 // fetches, DRAM bytes, per ray) and ray mix (primary, AO, diffuse, all rays): the mean
@@ -22,7 +22,7 @@ namespace rtsim {
 
 // One factor of the star design: its levels and its default (the centre).
 struct ClaimFactor {
-  std::string name;                 // leaf | t2 | format | cutoff | diffuse | alpha
+  std::string name;                 // leaf | t2 | format | cutoff | diffuse | alpha | instanced
   std::vector<std::string> levels;  // value texts, the default among them
   std::string centre;
 };
@@ -45,6 +45,9 @@ struct ClaimOptions {
       // Alpha-tested materials tested (on) or opaque (off, simulate --opaque): only the
       // scenes that have alpha-tested materials run the off level.
       {"alpha", {"on", "off"}, "on"},
+      // The scene flat (off) or with its instances, as a two-level tree (on,
+      // simulate --instanced): only the scenes that have instances run the on level.
+      {"instanced", {"off", "on"}, "off"},
   };
   uint32_t replicates = 5;  // seeds 1..N: each replicate's workload and builder seed
   std::string resolution = "64x64";

@@ -34,6 +34,7 @@ struct SimulationJob {
   uint32_t frames = 0;               // 0: the default (1)
   int64_t diffuse_bounces = -1;      // < 0: the default (none)
   bool opaque = false;               // alpha-tested materials as opaque (--opaque)
+  bool instanced = false;            // the scene with its instances (--instanced)
   std::filesystem::path out_dir;
   // `simulate --scene ... --out-dir ...`: the child's arguments after the binary.
   std::vector<std::string> arguments() const;
