@@ -194,6 +194,18 @@ nlohmann::json trace_json(const TraceOptions& o, const Workload& workload, const
                  {"dram_bytes", dram_bytes},
                  {"dram_bytes_per_ray", run.total.per_ray(dram_bytes)}};
   j["memory_bytes"] = image.footprint().total_bytes();
+  if (workload.bvh.two_level()) {
+    // What the two-level tree is built from, and (aobvh) how far a placement's own
+    // occlusion lies from the mean its shared BLAS is built with.
+    j["instancing"] = {{"instances", scene.instances.size()},
+                       {"meshes", scene.meshes.size()},
+                       {"unique_triangles", scene.triangle_count()},
+                       {"instanced_triangles", scene.instanced_triangle_count()},
+                       {"tlas_nodes", workload.bvh.tlas_nodes},
+                       {"tlas_seconds", build_report.tlas_seconds},
+                       {"placement_spread", build_report.placement_spread},
+                       {"mean_occlusion", build_report.mean_occlusion}};
+  }
   return j;
 }
 
@@ -252,6 +264,20 @@ void print_trace_summary(const TraceOptions& o, const nlohmann::json& j, const W
   for (RayType t : kAllRayTypes)
     if (run.per_type[ray_type_index(t)].rays) row(ray_type_name(t), run.per_type[ray_type_index(t)]);
   row("total", run.total);
+  if (j.contains("instancing")) {
+    const auto& i = j["instancing"];
+    std::printf("two-level tree: %llu instances of %llu meshes, %llu unique of %llu instanced triangles, "
+                "TLAS %llu nodes (built in %.3f s)%s\n",
+                (unsigned long long)i["instances"].get<uint64_t>(), (unsigned long long)i["meshes"].get<uint64_t>(),
+                (unsigned long long)i["unique_triangles"].get<uint64_t>(),
+                (unsigned long long)i["instanced_triangles"].get<uint64_t>(),
+                (unsigned long long)i["tlas_nodes"].get<uint64_t>(), i["tlas_seconds"].get<double>(),
+                workload.params.builder == "aobvh" || workload.params.builder == "aosbvh"
+                    ? (", AO over placements: mean " + std::to_string(i["mean_occlusion"].get<double>()) +
+                       ", a placement " + std::to_string(i["placement_spread"].get<double>()) + " from its mean")
+                          .c_str()
+                    : "");
+  }
   std::printf("\neffects:\n");
   for (RayType t : kAllRayTypes) {
     const bool on = run.plan.enabled[ray_type_index(t)];

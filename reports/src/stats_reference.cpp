@@ -175,6 +175,16 @@ std::string make_stats_reference(const std::filesystem::path& binary, const std:
     job.frames = 2;
     job.out_dir = work_dir / level;
     runs.emplace_back(level, runner.simulate(job, work_dir / (std::string(level) + ".log")).stats);
+    // The stats only some workloads have: the any-hit stage (alpha-tested leaves) and
+    // the two-level tree's TLAS, BLAS and XFM counts (an instanced forest).
+    for (const char* scene : {"foliage_alpha", "forest_instanced"}) {
+      SimulationJob extra = job;
+      extra.scene = scene;
+      extra.instanced = std::string(scene) == "forest_instanced";
+      extra.frames = 1;
+      extra.out_dir = work_dir / (std::string(level) + "-" + scene);
+      runs.emplace_back(level, runner.simulate(extra, work_dir / (std::string(level) + "-" + scene + ".log")).stats);
+    }
   }
   return stats_reference_markdown(stats_reference(runs), "rtsim stats-reference --out docs/stats.md");
 }

@@ -83,7 +83,9 @@ void report_rollup(StatsRegistry& s, UnitKind kind, const std::vector<CycleSplit
 }
 
 // Two-level trees: TRV split into the TLAS's and the BLASes' share, and the XFM ops.
-void report_levels(StatsRegistry& s, const std::string& p, const CounterTotals& c, const std::string& whose) {
+// Op counts go under `p`, bytes under `bytes_p` (ops. and fetches. for the run's totals).
+void report_levels(StatsRegistry& s, const std::string& p, const std::string& bytes_p, const CounterTotals& c,
+                   const std::string& whose) {
   s.set(p + "tlas_trv_ops", c.tlas_trv_ops, "ops", "TRV ops in the TLAS" + whose);
   s.set(p + "blas_trv_ops", c.trv_ops - c.tlas_trv_ops, "ops", "TRV ops in the BLASes" + whose);
   s.set(p + "xfm_ops", c.xfm_ops, "ops",
@@ -92,11 +94,11 @@ void report_levels(StatsRegistry& s, const std::string& p, const CounterTotals& 
   s.set_real(p + "blas_trv_ops_per_ray", c.per_ray(c.trv_ops - c.tlas_trv_ops), "ops/ray",
              "BLAS TRV ops / rays" + whose);
   s.set_real(p + "xfm_ops_per_ray", c.per_ray(c.xfm_ops), "ops/ray", "XFM ops / rays" + whose);
-  s.set_real(p + "tlas_node_bytes_per_ray", c.per_ray(c.tlas_node_bytes), "bytes/ray",
+  s.set_real(bytes_p + "tlas_node_bytes_per_ray", c.per_ray(c.tlas_node_bytes), "bytes/ray",
              "TLAS node-record bytes (before caches) / rays" + whose);
-  s.set_real(p + "blas_node_bytes_per_ray", c.per_ray(c.node_bytes - c.tlas_node_bytes), "bytes/ray",
+  s.set_real(bytes_p + "blas_node_bytes_per_ray", c.per_ray(c.node_bytes - c.tlas_node_bytes), "bytes/ray",
              "BLAS node-record bytes (before caches) / rays" + whose);
-  s.set_real(p + "instance_bytes_per_ray", c.per_ray(c.instance_bytes), "bytes/ray",
+  s.set_real(bytes_p + "instance_bytes_per_ray", c.per_ray(c.instance_bytes), "bytes/ray",
              "instance-record bytes (before caches) / rays" + whose);
 }
 
@@ -131,7 +133,7 @@ void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCou
     s.set(p + ".node_fetches", c.node_fetches, "fetches", "node fetches of these rays");
     s.set(p + ".triangle_fetches", c.triangle_fetches, "fetches", "triangle fetches of these rays");
     s.set_real(p + ".ops_per_ray", c.per_ray(c.ops()), "ops/ray", "(TRV + IST ops) / rays");
-    if (two_level) report_levels(s, p + ".", c, " (these rays)");
+    if (two_level) report_levels(s, p + ".", p + ".", c, " (these rays)");
     if (!anyhit) continue;
     s.set(p + ".anyhit_tests", c.anyhit_tests, "tests", "any-hit (alpha) tests of these rays");
     s.set_real(p + ".anyhit_tests_per_ray", c.per_ray(c.anyhit_tests), "tests/ray",
@@ -144,7 +146,7 @@ void report_counts(StatsRegistry& s, const std::array<CounterTotals, kRayTypeCou
                "UV-record bytes the any-hit stage read for these rays (before caches) / their count");
   }
   if (two_level) {
-    report_levels(s, "ops.", total, "");
+    report_levels(s, "ops.", "fetches.", total, "");
     s.set("fetches.instance", total.xfm_ops, "fetches", "instance records read by TRV (before caches)");
     s.set("fetches.instance_bytes", total.instance_bytes, "bytes", "instance-record bytes read (before caches)");
   }
