@@ -120,6 +120,11 @@ struct Workload {
   BuildReport report;  // empty when loaded
   Bvh bvh;
 };
+// --instanced's help, one text for every command that takes it.
+inline constexpr const char* kInstancedHelp =
+    "the scene with its instances: a BLAS per mesh and a TLAS over\nthe instances, walked with an instance "
+    "transform (XFM op)\nper instance entered (docs/machine.md \"Instancing\");\ndefault: the flat scene";
+
 // scene/camera empty: the defaults. bvh_file non-empty: load instead of build.
 // shuffle_seed != 0: the scene's faces are permuted first (shuffle_triangles), a
 // check that no result depends on the file's face order. `threads` limits the
@@ -133,7 +138,8 @@ struct Workload {
 // name the tree's builder (a tree labelled sah must not carry median's numbers).
 // `check_scene` runs after the scene is loaded, before the tree is built or read.
 // `opaque`: alpha-tested materials become opaque (--opaque): the same geometry
-// without the any-hit stage, for comparison.
+// without the any-hit stage, for comparison. `instanced`: the scene with its
+// instances (SceneForm::Instanced), built as a two-level tree; a flat scene is refused.
 void load_workload(Workload& out, const std::string& scene, const std::string& camera,
                    const std::string& builder, uint64_t seed, const std::string& bvh_file,
                    uint64_t shuffle_seed = 0, uint32_t threads = 0,

@@ -337,10 +337,7 @@ void add_simulate_command(CLI::App& root) {
   cmd->add_option("--frames", opts->frames,
                   "run the same rays this many times back to back, caches warm; stats of the last")
       ->capture_default_str();
-  cmd->add_flag("--instanced", opts->instanced,
-                "the scene with its instances: a BLAS per mesh and a TLAS over\nthe instances, walked with an "
-                "instance transform (XFM op)\nper instance entered (docs/machine.md \"Instancing\");\n"
-                "default: the flat scene");
+  cmd->add_flag("--instanced", opts->instanced, kInstancedHelp);
   cmd->add_flag("--opaque", opts->opaque,
                "alpha-tested materials as opaque: the same geometry\nwithout the any-hit stage and "
                "its texture caches (to compare)");

@@ -402,10 +402,7 @@ void add_trace_command(CLI::App& root) {
                   "node record format: " + node_format_names("|") +
                       "\n(the tree is built for its width; default: memory.node_format)");
   cmd->add_option("--node-layout", options->node_layout, "deprecated: --node-format")->group("");
-  cmd->add_flag("--instanced", options->instanced,
-                "the scene with its instances: a BLAS per mesh and a TLAS over\nthe instances, walked with an "
-                "instance transform (XFM op)\nper instance entered (docs/machine.md \"Instancing\");\n"
-                "default: the flat scene");
+  cmd->add_flag("--instanced", options->instanced, kInstancedHelp);
   cmd->add_flag("--opaque", options->opaque,
                "alpha-tested materials as opaque: the same geometry\nwithout the any-hit stage and "
                "its texture caches (to compare)");

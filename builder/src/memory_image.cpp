@@ -160,8 +160,6 @@ MemoryImage::MemoryImage(const Scene& scene, const Bvh& bvh, const MemoryLayoutC
       if (bvh.nodes[n].is_leaf()) leaf_first_[n] = bvh.prim_refs[bvh.nodes[n].index];
       if (has_record(n)) ++footprint_.tlas_node_records;
     }
-    blas_root_.assign(scene.meshes.size(), ~0u);
-    for (size_t m = 0; m < scene.meshes.size(); ++m) blas_root_[m] = bvh.blas_roots[m];
   }
   // Leaf slots in the same order; a leaf's triangles sorted by geometry.
   for (uint32_t n : order) {

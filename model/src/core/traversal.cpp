@@ -129,7 +129,7 @@ void TraversalContext::place_instances() {
     InstancePlacement& p = instances_[i];
     p.linear = glm::mat3(inverse);
     p.offset = vec3(inverse[3]);
-    p.root_node = image_->blas_root(scene.instances[i].mesh);
+    p.root_node = bvh_->blas_roots[scene.instances[i].mesh];
     p.root_record = (p.root_node != Bvh::kNoBlas && image_->has_record(p.root_node))
                         ? image_->record_ordinal(p.root_node) : 0;
   }

@@ -129,15 +129,13 @@ class MemoryImage {
     return t.base + (uint64_t(y) * t.width + x) * kTexelBytes;
   }
 
-  // Two-level trees (Bvh::two_level): instance i's record, and node where mesh m's
-  // BLAS starts (Bvh::kNoBlas for a mesh without triangles). A TLAS leaf's
-  // leaf_first() is its instance.
+  // Two-level trees (Bvh::two_level): instance i's record. A TLAS leaf's
+  // leaf_first() is its instance; where each BLAS starts is the tree's (Bvh::blas_roots).
   static constexpr uint32_t kInstanceRecordBytes = 64;
-  bool two_level() const { return !blas_root_.empty(); }
+  bool two_level() const { return footprint_.instance_records > 0; }
   uint64_t instance_address(uint32_t instance) const {
     return instances_base_ + uint64_t(instance) * kInstanceRecordBytes;
   }
-  uint32_t blas_root(uint32_t mesh) const { return blas_root_[mesh]; }
 
   uint64_t nodes_base() const { return nodes_base_; }
   uint64_t prim_refs_base() const { return prim_refs_base_; }
@@ -166,7 +164,6 @@ class MemoryImage {
   };
   std::vector<TexturePlace> texture_;
   uint64_t uvs_base_ = 0, textures_base_ = 0, instances_base_ = 0;
-  std::vector<uint32_t> blas_root_;  // two-level trees, per mesh
   MemoryFootprint footprint_;
 };
 
