@@ -10,7 +10,6 @@
 // placements' occlusion lies from that mean. RDH's sample rays are segments through
 // world space, which a BLAS in object space cannot weigh: rdh refuses instances.
 #include <rtsim/builder/build.h>
-#include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/occlusion.h>
 #include <rtsim/workloads/embree_scene.h>
 #include <rtsim/workloads/error.h>
@@ -65,7 +64,6 @@ uint32_t append_tree(Bvh& out, const Bvh& part, uint32_t prim_offset) {
 }  // namespace
 
 Bvh build_two_level(const Scene& scene, const BuildParams& params, BuildReport& r) {
-  const BuilderInfo& info = builder_info(params.builder);
   if (params.builder == "rdh" || params.builder == "rdh-sbvh")
     throw InputError("builder", "'" + params.builder +
                                     "' weighs world-space sample rays, which a BLAS in object space cannot; "
@@ -96,7 +94,7 @@ Bvh build_two_level(const Scene& scene, const BuildParams& params, BuildReport& 
           const SceneMesh& m = scene.meshes[scene.instances[i].mesh];
           for (uint32_t k = 0; k < m.triangle_count; ++k) {
             const float v = placed[offsets[i] + k];
-            sum[m.first_triangle + k] += std::isfinite(v) ? std::min(std::max(v, 0.0f), 1.0f) : 1.0f;
+            sum[m.first_triangle + k] += usable_occlusion(v);
             ++placements[m.first_triangle + k];
           }
         }
@@ -108,8 +106,7 @@ Bvh build_two_level(const Scene& scene, const BuildParams& params, BuildReport& 
           const SceneMesh& m = scene.meshes[scene.instances[i].mesh];
           for (uint32_t k = 0; k < m.triangle_count; ++k) {
             const float v = placed[offsets[i] + k];
-            spread += std::fabs((std::isfinite(v) ? std::min(std::max(v, 0.0f), 1.0f) : 1.0f) -
-                                occlusion[m.first_triangle + k]);
+            spread += std::fabs(usable_occlusion(v) - occlusion[m.first_triangle + k]);
           }
         }
         r.placement_spread = placed.empty() ? 0 : spread / double(placed.size());
@@ -173,7 +170,6 @@ Bvh build_two_level(const Scene& scene, const BuildParams& params, BuildReport& 
       r.visibility[mesh.first_triangle + k] = part_report.visibility[k];
   }
   if (wants_occlusion) r.mean_occlusion = occlusion_sum / double(unique);
-  (void)info;
 
   // The TLAS: SAH over the placed instances' world boxes, each given to the core as
   // a triangle whose bounds are the box (two opposite corners and a third), one per leaf.

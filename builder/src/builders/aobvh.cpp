@@ -39,7 +39,7 @@ Bvh build_occlusion_weighted(const Scene& scene, const BuildParams& params, Buil
   }
   r.weights = occlusion_weights(values, params.ao_weight_floor, &r.sanitised_values, params.ao_normalise);
   double sum = 0;
-  for (float v : values) sum += std::isfinite(v) ? std::min(std::max(v, 0.0f), 1.0f) : 1.0f;
+  for (float v : values) sum += usable_occlusion(v);
   r.mean_occlusion = sum / double(n);
   r.estimate_seconds = seconds_since(start);
   detail::CoreConfig config = core_config(params);

@@ -97,7 +97,11 @@ int exact_edge_sign(const vec3& origin, const vec3& direction, const vec3& p, co
 }
 
 ExactReferee::ExactReferee(const Scene& scene, float relative_bound, float absolute_bound)
-    : scene_(scene), relative_bound_(relative_bound), absolute_bound_(absolute_bound) {}
+    : scene_(scene), relative_bound_(relative_bound), absolute_bound_(absolute_bound) {
+  // Each disputed ray meets every instance: their transforms are inverted once.
+  world_to_object_.reserve(scene.instances.size());
+  for (uint32_t i = 0; i < scene.instances.size(); ++i) world_to_object_.push_back(scene.world_to_object(i));
+}
 
 std::vector<RefereeCandidate> ExactReferee::candidates(const Ray& ray) const {
   std::vector<RefereeCandidate> out;
@@ -109,7 +113,7 @@ std::vector<RefereeCandidate> ExactReferee::candidates(const Ray& ray) const {
   // the core's Transform step does (Scene::world_to_object, then float): the exact
   // answer for the ray the hardware tests.
   for (uint32_t i = 0; i < scene_.instances.size(); ++i) {
-    const glm::mat4 m = scene_.world_to_object(i);
+    const glm::mat4& m = world_to_object_[i];
     Ray local = ray;
     local.origin = glm::mat3(m) * ray.origin + vec3(m[3]);
     local.direction = glm::mat3(m) * ray.direction;

@@ -28,6 +28,8 @@
 #include <rtsim/workloads/embree_scene.h>
 #include <rtsim/workloads/scene.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -71,6 +73,10 @@ std::vector<uint8_t> estimate_visibility(const Scene& scene, const EmbreeScene& 
 // there is nothing to rank: all weights are 1 in both forms.
 // NaN / infinite values count as 1 (open); values outside [0, 1] are clamped;
 // both are counted in *sanitised.
+// An occlusion value as the weights read it: NaN / infinite is open (1), others
+// clamped to [0, 1] (what occlusion_weights does before weighing; means use it too).
+inline float usable_occlusion(float v) { return std::isfinite(v) ? std::min(std::max(v, 0.0f), 1.0f) : 1.0f; }
+
 std::vector<float> occlusion_weights(const std::vector<float>& values, float floor,
                                      uint64_t* sanitised = nullptr, bool normalise = true);
 

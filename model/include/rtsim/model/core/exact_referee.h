@@ -59,6 +59,7 @@ class ExactReferee {
                       std::vector<RefereeCandidate>& out) const;
   const Scene& scene_;
   float relative_bound_, absolute_bound_;
+  std::vector<glm::mat4> world_to_object_;  // instanced scenes, per instance
 };
 
 // The exact sign (-1, 0, +1) of det[p - o, q - o, d] = ((p - o) x (q - o)) . d for
