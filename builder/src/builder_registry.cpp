@@ -61,12 +61,14 @@ const std::vector<BuilderInfo>& builder_registry() {
       i.ours = true;
       i.needs_camera = true;
       i.casts_rays = true;
+      i.builds_blas = false;
     }
     {
       BuilderInfo& i = add("rdh-sbvh", "RDH-SBVH", "rdh with SBVH's spatial splits", build_rdh_sbvh);
       i.ours = true;
       i.needs_camera = true;
       i.casts_rays = true;
+      i.builds_blas = false;
       i.splits_references = true;
     }
     {

@@ -94,6 +94,7 @@ void save_bvh(const std::filesystem::path& path, const Bvh& bvh, const Scene& sc
   BvhFileHeader header;
   header.scene_hash = scene.content_hash();
   header.triangle_count = scene.triangle_count();
+  header.instance_count = bvh.two_level() ? scene.instances.size() : 0;
   header.builder = params.builder;
   header.params_json = build_params_json(params);
   save_bvh(path, bvh, header);
@@ -111,6 +112,10 @@ void save_bvh(const std::filesystem::path& path, const Bvh& bvh, const BvhFileHe
   put_text(out, header.params_json);
   put(out, uint64_t(bvh.nodes.size()));
   put(out, uint64_t(bvh.prim_refs.size()));
+  put(out, bvh.tlas_nodes);
+  put(out, header.instance_count);
+  put(out, uint64_t(bvh.blas_roots.size()));
+  for (uint32_t root : bvh.blas_roots) put(out, root);
   for (const BvhNode& n : bvh.nodes) {
     const float box[6] = {n.bounds.lo.x, n.bounds.lo.y, n.bounds.lo.z,
                           n.bounds.hi.x, n.bounds.hi.y, n.bounds.hi.z};
@@ -146,8 +151,8 @@ Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeade
   r.skip(sizeof kMagic);
   BvhFileHeader h;
   h.version = r.get<uint32_t>("header.version");
-  if (h.version != kBvhFileVersion && h.version != 1)
-    r.fail("header.version", "version " + std::to_string(h.version) + " is not supported (this rtsim reads 1 and " +
+  if (h.version < 1 || h.version > kBvhFileVersion)
+    r.fail("header.version", "version " + std::to_string(h.version) + " is not supported (this rtsim reads 1 to " +
                                  std::to_string(kBvhFileVersion) + ")");
   const size_t node_bytes = h.version == 1 ? kNodeBytesV1 : kNodeBytes;
   h.scene_hash = r.get<uint64_t>("header.scene_hash");
@@ -171,6 +176,19 @@ Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeade
   }
   const uint64_t node_count = r.get<uint64_t>("header.node_count");
   const uint64_t ref_count = r.get<uint64_t>("header.reference_count");
+  Bvh bvh;
+  if (h.version >= 3) {
+    bvh.tlas_nodes = r.get<uint32_t>("header.tlas_nodes");
+    h.instance_count = r.get<uint64_t>("header.instance_count");
+    const uint64_t meshes = r.get<uint64_t>("header.mesh_count");
+    if (meshes > r.left() / 4) r.fail("header.mesh_count", "implausible mesh count " + std::to_string(meshes));
+    if ((meshes == 0) != (bvh.tlas_nodes == 0) || (meshes == 0) != (h.instance_count == 0))
+      r.fail("header.tlas_nodes", "a two-level tree needs TLAS nodes, instances and meshes (the file has " +
+                                      std::to_string(bvh.tlas_nodes) + ", " + std::to_string(h.instance_count) +
+                                      " and " + std::to_string(meshes) + ")");
+    bvh.blas_roots.resize(meshes);
+    for (uint64_t m = 0; m < meshes; ++m) bvh.blas_roots[m] = r.get<uint32_t>("blas_roots[" + std::to_string(m) + "]");
+  }
   // Sizes must match exactly: nodes, refs and the 8-byte checksum.
   if (node_count == 0 || node_count > r.left() / node_bytes)
     r.fail("header.node_count", "implausible node count " + std::to_string(node_count));
@@ -189,15 +207,28 @@ Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeade
     if (h.scene_hash != scene->content_hash())
       r.fail("header.scene_hash",
              "the file was built for another scene than '" + scene->name + "'" +
-                 (scene->alpha_made_opaque ? " (this run makes it opaque: was the tree built without --opaque?)"
+                 (bvh.two_level() && !scene->instanced()
+                      ? " (it holds a two-level tree, of an instanced form: add --instanced)"
+                  : !bvh.two_level() && scene->instanced()
+                      ? " (it holds a one-level tree, of a flat form: leave out --instanced)"
+                  : scene->alpha_made_opaque ? " (this run makes it opaque: was the tree built without --opaque?)"
                   : scene->alpha_tested_triangles() ? " (it has alpha-tested materials: was the tree built with --opaque?)"
                                                     : ""));
     if (h.triangle_count != scene->triangle_count())
       r.fail("header.triangle_count", "file has " + std::to_string(h.triangle_count) +
                                           " triangles, scene has " +
                                           std::to_string(scene->triangle_count()));
+    if (h.instance_count != (bvh.two_level() ? scene->instances.size() : 0))
+      r.fail("header.instance_count", "file has " + std::to_string(h.instance_count) + " instances, scene has " +
+                                          std::to_string(scene->instances.size()));
   }
-  Bvh bvh;
+  if (bvh.tlas_nodes > node_count)
+    r.fail("header.tlas_nodes", std::to_string(bvh.tlas_nodes) + " TLAS nodes in a tree of " +
+                                    std::to_string(node_count));
+  for (size_t m = 0; m < bvh.blas_roots.size(); ++m)
+    if (bvh.blas_roots[m] != Bvh::kNoBlas && (bvh.blas_roots[m] < bvh.tlas_nodes || bvh.blas_roots[m] >= node_count))
+      r.fail("blas_roots[" + std::to_string(m) + "]", "node " + std::to_string(bvh.blas_roots[m]) +
+                                                          " is not a node after the TLAS's");
   bvh.nodes.resize(node_count);
   for (uint64_t i = 0; i < node_count; ++i) {
     float box[6];
@@ -222,10 +253,15 @@ Bvh load_bvh(const std::filesystem::path& path, const Scene* scene, BvhFileHeade
   }
   bvh.prim_refs.resize(ref_count);
   std::memcpy(bvh.prim_refs.data(), r.here(), ref_count * 4);
+  // A TLAS leaf's references name instances; every other one a triangle.
+  std::vector<uint8_t> names_instance(ref_count, 0);
+  for (uint32_t i = 0; i < bvh.tlas_nodes; ++i)
+    if (bvh.nodes[i].is_leaf())
+      std::fill_n(names_instance.begin() + bvh.nodes[i].index, bvh.nodes[i].count, uint8_t(1));
   for (uint64_t k = 0; k < ref_count; ++k)
-    if (bvh.prim_refs[k] >= h.triangle_count)
+    if (bvh.prim_refs[k] >= (names_instance[k] ? h.instance_count : h.triangle_count))
       r.fail("references[" + std::to_string(k) + "]",
-             "triangle " + std::to_string(bvh.prim_refs[k]) + " does not exist");
+             (names_instance[k] ? "instance " : "triangle ") + std::to_string(bvh.prim_refs[k]) + " does not exist");
   if (scene) {
     BvhLimits loose;
     loose.max_leaf_size = ~0u;

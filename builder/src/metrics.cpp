@@ -95,6 +95,46 @@ double sah_cost(const Bvh& bvh, float t1, float t2, const std::vector<float>& we
   return cost[0];
 }
 
+double two_level_sah_cost(const Bvh& bvh, const Scene& scene, float t1, float t2,
+                          const std::vector<float>& weights) {
+  if (bvh.nodes.empty()) return 0;
+  const double root_area = bvh.root().bounds.area();
+  if (!(root_area > 0)) return 0;
+  // The unrolled sum from `root` with each node's area as `area_of` gives it.
+  const auto unrolled = [&](uint32_t root, const auto& area_of) {
+    double sum = 0;
+    std::vector<uint32_t> stack{root};
+    while (!stack.empty()) {
+      const uint32_t i = stack.back();
+      stack.pop_back();
+      const BvhNode& n = bvh.nodes[i];
+      if (bvh.is_instance_leaf(i)) continue;  // its BLAS is summed per placement
+      if (!n.is_leaf()) {
+        sum += 2.0 * t1 * area_of(n);
+        for (uint32_t c = n.index; c < n.index + n.children; ++c) stack.push_back(c);
+        continue;
+      }
+      double w = 0;
+      for (uint32_t k = n.index; k < n.index + n.count; ++k)
+        w += weights.empty() ? 1.0 : double(weights[bvh.prim_refs[k]]);
+      sum += double(t2) * w * area_of(n);
+    }
+    return sum;
+  };
+  const double tlas = unrolled(0, [](const BvhNode& n) { return double(n.bounds.area()); });
+  // Per instance, its BLAS placed; summed in instance order (deterministic).
+  std::vector<double> placed(scene.instances.size(), 0.0);
+  tbb::parallel_for(size_t(0), scene.instances.size(), [&](size_t i) {
+    const uint32_t root = bvh.blas_roots[scene.instances[i].mesh];
+    if (root == Bvh::kNoBlas) return;
+    const glm::mat4& m = scene.instances[i].object_to_world;
+    placed[i] = unrolled(root, [&](const BvhNode& n) { return double(transformed_box(n.bounds, m).area()); });
+  });
+  double sum = tlas;
+  for (double p : placed) sum += p;
+  return sum / root_area;
+}
+
 uint64_t count_spatial_splits(const Bvh& bvh) {
   const size_t count = bvh.nodes.size();
   if (count == 0) return 0;
@@ -313,26 +353,68 @@ BvhMetrics compute_metrics(const Bvh& bvh, const Scene& scene, const BuildParams
   m.references = bvh.prim_refs.size();
   m.nodes = bvh.nodes.size();
   m.width = bvh.width();
-  m.sah_cost = sah_cost(bvh, params.t1, params.t2);
-  m.weighted_cost = sah_cost(bvh, params.t1, params.t2, report.weights);
-  if (with_epo) m.epo = end_point_overlap(bvh, scene, params.t1, params.t2);
-  // Depths: a forward pass, parents come before children.
+  // Depths: a forward pass, parents come before children (a BLAS root: depth 0).
   std::vector<uint32_t> depth(bvh.nodes.size(), 0);
-  double depth_sum = 0;
   for (size_t i = 0; i < bvh.nodes.size(); ++i) {
     const BvhNode& n = bvh.nodes[i];
     if (n.is_leaf()) {
+      if (bvh.is_instance_leaf(uint32_t(i))) continue;
       ++m.leaves;
       if (m.leaf_size_histogram.size() <= n.count) m.leaf_size_histogram.resize(n.count + 1, 0);
       ++m.leaf_size_histogram[n.count];
-      m.max_depth = std::max(m.max_depth, depth[i]);
-      depth_sum += depth[i];
     } else {
       ++m.inner_nodes;
       for (uint32_t c = n.index; c < n.index + n.children; ++c) depth[c] = depth[i] + 1;
     }
   }
-  m.average_leaf_depth = m.leaves ? depth_sum / double(m.leaves) : 0;
+  double depth_sum = 0;
+  uint64_t depth_leaves = 0;
+  if (!bvh.two_level()) {
+    m.sah_cost = sah_cost(bvh, params.t1, params.t2);
+    m.weighted_cost = sah_cost(bvh, params.t1, params.t2, report.weights);
+    if (with_epo) m.epo = end_point_overlap(bvh, scene, params.t1, params.t2);
+    for (size_t i = 0; i < bvh.nodes.size(); ++i)
+      if (bvh.nodes[i].is_leaf()) m.max_depth = std::max(m.max_depth, depth[i]), depth_sum += depth[i], ++depth_leaves;
+  } else {
+    m.sah_cost = two_level_sah_cost(bvh, scene, params.t1, params.t2);
+    m.weighted_cost = two_level_sah_cost(bvh, scene, params.t1, params.t2, report.weights);
+    m.tlas_nodes = bvh.tlas_nodes;
+    m.references = 0;
+    for (size_t i = bvh.tlas_nodes; i < bvh.nodes.size(); ++i)
+      if (bvh.nodes[i].is_leaf()) m.references += bvh.nodes[i].count;
+    // Each BLAS's leaf depths once (sum, count, deepest), then per placement.
+    struct LeafDepths {
+      double sum = 0;
+      uint64_t count = 0;
+      uint32_t deepest = 0;
+    };
+    std::vector<LeafDepths> blas(bvh.blas_roots.size());
+    std::vector<uint32_t> mesh_of(bvh.nodes.size(), ~0u);
+    for (uint32_t mesh = 0; mesh < bvh.blas_roots.size(); ++mesh)
+      if (bvh.blas_roots[mesh] != Bvh::kNoBlas) mesh_of[bvh.blas_roots[mesh]] = mesh;
+    for (size_t i = bvh.tlas_nodes; i < bvh.nodes.size(); ++i) {
+      const BvhNode& n = bvh.nodes[i];
+      if (n.is_leaf()) {
+        LeafDepths& d = blas[mesh_of[i]];
+        d.sum += depth[i], ++d.count, d.deepest = std::max(d.deepest, depth[i]);
+      } else {
+        for (uint32_t c = n.index; c < n.index + n.children; ++c) mesh_of[c] = mesh_of[i];
+      }
+    }
+    for (uint32_t i = 0; i < bvh.tlas_nodes; ++i) {
+      if (!bvh.is_instance_leaf(i)) continue;
+      const uint32_t instance = bvh.prim_refs[bvh.nodes[i].index];
+      const uint32_t mesh = scene.instances[instance].mesh;
+      const LeafDepths& d = blas[mesh];
+      ++m.instances;
+      m.placed_triangles += scene.meshes[mesh].triangle_count;
+      // The instance leaf, then one step into its BLAS root.
+      m.max_depth = std::max(m.max_depth, depth[i] + 1 + d.deepest);
+      depth_sum += d.sum + double(depth[i] + 1) * double(d.count);
+      depth_leaves += d.count;
+    }
+  }
+  m.average_leaf_depth = depth_leaves ? depth_sum / double(depth_leaves) : 0;
   m.estimate_seconds = report.estimate_seconds;
   m.build_seconds = report.build_seconds;
   m.peak_memory_bytes = report.peak_memory_bytes;
@@ -372,6 +454,11 @@ std::string metrics_json(const BvhMetrics& m) {
   j["forced_splits"] = m.forced_splits;
   j["median_splits"] = m.median_splits;
   j["sanitised_values"] = m.sanitised_values;
+  if (m.instances) {
+    j["instances"] = m.instances;
+    j["tlas_nodes"] = m.tlas_nodes;
+    j["placed_triangles"] = m.placed_triangles;
+  }
   return j.dump();
 }
 

@@ -10,6 +10,7 @@
 // placements' occlusion lies from that mean. RDH's sample rays are segments through
 // world space, which a BLAS in object space cannot weigh: rdh refuses instances.
 #include <rtsim/builder/build.h>
+#include <rtsim/builder/builder_registry.h>
 #include <rtsim/builder/occlusion.h>
 #include <rtsim/workloads/embree_scene.h>
 #include <rtsim/workloads/error.h>
@@ -64,7 +65,7 @@ uint32_t append_tree(Bvh& out, const Bvh& part, uint32_t prim_offset) {
 }  // namespace
 
 Bvh build_two_level(const Scene& scene, const BuildParams& params, BuildReport& r) {
-  if (params.builder == "rdh" || params.builder == "rdh-sbvh")
+  if (!builder_info(params.builder).builds_blas)
     throw InputError("builder", "'" + params.builder +
                                     "' weighs world-space sample rays, which a BLAS in object space cannot; "
                                     "build the flat scene (leave out --instanced) or pick another builder");

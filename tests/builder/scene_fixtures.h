@@ -3,7 +3,11 @@
 #include <rtsim/builder/bvh.h>
 #include <rtsim/workloads/random.h>
 #include <rtsim/workloads/scene.h>
+#include <rtsim/workloads/validate.h>
 
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <cmath>
 #include <cstring>
 #include <string>
 
@@ -91,13 +95,65 @@ inline Scene zero_area_scene(uint32_t count) {
 
 inline bool same_tree(const Bvh& a, const Bvh& b) {
   if (a.nodes.size() != b.nodes.size() || a.prim_refs != b.prim_refs) return false;
+  if (a.tlas_nodes != b.tlas_nodes || a.blas_roots != b.blas_roots) return false;
   for (size_t i = 0; i < a.nodes.size(); ++i) {
     const BvhNode &x = a.nodes[i], &y = b.nodes[i];
-    if (x.index != y.index || x.count != y.count ||
+    if (x.index != y.index || x.count != y.count || x.children != y.children ||
         std::memcmp(&x.bounds, &y.bounds, sizeof(Aabb)) != 0)
       return false;
   }
   return true;
+}
+
+// Two meshes (a bumpy grid and a closed box) placed eight times each, rotated,
+// scaled non-uniformly, some mirrored, on a 4x4 layout; a flat camera above.
+inline Scene instanced_town() {
+  Scene s;
+  s.name = "little_town";
+  s.materials.push_back(Material{});
+  const auto add_mesh = [&](const std::string& name, const std::vector<vec3>& v, const std::vector<uvec3>& t) {
+    SceneMesh m;
+    m.name = name;
+    m.first_vertex = uint32_t(s.vertices.size()), m.vertex_count = uint32_t(v.size());
+    m.first_triangle = uint32_t(s.triangles.size()), m.triangle_count = uint32_t(t.size());
+    for (const vec3& p : v) s.vertices.push_back(p);
+    for (const uvec3& tri : t) s.triangles.push_back(tri + uvec3(m.first_vertex)), s.material_ids.push_back(0);
+    s.meshes.push_back(m);
+  };
+  std::vector<vec3> grid;
+  std::vector<uvec3> grid_tris;
+  const int n = 12;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x)
+      grid.push_back(vec3(x / float(n) - 0.5f, 0.15f * std::sin(x * 1.3f) * std::cos(y * 0.7f), y / float(n) - 0.5f));
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const uint32_t a = uint32_t(y * (n + 1) + x), b = a + 1, c = a + uint32_t(n + 1), d = c + 1;
+      grid_tris.push_back(uvec3(a, c, b));
+      grid_tris.push_back(uvec3(b, c, d));
+    }
+  add_mesh("grid", grid, grid_tris);
+  std::vector<vec3> box;
+  for (int k = 0; k < 8; ++k) box.push_back(vec3(k & 1 ? 0.3f : -0.3f, k & 2 ? 0.6f : 0.0f, k & 4 ? 0.3f : -0.3f));
+  add_mesh("box", box,
+           {uvec3(0, 2, 1), uvec3(1, 2, 3), uvec3(4, 5, 6), uvec3(5, 7, 6), uvec3(0, 1, 4), uvec3(1, 5, 4),
+            uvec3(2, 6, 3), uvec3(3, 6, 7), uvec3(0, 4, 2), uvec3(2, 4, 6), uvec3(1, 3, 5), uvec3(3, 7, 5)});
+  for (uint32_t i = 0; i < 16; ++i) {
+    Instance inst;
+    inst.mesh = i % 2;
+    glm::mat4 m = glm::translate(glm::mat4(1.0f), vec3(float(i % 4) * 1.1f, 0.05f * float(i), float(i / 4) * 1.1f));
+    m = glm::rotate(m, 0.4f * float(i), vec3(0, 1, 0));
+    m = glm::scale(m, vec3(1.0f + 0.1f * float(i % 3), 1.0f + 0.2f * float(i % 2), i % 5 == 0 ? -0.9f : 0.8f));
+    inst.object_to_world = m;
+    s.instances.push_back(inst);
+  }
+  Camera c;
+  c.name = "view1";
+  c.position = vec3(1.6f, 3.0f, -2.0f);
+  c.target = vec3(1.6f, 0.0f, 1.6f);
+  s.cameras.push_back(c);
+  validate_scene(s);
+  return s;
 }
 
 }  // namespace rtsim::test

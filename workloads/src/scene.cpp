@@ -41,6 +41,8 @@ Aabb mesh_object_bounds(const Scene& scene, const SceneMesh& mesh) {
   return box;
 }
 
+}  // namespace
+
 Aabb transformed_box(const Aabb& box, const glm::mat4& m) {
   Aabb out;
   if (box.empty()) return out;
@@ -50,8 +52,6 @@ Aabb transformed_box(const Aabb& box, const glm::mat4& m) {
   }
   return out;
 }
-
-}  // namespace
 
 std::string instance_transform_problem(const glm::mat4& m) {
   for (int c = 0; c < 4; ++c)

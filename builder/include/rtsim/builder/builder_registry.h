@@ -23,6 +23,9 @@ struct BuilderInfo {
   bool needs_camera = false;       // the tree depends on the workload's camera
   bool casts_rays = false;         // casts Embree rays while building (AO pass, visibility, samples)
   bool builds_wide = false;        // builds N-wide trees itself (no collapse pass)
+  // Builds the BLASes of an instanced scene's two-level tree (two_level.cpp). RDH
+  // does not: its sample rays are world-space segments a BLAS in object space cannot weigh.
+  bool builds_blas = true;
   // Fixed reference budget (x N) of a builder whose budget is not a parameter; 0: the
   // sbvh_reference_budget parameter applies.
   double fixed_reference_budget = 0;

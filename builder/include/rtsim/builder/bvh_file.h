@@ -9,9 +9,12 @@
 //   u32 + n  builder name
 //   u32 + n  build parameters (JSON text)
 //   u64      node count, u64 reference count
+//   version 3 on: the two levels (Bvh::two_level; zeros for a one-level tree)
+//     u32    TLAS node count, u64 instance count, u64 mesh count,
+//     u32    BLAS root per mesh (Bvh::kNoBlas: a mesh without triangles)
 //   nodes    per node: 6 x f32 box (lo xyz, hi xyz), u32 index, u32 count,
-//            u32 children (version 2; version 1 files, binary trees, lack it)
-//   refs     u32 triangle index each
+//            u32 children (version 2 on; version 1 files, binary trees, lack it)
+//   refs     u32 each: a triangle index (a TLAS leaf's: an instance index)
 //   u64      checksum of every byte before it
 // A corrupt, truncated or mismatched file is refused with an InputError naming the
 // file and the field ("tree.bvh: header.scene_hash: ...").
@@ -25,12 +28,13 @@
 
 namespace rtsim {
 
-constexpr uint32_t kBvhFileVersion = 2;
+constexpr uint32_t kBvhFileVersion = 3;
 
 struct BvhFileHeader {
   uint32_t version = kBvhFileVersion;
   uint64_t scene_hash = 0;
   uint64_t triangle_count = 0;
+  uint64_t instance_count = 0;  // version 3: the scene's instances (0: a flat scene)
   std::string builder;
   std::string params_json;
 };

@@ -13,6 +13,12 @@
 // rule (AO-BVH: weight sums) - the quantity that builder minimised. Equals the SAH
 // cost for every other builder (OSAH's visibility split is a rule of where to
 // split, not a cost it minimises over the tree).
+// Two-level trees (Bvh::two_level): the same unrolled sum in world space, over the
+// TLAS's inner nodes and every placement of every BLAS node (its object box placed
+// by the instance, transformed_box), divided by the TLAS root's area - the cost of
+// the tree the rays walk. The instance transform (XFM) is not a T1/T2 cost and is
+// left out. Depths run from the TLAS root through the instance into its BLAS; the
+// leaf counts are the BLASes' (each stored once); EPO is not computed.
 // EPO (end-point overlap, Aila, Karras, Laine 2013): for every node n the area of
 // the triangles NOT referenced below n that lie inside n's box, weighted by the
 // node's cost c(n) (2*T1 for inner nodes, T2*count for leaves), summed and divided
@@ -43,10 +49,15 @@ struct BvhMetrics {
   uint64_t peak_memory_bytes = 0;
   uint64_t spatial_splits = 0, forced_splits = 0, median_splits = 0, sanitised_values = 0;
   uint64_t treelets_restructured = 0;
+  // Two-level trees: instances (TLAS leaves), TLAS nodes, triangles as placed.
+  uint64_t instances = 0, tlas_nodes = 0, placed_triangles = 0;
 };
 
 // weights empty = all 1.
 double sah_cost(const Bvh& bvh, float t1, float t2, const std::vector<float>& weights = {});
+// A two-level tree's world-space cost (above); `scene` is the instanced scene.
+double two_level_sah_cost(const Bvh& bvh, const Scene& scene, float t1, float t2,
+                          const std::vector<float>& weights = {});
 double end_point_overlap(const Bvh& bvh, const Scene& scene, float t1, float t2);
 
 // Inner nodes whose children share a triangle: where a spatial split sent parts of

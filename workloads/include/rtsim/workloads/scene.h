@@ -124,6 +124,8 @@ struct Instance {
 // kMinInstanceDeterminant (a ray moved into object space divides by it).
 constexpr double kMinInstanceDeterminant = 1e-30;
 std::string instance_transform_problem(const glm::mat4& object_to_world);
+// The world box of `box` placed by `m`: the box of its eight corners transformed.
+Aabb transformed_box(const Aabb& box, const glm::mat4& m);
 
 struct Scene {
   std::string name;
