@@ -41,6 +41,7 @@ struct BuildOptions {
   bool list_builders = false;
   bool no_epo = false;
   bool opaque = false;  // alpha-tested materials as opaque (the tree of simulate --opaque)
+  bool instanced = false;  // the two-level tree of the scene's instances
   uint32_t seed_spread = 1;  // trees per sampled builder for the spread of its costs
   std::string node_format = "bvh2-64";
   BuildParams params;
@@ -88,11 +89,17 @@ std::string human_bytes(double bytes) {
 }
 
 // Rows = metrics, columns = builders.
-void print_table(const std::string& scene, const std::vector<BvhMetrics>& all,
+void print_table(const Scene& scene, const std::vector<BvhMetrics>& all,
                  const std::vector<bool>& valid, const std::vector<double>& node_bytes,
                  const std::string& format, const nlohmann::json& trees) {
-  std::printf("scene %s: %llu triangles\n", scene.c_str(),
-              (unsigned long long)(all.empty() ? 0 : all.front().triangles));
+  if (scene.instanced())
+    std::printf("scene %s (instanced): %llu unique triangles, %llu placed by %zu instances of %zu meshes;\n"
+                "two-level trees (TLAS by SAH over the instances, a BLAS per mesh by the builder), costs in "
+                "world space\n",
+                scene.name.c_str(), (unsigned long long)scene.triangle_count(),
+                (unsigned long long)scene.instanced_triangle_count(), scene.instances.size(), scene.meshes.size());
+  else
+    std::printf("scene %s: %llu triangles\n", scene.name.c_str(), (unsigned long long)scene.triangle_count());
   auto row = [&](const char* label, auto cell) {
     std::printf("%-18s", label);
     for (size_t i = 0; i < all.size(); ++i) std::printf(" %9s", cell(i).c_str());  // 10 builders in 120 columns
@@ -119,6 +126,7 @@ void print_table(const std::string& scene, const std::vector<BvhMetrics>& all,
   row("EPO", [&](size_t i) { return all[i].epo < 0 ? std::string("-") : num("%.3f", all[i].epo); });
   row("width", [&](size_t i) { return std::to_string(all[i].width); });
   row("nodes", [&](size_t i) { return std::to_string(all[i].nodes); });
+  if (scene.instanced()) row("  of them TLAS", [&](size_t i) { return std::to_string(all[i].tlas_nodes); });
   row(("node B/tri " + format).c_str(), [&](size_t i) { return num("%.2f", node_bytes[i]); });
   row("leaves", [&](size_t i) { return std::to_string(all[i].leaves); });
   row("references", [&](size_t i) { return std::to_string(all[i].references); });
@@ -153,7 +161,10 @@ void run_build(const BuildOptions& o) {
     if (o.all) throw InputError("--metrics-out", "names one tree's report; not with --all (use --json)");
     check_output_file(o.metrics_out, "--metrics-out");
   }
-  Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene);
+  Scene scene = load_scene(o.scene.empty() ? default_scene_name() : o.scene,
+                           o.instanced ? SceneForm::Instanced : SceneForm::Flat);
+  if (o.instanced && !scene.instanced())
+    throw InputError("--instanced", "scene '" + scene.name + "' has no instances (it is flat)");
   if (o.opaque) scene.make_opaque();
   BuildParams base = o.params;
   // OSAH needs a camera; the named one (InputError naming the cameras if absent) or
@@ -183,8 +194,15 @@ void run_build(const BuildOptions& o) {
     j["parameters"] = nlohmann::json::parse(header.params_json, nullptr, false);
     report.push_back(j);
   } else {
-    const std::vector<std::string> builders =
-        o.all ? builder_names() : std::vector<std::string>{base.builder};
+    std::vector<std::string> builders = o.all ? builder_names() : std::vector<std::string>{base.builder};
+    if (o.all && o.instanced) {
+      // Builders that build no BLAS are left out of --all, said so; named alone they refuse.
+      std::vector<std::string> kept;
+      for (const std::string& name : builders)
+        if (builder_info(name).builds_blas) kept.push_back(name);
+        else std::fprintf(stderr, "rtsim: %s builds no BLAS (its sample rays are world-space); left out\n", name.c_str());
+      builders = kept;
+    }
     for (const std::string& name : builders) {
       BuildParams params = base;
       params.builder = name;
@@ -227,10 +245,16 @@ void run_build(const BuildOptions& o) {
     nlohmann::json out;
     out["scene"] = scene.name;
     out["triangles"] = scene.triangle_count();
+    if (scene.instanced()) {
+      out["instanced"] = true;
+      out["instances"] = scene.instances.size();
+      out["meshes"] = scene.meshes.size();
+      out["placed_triangles"] = scene.instanced_triangle_count();
+    }
     out["trees"] = report;
     std::cout << out.dump(2) << "\n";
   } else {
-    print_table(scene.name, metrics, valid, node_bytes, o.node_format, report);
+    print_table(scene, metrics, valid, node_bytes, o.node_format, report);
   }
   for (bool ok : valid)
     if (!ok) throw ExitStatus(1, "a built tree failed the structural checks");
@@ -272,6 +296,8 @@ void add_build_command(CLI::App& root) {
       ->capture_default_str();
   add_build_options(cmd, o->params);
   cmd->add_option("--seed", o->params.seed, "same as --build-seed");
+  cmd->add_flag("--instanced", o->instanced, std::string(kInstancedHelp) +
+                                                  "\n(saved with --out, replayed by simulate --instanced --bvh)");
   cmd->add_flag("--opaque", o->opaque,
                 "alpha-tested materials as opaque (the tree that\n`simulate --opaque` traces)");
   cmd->callback([o] {

@@ -246,8 +246,6 @@ void load_workload(Workload& out, const std::string& scene, const std::string& c
   if (!bvh_file.empty() && !build_settings.empty())
     throw InputError("--build-set", "cannot change a saved tree (--bvh); build it with these settings");
   if (bvh_file.empty()) builder_info(builder, typed_flag("--builder"));  // before the scene is loaded
-  if (instanced && !bvh_file.empty())
-    throw InputError("--instanced", "a saved tree (--bvh) is one-level; two-level trees are built in the run");
   out.scene = load_scene(scene.empty() ? default_scene_name() : scene,
                          instanced ? SceneForm::Instanced : SceneForm::Flat);
   if (instanced && !out.scene.instanced())

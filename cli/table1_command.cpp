@@ -153,6 +153,8 @@ void add_table1_command(CLI::App& root) {
   cmd->add_flag("--opaque", o->table.opaque,
                 "Alpha-tested materials as opaque (the same geometry without\nthe any-hit stage; trees "
                 "built for it)");
+  cmd->add_flag("--instanced", o->table.instanced,
+                std::string(kInstancedHelp) + "\n(builders that build no BLAS, rdh and rdh-sbvh, are left out)");
   cmd->add_option("--seed", o->table.seed, "Seed of every random choice (rays and builders)")
       ->capture_default_str();
   cmd->add_option("--config", o->table.hardware, "Hardware preset or TOML for the cycle-level runs")

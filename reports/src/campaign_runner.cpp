@@ -218,8 +218,7 @@ JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, con
     write_file_atomic(hardware, "# " + job.label + "\n" + job.hardware_toml);
     args = job.simulate_arguments(dir, hardware);
   }
-  // Two-level trees are built in the run: BVH files hold one-level trees.
-  if (tree_cache.empty() || job.instanced) return {binary, args};
+  if (tree_cache.empty()) return {binary, args};
   const fs::path tree = cached_tree(tree_cache, campaign, job);
   fs::create_directories(tree_cache);
   discard_unusable_tree(tree, job);
@@ -232,6 +231,7 @@ JobCommand prepare_job(const Campaign& campaign, const CampaignPaths& paths, con
   build_job.camera = job.tree_camera();
   build_job.node_format = job.node_format;
   build_job.opaque = job.opaque;
+  build_job.instanced = job.instanced;
   build_job.out = "$T";
   build_job.metrics_out = "$T.metrics.json";
   // The tree's path is the script's $T: those two words stay unquoted for the shell.
@@ -341,6 +341,7 @@ fs::path cached_tree(const fs::path& cache, const Campaign& campaign, const Camp
   if (parameter_used_by(seed, job.builder) && !job.build_settings.count("seed")) identity["seed"] = job.seed;
   if (!job.node_format.empty()) identity["node_format"] = job.node_format;
   if (job.opaque) identity["opaque"] = true;  // another scene: its alpha-tested materials opaque
+  if (job.instanced) identity["instanced"] = true;  // the two-level tree of the scene's instances
   json build = json::object();
   for (const auto& [k, v] : job.build_settings) {
     const BuilderParameter* p = find_builder_parameter(k);

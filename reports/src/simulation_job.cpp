@@ -55,6 +55,7 @@ std::vector<std::string> BuildJob::arguments() const {
   if (!camera.empty()) a.insert(a.end(), {"--camera", camera});
   if (!node_format.empty()) a.insert(a.end(), {"--node-format", node_format});
   if (opaque) a.push_back("--opaque");
+  if (instanced) a.push_back("--instanced");
   return a;
 }
 

@@ -56,6 +56,8 @@ Table1Counts counts_of(const CounterTotals& t) {
   c.ist_per_ray = t.per_ray(t.ist_ops);
   c.node_fetches_per_ray = t.per_ray(t.node_fetches);
   c.box_tests_per_ray = t.per_ray(t.box_tests);
+  c.tlas_trv_per_ray = t.per_ray(t.tlas_trv_ops);
+  c.xfm_per_ray = t.per_ray(t.xfm_ops);
   return c;
 }
 
@@ -64,12 +66,15 @@ Table1Counts mean_counts(const std::vector<Table1Counts>& seeds) {
   Table1Counts m = seeds.front();
   const double n = double(seeds.size());
   m.ops_per_ray = m.trv_per_ray = m.ist_per_ray = m.node_fetches_per_ray = m.box_tests_per_ray = 0;
+  m.tlas_trv_per_ray = m.xfm_per_ray = 0;
   for (const Table1Counts& c : seeds) {
     m.ops_per_ray += c.ops_per_ray / n;
     m.trv_per_ray += c.trv_per_ray / n;
     m.ist_per_ray += c.ist_per_ray / n;
     m.node_fetches_per_ray += c.node_fetches_per_ray / n;
     m.box_tests_per_ray += c.box_tests_per_ray / n;
+    m.tlas_trv_per_ray += c.tlas_trv_per_ray / n;
+    m.xfm_per_ray += c.xfm_per_ray / n;
   }
   return m;
 }
@@ -125,6 +130,7 @@ void run_cycle_level(Table1& table, const std::map<std::string, std::filesystem:
     job.ao_rays = o.ao_samples;
     if (o.diffuse_bounces > 0) job.diffuse_bounces = o.diffuse_bounces;
     job.opaque = o.opaque;
+    job.instanced = o.instanced;
     job.seed = o.seed;
     job.frames = o.frames;
     job.out_dir = o.out_dir / "runs" / (row.camera + "-" + row.builder);
@@ -288,17 +294,23 @@ Table1 run_table1_checked(const Table1Options& options) {
   Table1 table;
   table.options = options;
   const auto total_start = std::chrono::steady_clock::now();
-  Scene scene = load_scene(options.scene);
+  Scene scene = load_scene(options.scene, options.instanced ? SceneForm::Instanced : SceneForm::Flat);
+  if (options.instanced && !scene.instanced())
+    throw InputError("--instanced", "scene '" + scene.name + "' has no instances (it is flat)");
   const size_t alpha_tested = scene.alpha_tested_triangles();
   if (options.opaque) scene.make_opaque();
   for (const std::string& camera : options.cameras) scene.camera(camera);  // InputError if absent
-  for (const std::string& b : options.builders) {
-    bool known = false;
-    for (const std::string& n : builder_names()) known |= n == b;
-    if (!known) throw InputError("--builders", "unknown builder '" + b + "'");
-  }
+  for (const std::string& b : options.builders) builder_info(b, "--builders");
+  // Two-level trees: builders that build no BLAS are left out, and the table says so.
+  std::vector<std::string> builders, left_out;
+  for (const std::string& b : options.builders)
+    (!options.instanced || builder_info(b).builds_blas ? builders : left_out).push_back(b);
+  if (builders.empty())
+    throw InputError("--builders", "none of them builds the BLASes of an instanced scene's two-level tree");
+  table.options.builders = builders;
   table.scene_name = scene.name;
   table.triangles = scene.triangle_count();
+  if (scene.instanced()) table.instances = scene.instances.size(), table.placed_triangles = scene.instanced_triangle_count();
 
   EffectSettings settings;
   settings.width = options.width;
@@ -328,7 +340,7 @@ Table1 run_table1_checked(const Table1Options& options) {
   };
   std::vector<TreeJob> tree_jobs;
   size_t builds = 0;
-  for (const std::string& b : options.builders) {
+  for (const std::string& b : builders) {
     if (camera_dependent(b, options.build))
       for (const std::string& c : options.cameras) tree_jobs.push_back({b, c, {c}});
     else
@@ -378,7 +390,8 @@ Table1 run_table1_checked(const Table1Options& options) {
           row.first_ist_ops = run.total.ist_ops;
           row.build_seconds = report.build_seconds;
           row.estimate_seconds = report.estimate_seconds;
-          row.sah_cost = sah_cost(bvh, params.t1, params.t2);
+          row.sah_cost = bvh.two_level() ? two_level_sah_cost(bvh, scene, params.t1, params.t2)
+                                         : sah_cost(bvh, params.t1, params.t2);
           row.nodes = bvh.nodes.size();
           row.node_bytes_per_triangle =
               double(image.footprint().node_bytes) / double(std::max<size_t>(1, scene.triangle_count()));
@@ -390,7 +403,7 @@ Table1 run_table1_checked(const Table1Options& options) {
     }
   }
   for (const std::string& camera_name : options.cameras)
-    for (const std::string& builder : options.builders) {
+    for (const std::string& builder : builders) {
       Traced& t = traced.at({camera_name, builder});
       Table1Row row = t.row;
       row.seeds = uint32_t(t.combined.size());
@@ -452,6 +465,19 @@ Table1 run_table1_checked(const Table1Options& options) {
                            " cosine-weighted closest-hit bounces per primary hit (seeded by pixel and depth), "
                            "counted in ops/ray and the DRAM figures, and as one 'diffuse ops/ray' column "
                            "over all depths; the patent's Table 1 has none.";
+  if (options.instanced) {
+    table.counting_rule += " Instanced (--instanced): " + std::to_string(scene.instances.size()) +
+                           " instances of " + std::to_string(scene.meshes.size()) +
+                           " meshes, two-level trees (a BLAS per mesh by the builder, a TLAS by SAH over the "
+                           "instances); TRV counts TLAS and BLAS node visits (JSON: tlas_trv_ops_per_ray), and "
+                           "the instance transforms (xfm_ops_per_ray, one per instance entered) are neither TRV "
+                           "nor IST ops.";
+    if (!left_out.empty()) {
+      std::string names;
+      for (const std::string& b : left_out) names += (names.empty() ? "" : ", ") + b;
+      table.counting_rule += " Left out: " + names + " (builds no BLAS: its sample rays are world-space).";
+    }
+  }
   if (alpha_tested > 0)
     table.counting_rule +=
         options.opaque ? " Alpha testing off (--opaque): the scene's " + std::to_string(alpha_tested) +

@@ -140,7 +140,9 @@ TextTable camera_table(const Table1& table, const std::string& camera) {
   const bool cycle = table.options.cycle_level;
   Columns c;
   c.column("builder"), c.column("ops/ray"), c.column("red. vs median", vs_median), c.column("red. vs SAH", vs_sah);
-  c.column("TRV/ray"), c.column("IST/ray"), c.column("box tests/ray"), c.column("primary ops/ray");
+  const bool instanced = table.options.instanced;
+  c.column("TRV/ray"), c.column("of them TLAS", instanced), c.column("IST/ray"), c.column("XFM/ray", instanced);
+  c.column("box tests/ray"), c.column("primary ops/ray");
   c.column("AO ops/ray"), c.column("diffuse ops/ray", table.options.diffuse_bounces > 0);
   c.column("node fetches/ray"), c.column("fetch red. vs median", vs_median);
   c.column("fetch red. vs SAH", vs_sah), c.column("node B/tri"), c.column("DRAM B/ray cold/warm", cycle);
@@ -152,8 +154,9 @@ TextTable camera_table(const Table1& table, const std::string& camera) {
     c.rows.push_back({display_name(r.builder), ops_text(r.combined.ops_per_ray, r.ops_combined),
                       median ? pct(r.combined.ops_per_ray, median->combined.ops_per_ray) : "-",
                       sah ? pct(r.combined.ops_per_ray, sah->combined.ops_per_ray) : "-",
-                      num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
-                      num(r.combined.box_tests_per_ray), ops_text(r.primary.ops_per_ray, r.ops_primary),
+                      num(r.combined.trv_per_ray), num(r.combined.tlas_trv_per_ray), num(r.combined.ist_per_ray),
+                      num(r.combined.xfm_per_ray), num(r.combined.box_tests_per_ray),
+                      ops_text(r.primary.ops_per_ray, r.ops_primary),
                       ops_text(r.ao.ops_per_ray, r.ops_ao), ops_text(r.diffuse.ops_per_ray, r.ops_diffuse),
                       num(r.combined.node_fetches_per_ray),
                       median ? pct(r.combined.node_fetches_per_ray, median->combined.node_fetches_per_ray) : "-",
@@ -184,6 +187,13 @@ nlohmann::json interval_json(const Interval& i) {
   return {{"seeds", i.n}, {"mean", i.mean}, {"lo95", i.lo}, {"hi95", i.hi}};
 }
 
+// "N triangles", or for an instanced scene the unique and the placed.
+std::string triangles_text(const Table1& table) {
+  if (!table.instances) return std::to_string(table.triangles) + " triangles";
+  return std::to_string(table.triangles) + " unique triangles, " + std::to_string(table.placed_triangles) +
+         " placed by " + std::to_string(table.instances) + " instances";
+}
+
 nlohmann::json counts_json(const Table1Counts& c) {
   return {{"rays", c.rays},
           {"ops_per_ray", c.ops_per_ray},
@@ -191,6 +201,8 @@ nlohmann::json counts_json(const Table1Counts& c) {
           {"ist_ops_per_ray", c.ist_per_ray},
           {"node_fetches_per_ray", c.node_fetches_per_ray},
           {"box_tests_per_ray", c.box_tests_per_ray},
+          {"tlas_trv_ops_per_ray", c.tlas_trv_per_ray},
+          {"xfm_ops_per_ray", c.xfm_per_ray},
           {"dram_bytes_per_ray", c.dram_bytes_per_ray < 0 ? nlohmann::json(nullptr)
                                                           : nlohmann::json(c.dram_bytes_per_ray)},
           {"pj_per_ray", c.pj_per_ray < 0 ? nlohmann::json(nullptr) : nlohmann::json(c.pj_per_ray)}};
@@ -235,8 +247,8 @@ bool any_comparison(const Table1& table) {
 }  // namespace
 
 std::string table1_text(const Table1& table, bool wide) {
-  std::string out = "Table 1 on scene '" + table.scene_name + "' (" + std::to_string(table.triangles) +
-                    " triangles, node format " + table.options.node_format + ")\n" +
+  std::string out = "Table 1 on scene '" + table.scene_name + "' (" + triangles_text(table) +
+                    ", node format " + table.options.node_format + ")\n" +
                     wrap(table1_cycle_runs_text(table.options), "") + "\n\n";
   if (table.options.patent_table_page.empty())
     out += "The patent's Table 1 (TRV+IST ops/ray, reduction against BVH):\n" + patent_table().plain() + "\n";
@@ -260,8 +272,8 @@ std::string table1_text(const Table1& table, bool wide) {
 
 void write_table1(const Table1& table) {
   const auto& dir = table.options.out_dir;
-  std::string md = "# Table 1 on `" + table.scene_name + "` (" + std::to_string(table.triangles) +
-                   " triangles, node format `" + table.options.node_format + "`)\n\n" +
+  std::string md = "# Table 1 on `" + table.scene_name + "` (" + triangles_text(table) +
+                   ", node format `" + table.options.node_format + "`)\n\n" +
                    table1_cycle_runs_text(table.options) + "\n\n";
   if (table.options.patent_table_page.empty())
     md += "## The patent's Table 1\n\nTRV+IST operations per ray (reduction against BVH):\n\n" +
@@ -292,11 +304,13 @@ void write_table1(const Table1& table) {
   nlohmann::json json;
   json["scene"] = table.scene_name;
   json["triangles"] = table.triangles;
+  if (table.instances) json["instances"] = table.instances, json["placed_triangles"] = table.placed_triangles;
   json["counting_rule"] = table.counting_rule;
   json["resolution"] = {table.options.width, table.options.height};
   json["ao_samples"] = table.ao_samples;
   json["diffuse_bounces"] = table.options.diffuse_bounces;
   json["opaque"] = table.options.opaque;
+  json["instanced"] = table.options.instanced;
   json["ao_length"] = table.ao_length;
   json["hardware"] = table.options.hardware;
   json["node_format"] = table.options.node_format;

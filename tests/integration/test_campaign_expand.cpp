@@ -281,7 +281,7 @@ TEST(CampaignExpand, OpaqueIsAnAxisWhoseFalseIsThePlainRun) {
   EXPECT_EQ(std::count(build_args.begin(), build_args.end(), "--opaque"), 1);
 }
 
-TEST(CampaignExpand, InstancedIsAnAxisWhoseFalseIsThePlainRunAndWhoseTreesAreBuiltInTheRun) {
+TEST(CampaignExpand, InstancedIsAnAxisWhoseFalseIsThePlainRunAndWhoseTreesAreCachedApart) {
   const std::string plain = "[sweep]\nscene = \"forest_instanced\"\nbuilder = \"sah\"\n";
   const Campaign before = parse(plain);
   const Campaign c = parse(plain + "instanced = [false, true]\n");
@@ -294,6 +294,13 @@ TEST(CampaignExpand, InstancedIsAnAxisWhoseFalseIsThePlainRunAndWhoseTreesAreBui
     else EXPECT_EQ(j.key, before.jobs[0].key);
   }
   EXPECT_NE(error_of(plain + "instanced = \"yes\"\n").find("true or false"), std::string::npos);
+  // The two-level tree is another tree: cached apart, and built --instanced.
+  ASSERT_NE(c.jobs[0].instanced, c.jobs[1].instanced);
+  EXPECT_NE(cached_tree("/trees", c, c.jobs[0]), cached_tree("/trees", c, c.jobs[1]));
+  BuildJob build;
+  build.instanced = true;
+  const auto build_args = build.arguments();
+  EXPECT_EQ(std::count(build_args.begin(), build_args.end(), "--instanced"), 1);
 }
 
 TEST(CampaignExpand, BadInputNamesFileAndKey) {

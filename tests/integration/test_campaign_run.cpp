@@ -254,6 +254,25 @@ TEST(CampaignRun, SharedTreesAreBuiltOnceAndChangeNoResult) {
   }
 }
 
+// Two-level trees go through the tree cache too (built --instanced, replayed with
+// --instanced --bvh), apart from the flat scene's tree, and change no result.
+TEST(CampaignRun, InstancedJobsShareTheirTwoLevelTreeAndChangeNoResult) {
+  const fs::path dir = test::fresh_folder("instanced-trees");
+  EXPECT_EQ(run_with_and_without_tree_cache(
+                dir, "[campaign]\nname = \"inst\"\n[sweep]\nscene = \"forest_instanced\"\nbuilder = \"sah\"\n"
+                     "fidelity = \"functional\"\nresolution = \"12x12\"\ninstanced = [false, true]\n"
+                     "preset = [\"mobile\", \"desktop\"]\n"),
+            2u);  // the flat tree and the two-level one, each shared by two presets
+  ResultsStore shared(dir / "shared" / "results.sqlite"), own(dir / "own" / "results.sqlite");
+  const auto a = shared.rows("inst"), b = own.rows("inst");
+  ASSERT_EQ(a.size(), 4u);
+  ASSERT_EQ(b.size(), 4u);
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i]["job_key"], b[i]["job_key"]);
+    EXPECT_EQ(a[i]["stats_json"], b[i]["stats_json"]) << a[i]["label"];
+  }
+}
+
 // build.camera: view1's rays through the tree built for view2 use view2's tree (the
 // cache shares it, and the build is not handed the workload's camera instead), with
 // or without the cache.

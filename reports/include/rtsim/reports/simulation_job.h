@@ -45,6 +45,7 @@ struct BuildJob {
   uint64_t seed = 1;
   std::vector<std::pair<std::string, std::string>> build_settings;
   bool opaque = false;                // alpha-tested materials as opaque (--opaque)
+  bool instanced = false;             // the two-level tree of the scene's instances (--instanced)
   std::filesystem::path out;          // the tree file
   std::filesystem::path metrics_out;  // optional
   std::vector<std::string> arguments() const;  // `build --scene ... --out ...`

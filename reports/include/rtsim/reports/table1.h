@@ -33,6 +33,9 @@ struct Table1Options {
   // Alpha-tested materials as opaque (--opaque): the same geometry without the
   // any-hit stage, trees built for it.
   bool opaque = false;
+  // The scene with its instances (--instanced): two-level trees, a BLAS per mesh by
+  // each builder (builders that build no BLAS are left out, said so) and a TLAS by SAH.
+  bool instanced = false;
   uint64_t seed = 1;
   std::string hardware = "mobile";  // preset or TOML for the cycle-level runs
   bool cycle_level = true;        // run the cycle-level model for DRAM bytes and cycles
@@ -56,6 +59,7 @@ struct Table1Counts {
   uint64_t rays = 0;
   double ops_per_ray = 0, trv_per_ray = 0, ist_per_ray = 0, node_fetches_per_ray = 0;
   double box_tests_per_ray = 0;  // compares widths fairly: a wide node visit tests more boxes
+  double tlas_trv_per_ray = 0, xfm_per_ray = 0;  // two-level trees: TLAS node visits (in TRV), transforms
   double dram_bytes_per_ray = -1;  // < 0: not measured (no cycle-level run)
   double pj_per_ray = -1;          // dynamic energy (model/sim/energy.h), cycle level
 };
@@ -82,7 +86,8 @@ struct Table1Row {
 struct Table1 {
   Table1Options options;
   std::string scene_name;
-  uint64_t triangles = 0;
+  uint64_t triangles = 0;  // instanced: unique (each mesh's once)
+  uint64_t instances = 0, placed_triangles = 0;  // instanced scenes
   float ao_length = 0;
   uint32_t ao_samples = 0;
   std::vector<Table1Row> rows;
