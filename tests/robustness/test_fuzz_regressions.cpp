@@ -15,6 +15,8 @@
 #include "../../fuzz/fuzz_spm.cpp"
 #include "../../fuzz/fuzz_stk_track.cpp"
 
+#include <rtsim/builder/build.h>
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -73,6 +75,23 @@ TEST_P(FuzzRegressions, SavedInputsReplayCleanly) {
 INSTANTIATE_TEST_SUITE_P(EveryTarget, FuzzRegressions,
                          testing::Values("bvh_file", "campaign", "config_text", "hardware_config", "mesh",
                                          "q3bsp", "ray_file", "scene_descriptor", "spm", "stk_track"));
+
+// The seed that starts bvh_file on two-level trees is the instanced fuzz scene's
+// own tree, loaded back whole; RTSIM_WRITE_FUZZ_SEEDS=1 writes it again (after a
+// format change).
+TEST(FuzzSeeds, TheTwoLevelSeedIsTheInstancedFuzzScenesTree) {
+  const rtsim::Scene& scene = fuzz_instanced_scene();
+  rtsim::BuildParams params;
+  params.width = 4;
+  const rtsim::Bvh bvh = rtsim::build_bvh(scene, params);
+  ASSERT_TRUE(bvh.two_level());
+  const fs::path seed = fs::path(RTSIM_SOURCE_DIR) / "fuzz/seeds/bvh_file/two-level.bvh";
+  if (std::getenv("RTSIM_WRITE_FUZZ_SEEDS")) rtsim::save_bvh(seed, bvh, scene, params);
+  const rtsim::Bvh loaded = rtsim::load_bvh(seed, &scene);
+  EXPECT_EQ(loaded.tlas_nodes, bvh.tlas_nodes);
+  EXPECT_EQ(loaded.blas_roots, bvh.blas_roots);
+  EXPECT_EQ(loaded.prim_refs, bvh.prim_refs) << seed << " is stale: rerun with RTSIM_WRITE_FUZZ_SEEDS=1";
+}
 
 // Property: every folder of saved inputs belongs to a target (a misspelt folder
 // would silently never replay).
