@@ -1,6 +1,10 @@
 // Two-level trees for instanced scenes (Bvh::two_level, bvh.h): a BLAS per mesh by
 // the named builder, over the mesh's object-space triangles, and a TLAS over the
-// instances' world boxes by our SAH core, one instance per leaf.
+// instances' world boxes by our SAH core, one instance per leaf. For AO-BVH (both
+// readings) the TLAS is occlusion-weighted too: each instance is a primitive
+// weighted by the mean occlusion of its placed triangles, with object splits only
+// (an instance box cannot be clipped). OSAH's TLAS stays SAH: its rules are
+// spatial splits over visible triangles, which instance boxes are not.
 //
 // Builders whose per-triangle inputs come from rays (AO-BVH's occlusion, OSAH's
 // visibility) get them in world space, on the flattened scene: each placement of a
@@ -73,6 +77,7 @@ Bvh build_two_level(const Scene& scene, const BuildParams& params, BuildReport& 
   const size_t unique = scene.triangle_count();
   std::vector<float> occlusion = params.occlusion_values;
   std::vector<uint8_t> visibility = params.visibility;
+  std::vector<double> instance_occlusion(scene.instances.size(), 0.0);  // AO-BVH's TLAS weights: the placed mean
   const bool wants_occlusion = params.builder == "aobvh" || params.builder == "aosbvh";
   const bool wants_visibility = params.builder == "osah";
   if ((wants_occlusion && occlusion.empty()) || (wants_visibility && visibility.empty())) {
@@ -108,7 +113,9 @@ Bvh build_two_level(const Scene& scene, const BuildParams& params, BuildReport& 
           for (uint32_t k = 0; k < m.triangle_count; ++k) {
             const float v = placed[offsets[i] + k];
             spread += std::fabs(usable_occlusion(v) - occlusion[m.first_triangle + k]);
+            instance_occlusion[i] += usable_occlusion(v);
           }
+          if (m.triangle_count) instance_occlusion[i] /= m.triangle_count;
         }
         r.placement_spread = placed.empty() ? 0 : spread / double(placed.size());
       }
@@ -128,6 +135,15 @@ Bvh build_two_level(const Scene& scene, const BuildParams& params, BuildReport& 
         }
       }
     });
+  }
+  if (wants_occlusion && !params.occlusion_values.empty()) {
+    // Supplied per unique triangle: an instance's value is its mesh's mean.
+    for (size_t i = 0; i < scene.instances.size(); ++i) {
+      const SceneMesh& m = scene.meshes[scene.instances[i].mesh];
+      instance_occlusion[i] = 0;
+      for (uint32_t k = 0; k < m.triangle_count; ++k) instance_occlusion[i] += usable_occlusion(occlusion[m.first_triangle + k]);
+      if (m.triangle_count) instance_occlusion[i] /= m.triangle_count;
+    }
   }
   r.estimate_seconds = builders::seconds_since(estimate_start);
 
@@ -191,7 +207,12 @@ Bvh build_two_level(const Scene& scene, const BuildParams& params, BuildReport& 
   boxes.materials.push_back(Material{});
   if (instance_of.empty()) throw InputError("scene '" + scene.name + "'", "no instance places any triangles");
   BuildParams tlas_params;
-  tlas_params.builder = "sah";
+  tlas_params.builder = wants_occlusion ? "aobvh" : "sah";
+  if (wants_occlusion) {
+    for (uint32_t i : instance_of) tlas_params.occlusion_values.push_back(float(instance_occlusion[i]));
+    tlas_params.ao_weight_floor = params.ao_weight_floor;
+    tlas_params.ao_normalise = params.ao_normalise;
+  }
   tlas_params.t1 = params.t1;
   tlas_params.t2 = params.t2;
   tlas_params.width = params.width;

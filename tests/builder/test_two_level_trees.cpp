@@ -242,3 +242,37 @@ TEST(TwoLevelMetrics, TheCostCountsEveryPlacement) {
 
 }  // namespace
 }  // namespace rtsim
+
+namespace rtsim {
+namespace {
+
+// The first `tlas_nodes` nodes and their instance references: the TLAS alone.
+bool same_tlas(const Bvh& a, const Bvh& b) {
+  if (a.tlas_nodes != b.tlas_nodes) return false;
+  for (uint32_t i = 0; i < a.tlas_nodes; ++i) {
+    const BvhNode &x = a.nodes[i], &y = b.nodes[i];
+    if (x.index != y.index || x.count != y.count || x.children != y.children ||
+        std::memcmp(&x.bounds, &y.bounds, sizeof(Aabb)) != 0)
+      return false;
+    if (x.is_leaf() && a.prim_refs[x.index] != b.prim_refs[y.index]) return false;
+  }
+  return true;
+}
+
+// AO-BVH weights its TLAS by each instance's occlusion: with every value equal the
+// weights are all 1 and the TLAS is SAH's; with the meshes' values apart it is not.
+TEST(TwoLevelAoBvh, TheTlasIsWeightedByTheInstancesOcclusion) {
+  const Scene scene = test::instanced_town();
+  BuildParams sah;
+  const Bvh reference = build_bvh(scene, sah);
+  BuildParams ao;
+  ao.builder = "aobvh";
+  ao.occlusion_values.assign(scene.triangle_count(), 0.5f);
+  EXPECT_TRUE(same_tlas(build_bvh(scene, ao), reference));
+  for (uint32_t t = 0; t < scene.triangle_count(); ++t)
+    ao.occlusion_values[t] = t < scene.meshes[1].first_triangle ? 0.0f : 1.0f;  // grids closed, boxes open
+  EXPECT_FALSE(same_tlas(build_bvh(scene, ao), reference));
+}
+
+}  // namespace
+}  // namespace rtsim

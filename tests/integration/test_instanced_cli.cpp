@@ -18,17 +18,9 @@ namespace {
 namespace fs = std::filesystem;
 using rtsim::shell_quote;
 
-fs::path fresh(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("rtsim_instanced_cli_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path fresh(const std::string& name) { return fresh_test_folder("rtsim_instanced_cli", name); }
 
-CliResult run_in(const fs::path& cwd, const std::string& args) {
-  return run_rtsim_command("cd " + shell_quote(cwd.string()) + " && RTSIM_NO_PROGRESS=1 timeout 300 " +
-                           shell_quote(RTSIM_BINARY) + " " + args + " 2>&1");
-}
+CliResult run_in(const fs::path& cwd, const std::string& args) { return run_rtsim_in(cwd, args); }
 
 std::string read_text(const fs::path& p) {
   std::ifstream in(p);

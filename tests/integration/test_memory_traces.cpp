@@ -25,17 +25,9 @@ namespace {
 namespace fs = std::filesystem;
 using rtsim::shell_quote;
 
-fs::path fresh(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("rtsim_memory_traces_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path fresh(const std::string& name) { return fresh_test_folder("rtsim_memory_traces", name); }
 
-CliResult run_in(const fs::path& cwd, const std::string& args) {
-  return run_rtsim_command("cd " + shell_quote(cwd.string()) + " && RTSIM_NO_PROGRESS=1 timeout 300 " +
-                           shell_quote(RTSIM_BINARY) + " " + args + " 2>&1");
-}
+CliResult run_in(const fs::path& cwd, const std::string& args) { return run_rtsim_in(cwd, args); }
 
 uint64_t stat(const nlohmann::json& stats, const std::string& path) {
   const nlohmann::json* j = &stats;
