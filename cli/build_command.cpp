@@ -94,8 +94,8 @@ void print_table(const Scene& scene, const std::vector<BvhMetrics>& all,
                  const std::string& format, const nlohmann::json& trees) {
   if (scene.instanced())
     std::printf("scene %s (instanced): %llu unique triangles, %llu placed by %zu instances of %zu meshes;\n"
-                "two-level trees (TLAS by SAH over the instances, a BLAS per mesh by the builder), costs in "
-                "world space\n",
+                "two-level trees (a TLAS over the instances by SAH, AO-BVH's occlusion-weighted; a BLAS per mesh "
+                "by the builder), costs in world space\n",
                 scene.name.c_str(), (unsigned long long)scene.triangle_count(),
                 (unsigned long long)scene.instanced_triangle_count(), scene.instances.size(), scene.meshes.size());
   else

@@ -468,10 +468,10 @@ Table1 run_table1_checked(const Table1Options& options) {
   if (options.instanced) {
     table.counting_rule += " Instanced (--instanced): " + std::to_string(scene.instances.size()) +
                            " instances of " + std::to_string(scene.meshes.size()) +
-                           " meshes, two-level trees (a BLAS per mesh by the builder, a TLAS by SAH over the "
-                           "instances); TRV counts TLAS and BLAS node visits (JSON: tlas_trv_ops_per_ray), and "
-                           "the instance transforms (xfm_ops_per_ray, one per instance entered) are neither TRV "
-                           "nor IST ops.";
+                           " meshes, two-level trees (a BLAS per mesh by the builder, a TLAS over the instances by "
+                           "SAH, AO-BVH's weighted by the instances' mean occlusion); TRV counts TLAS and BLAS "
+                           "node visits (JSON: tlas_trv_ops_per_ray), and the instance transforms "
+                           "(xfm_ops_per_ray, one per instance entered) are neither TRV nor IST ops.";
     if (!left_out.empty()) {
       std::string names;
       for (const std::string& b : left_out) names += (names.empty() ? "" : ", ") + b;

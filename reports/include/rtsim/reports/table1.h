@@ -34,7 +34,8 @@ struct Table1Options {
   // any-hit stage, trees built for it.
   bool opaque = false;
   // The scene with its instances (--instanced): two-level trees, a BLAS per mesh by
-  // each builder (builders that build no BLAS are left out, said so) and a TLAS by SAH.
+  // each builder (builders that build no BLAS are left out, said so) and a TLAS by SAH
+  // (AO-BVH's occlusion-weighted, two_level.cpp).
   bool instanced = false;
   uint64_t seed = 1;
   std::string hardware = "mobile";  // preset or TOML for the cycle-level runs
