@@ -67,9 +67,13 @@ std::pair<uint64_t, uint64_t> parse_cycle_window(const std::string& text) {
 
 // The machine's cycles split per unit kind (stats machine.<kind>.<bucket>_cycles.mean,
 // accounting.h), one row a kind, in percent of the run's cycles.
-void print_accounting(const sim::StatsRegistry& s) {
+void print_accounting(const sim::StatsRegistry& s, bool accounted) {
   const double total = s.number("time.cycles");
   if (!(total > 0)) return;
+  if (!accounted) {
+    std::printf("  cycles: not split per unit (stats.accounting = \"off\")\n");
+    return;
+  }
   std::printf("  cycles (%% of %.0f, mean over units):", total);
   for (sim::CycleBucket b : sim::kAllCycleBuckets) {
     std::string name = sim::cycle_bucket_name(b);
@@ -292,7 +296,7 @@ void run_simulate(const SimulateOptions& o) {
                 s.number("anyhit.tests_per_ray"), 100.0 * s.number("anyhit.reject_ratio"),
                 s.number("l1_texture.all.hit_rate"),
                 result.rays ? s.number("fetches.texel_bytes") / double(result.rays) : 0.0);
-  print_accounting(s);
+  print_accounting(s, request.config.accounted());
   std::printf("  host %.3f s, %.0f simulated rays per CPU second%s%s\n", result.host_seconds,
               result.cpu_seconds > 0 ? double(result.rays) / result.cpu_seconds : 0.0,
               o.out_dir.empty() ? "" : "; results in ", dir.string().c_str());

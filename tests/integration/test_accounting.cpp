@@ -213,3 +213,50 @@ TEST(Accounting, TheReorderingUnitsCyclesAddUpAndBusyIsItsSorts) {
     std::filesystem::remove_all(dir);
   }
 }
+
+// stats.accounting = "off" only stops the accounting: every stat but the split, the
+// utilisation and the roll-ups is the same as with it on (so no unit's behaviour
+// leans on it), at lt and cycle, on two cores with shading, reordering and the
+// any-hit stage. The timeline, which draws the accounting, is refused by name.
+TEST(Accounting, OffDropsItsOwnStatsAndChangesNoOther) {
+  const std::string machine = "preset = \"mobile-gpu\"\ncores = 2\nreorder.batch_rays = 16\n";
+  const Machine on{"gpu_on", machine.c_str()};
+  const std::string off_text = machine + "[stats]\naccounting = \"off\"\n";
+  const Machine off{"gpu_off", off_text.c_str()};
+  // The accounting's own stats: each unit's buckets and utilisation, and the machine roll-ups.
+  std::string buckets;
+  for (CycleBucket k : rtsim::sim::kAllCycleBuckets) buckets += (buckets.empty() ? "" : "|") + std::string(rtsim::sim::cycle_bucket_name(k));
+  const std::regex accounting_stat(R"(core\d+\.(trv\d+|ist\d+|shading|reorder)\.()" + buckets +
+                                   R"()_cycles|core\d+\.(trv\d+|ist\d+|shading|reorder)\.utilisation|)"
+                                   R"(machine\.(trv|ist|shading|reorder)\..*)");
+  for (const std::string scene : {"cornell", "foliage_alpha"})
+    for (const std::string level : {"lt", "cycle"}) {
+      const auto dir_on = scratch_folder("accounting", "on_" + level + scene);
+      const auto dir_off = scratch_folder("accounting", "off_" + level + scene);
+      const Stats a = run(level, on, dir_on, "", scene), b = run(level, off, dir_off, "", scene);
+      size_t dropped = 0;
+      for (const auto& [key, value] : a) {
+        if (std::regex_match(key, accounting_stat)) {
+          EXPECT_EQ(b.count(key), 0u) << level << " " << scene << " " << key;
+          ++dropped;
+        } else {
+          ASSERT_EQ(b.count(key), 1u) << level << " " << scene << " " << key;
+          EXPECT_EQ(b.at(key), value) << level << " " << scene << " " << key;
+        }
+      }
+      EXPECT_EQ(a.size(), b.size() + dropped) << level << " " << scene;  // nothing new either
+      EXPECT_GT(dropped, 0u);
+      std::filesystem::remove_all(dir_on);
+      std::filesystem::remove_all(dir_off);
+    }
+  const auto dir = scratch_folder("accounting", "off_timeline");
+  std::ofstream(dir / "machine.toml") << off_text;
+  const CliResult r = run_rtsim("simulate --scene cornell --res 8x8 --fidelity lt --config " +
+                                (dir / "machine.toml").string() + " --timeline " + (dir / "t.json").string() +
+                                " --out-dir " + (dir / "out").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--timeline"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("stats.accounting"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "t.json"));
+  std::filesystem::remove_all(dir);
+}

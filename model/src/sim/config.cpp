@@ -308,6 +308,13 @@ void for_each_parameter(HardwareConfig& c, const std::function<void(ParameterInf
           "(Park et al., DAC 2012: 892 Gb/s at 531 mW)"),
   };
   for (auto& p : energy) visit(p);
+  std::vector<ParameterInfo> stats = {
+      text("stats.accounting", c.accounting, {"on", "off"},
+           "the exclusive cycle accounting of every unit (busy, waiting by level, blocked, idle; "
+           "the timeline draws it): off saves its cost (about 5% of the lt and cycle levels' "
+           "instructions), and its stats are then not reported; no other stat changes"),
+  };
+  for (auto& p : stats) visit(p);
 }
 
 double cache_access_pj(uint64_t size_bytes) {

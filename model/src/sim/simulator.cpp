@@ -36,10 +36,12 @@ uint64_t peak_rss_bytes() {
 }
 
 // A unit's cycles split exclusively (accounting.h): <prefix>.<bucket>_cycles for every
-// bucket its kind has, adding up to time.cycles, its utilisation and its work.
+// bucket its kind has, adding up to time.cycles, its utilisation and its work (the
+// work alone with stats.accounting off).
 void report_unit(StatsRegistry& s, const std::string& prefix, UnitKind kind, const CycleSplit& ps,
                  double cycle_ps, uint64_t work, const std::string& work_unit,
-                 const std::string& work_description) {
+                 const std::string& work_description, bool accounted) {
+  if (!accounted) return s.set(prefix + "." + work_unit, work, work_unit, work_description);
   const CycleSplit cycles = bucket_cycles(ps, cycle_ps);
   uint64_t total = 0;
   for (uint64_t c : cycles) total += c;
@@ -227,15 +229,16 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
   uint64_t rays = 0;
   for (const CounterTotals& t : per_type) rays += t.rays;
   const auto cycles = [&](uint64_t ps) { return uint64_t(std::llround(double(ps) / cycle_ps)); };
+  const bool accounted = config.accounted();
   for (uint32_t u = 0; u < f.trv.size(); ++u)
     report_unit(s, m.trv_name(u), UnitKind::Trv, f.trv[u], cycle_ps, f.trv_passes[u], "passes",
-                "box-test pipeline passes (a node takes ceil(children / trv.boxes_per_pass))");
+                "box-test pipeline passes (a node takes ceil(children / trv.boxes_per_pass))", accounted);
   for (uint32_t u = 0; u < f.ist.size(); ++u)
     report_unit(s, m.ist_name(u), UnitKind::Ist, f.ist[u], cycle_ps, f.ist_tests[u], "tests",
-                "triangle tests through the pipeline");
+                "triangle tests through the pipeline", accounted);
   for (uint32_t c = 0; c < f.shading.size(); ++c) {
     const std::string p = MachineShape::core_name(c) + ".shading";
-    report_unit(s, p, UnitKind::Shading, f.shading[c], cycle_ps, f.shaded[c], "rays", "rays shaded");
+    report_unit(s, p, UnitKind::Shading, f.shading[c], cycle_ps, f.shaded[c], "rays", "rays shaded", accounted);
     s.set(p + ".spawned", f.spawned[c], "rays", "secondary rays spawned");
   }
   for (uint32_t u = 0; f.anyhit && u < f.anyhit_tests.size(); ++u)
@@ -247,11 +250,14 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
   if (f.dispatcher->reorders()) report_reorder(s, config, f.dispatcher->reorder_figures(), timed);
   for (uint32_t c = 0; c < f.reorder.size(); ++c)
     report_unit(s, MachineShape::core_name(c) + ".reorder", UnitKind::Reorder, f.reorder[c], cycle_ps,
-                f.dispatcher->reorder_units()[c].counters().rays, "rays", "rays the unit sorted and released");
-  report_rollup(s, UnitKind::Trv, f.trv, cycle_ps);
-  report_rollup(s, UnitKind::Ist, f.ist, cycle_ps);
-  report_rollup(s, UnitKind::Shading, f.shading, cycle_ps);
-  report_rollup(s, UnitKind::Reorder, f.reorder, cycle_ps);
+                f.dispatcher->reorder_units()[c].counters().rays, "rays", "rays the unit sorted and released",
+                accounted);
+  if (accounted) {
+    report_rollup(s, UnitKind::Trv, f.trv, cycle_ps);
+    report_rollup(s, UnitKind::Ist, f.ist, cycle_ps);
+    report_rollup(s, UnitKind::Shading, f.shading, cycle_ps);
+    report_rollup(s, UnitKind::Reorder, f.reorder, cycle_ps);
+  }
   for (uint32_t c = 0; c < f.raygen_blocked_ps.size(); ++c)
     s.set(MachineShape::core_name(c) + ".raygen.blocked_cycles", cycles(f.raygen_blocked_ps[c]),
           "cycles", "cycles a ready ray found no free TRV slot of its core");
@@ -595,6 +601,11 @@ void run_functional(const SimulationRequest& request, const HardwareConfig& conf
 void run_lt(const SimulationRequest& request, const HardwareConfig& config, const Workload& work,
             const Progress& progress, const std::function<void()>& stop_clock, SimulationResult& result) {
   LtSystem lt("lt", config, work, progress);
+  if (!config.accounted()) {
+    for (auto* units : {&lt.engine.trv_accounting(), &lt.engine.ist_accounting(), &lt.engine.shading_accounting()})
+      for (UnitAccounting& a : *units) a.switch_off();
+    for (RayReorderBuffer& r : lt.engine.dispatcher().reorder_units()) r.accounting.switch_off();
+  }
   if (work.timeline) {
     RayEngine& e = lt.engine;
     const auto pointers = [](std::vector<UnitAccounting>& v) {
@@ -638,6 +649,12 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
                const Progress& progress, const std::function<void()>& stop_clock,
                SimulationResult& result) {
   CycleSystem system("accelerator", config, work, progress);
+  if (!config.accounted()) {
+    for (auto& u : system.trv) u->accounting.switch_off();
+    for (auto& u : system.ist) u->accounting.switch_off();
+    for (auto& u : system.shading) u->accounting.switch_off();
+    for (RayReorderBuffer& r : system.dispatcher.reorder_units()) r.accounting.switch_off();
+  }
   if (work.timeline) {
     std::vector<UnitAccounting*> trv, ist, shading;
     for (auto& u : system.trv) trv.push_back(&u->accounting);
@@ -745,6 +762,9 @@ SimulationResult simulate(const SimulationRequest& request) {
   work.timeline = request.timeline;
   if (request.timeline && request.fidelity == Fidelity::Functional)
     throw InputError("--timeline", "the functional level has no time to draw; use --fidelity lt or cycle");
+  if (request.timeline && !request.config.accounted())
+    throw InputError("--timeline", "draws the cycle accounting, which stats.accounting = \"off\" turns off; "
+                                   "turn it on or leave out --timeline");
   SimulationResult result;
   if (request.rays.empty()) {
     work.plan = plan_effects(*request.scene, request.settings);

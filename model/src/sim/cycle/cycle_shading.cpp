@@ -24,6 +24,7 @@ void CycleShading::shade(uint32_t ray_index, const Ray& ray, const HitRecord& hi
   free_ps_ = start + interval_ps_;
   accounting.reserve(t, start, free_ps_);
   accounting.change(t, UnitAccounting::Resident, +1);
+  ++in_flight_;
 
   queue_.push(start + latency_ps_, Item{ray_index, ray, hit});
 }
@@ -36,6 +37,7 @@ void CycleShading::on_event() {
     ++shaded;
     spawned += out_.size();
     accounting.change(now_ps(), UnitAccounting::Resident, -1);
+    --in_flight_;
     system_.spawned(core_, out_, now_ps());
   });
 }

@@ -79,17 +79,20 @@ class UnitAccounting {
   // starts or ends (another ray already waits there), so the state stays; the rare
   // rest is out of line.
   void change(uint64_t now, uint64_t at, Counter counter, int delta) {
+    if (off_) return;
     if (at > now) return date(at, delta > 0 ? kCounters : counter, delta > 0 ? counter : kCounters);
     if (next_dated_ <= now) apply_dated(now);
     apply(now, counter, delta);
   }
   void change(uint64_t now, Counter counter, int delta) {
+    if (off_) return;
     if (next_dated_ <= now) apply_dated(now);
     apply(now, counter, delta);
   }
   // One of the work's moves from one condition to another at `at` (kCounters: none,
   // for work that arrives or leaves), e.g. a read from the crossbar to an L2 slice.
   void move(uint64_t now, uint64_t at, Counter from, Counter to) {
+    if (off_) return;
     if (at > now) return date(at, from, to);
     if (next_dated_ <= now) apply_dated(now);
     if (from != kCounters) apply(now, from, -1);
@@ -99,7 +102,7 @@ class UnitAccounting {
   // or after the previous one's end (a pipeline serves one at a time), and start at
   // or after `now`.
   void reserve(uint64_t now, uint64_t start, uint64_t end) {
-    if (end <= start) return;
+    if (off_ || end <= start) return;
     // Contiguous reservations (a pipeline kept full) are one interval.
     if (start == busy_end_ && busy_.size() > busy_head_) {
       busy_.back().second = busy_end_ = end;
@@ -107,6 +110,9 @@ class UnitAccounting {
     }
     add_reservation(now, start, end);
   }
+  // stats.accounting = off: every change is ignored from now on (none has come yet).
+  void switch_off() { off_ = true; }
+  bool on() const { return !off_; }
   // A new frame from t: the figures start again, the work resident stays.
   void restart(uint64_t t);
   // Accounts up to `end` (the run's end): every dated change up to it applies.
@@ -156,6 +162,7 @@ class UnitAccounting {
   void add(CycleBucket bucket, uint64_t from, uint64_t to);
   void draw_open_span(uint64_t end);
 
+  bool off_ = false;
   std::array<uint32_t, kCounters> counts_{};
   uint8_t waiting_ = 0;                      // the conditions that hold, by kStateOfBit
   CycleBucket state_ = CycleBucket::Idle;    // the non-busy state since last_

@@ -121,6 +121,11 @@ struct HardwareConfig {
   // trv_units TRV and ist_units IST units, shading and L1 caches, joined by a
   // crossbar to an L2 of l2_slices slices interleaved by line address.
   uint32_t cores = 1;
+  // The per-unit cycle accounting (accounting.h): on, or off for speed - the
+  // <unit>.<bucket>_cycles, utilisation and machine.<kind> roll-ups are then not
+  // reported and the timeline cannot be drawn; nothing else changes.
+  std::string accounting = "on";  // on | off
+  bool accounted() const { return accounting == "on"; }
   std::string raygen_dispatch = "static";  // primary tiles to cores: static (round-robin) | dynamic
   uint32_t l2_slices = 1;
   uint32_t noc_latency_cycles = 0;  // crossbar traversal, one way

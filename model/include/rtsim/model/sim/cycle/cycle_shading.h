@@ -18,7 +18,7 @@ class CycleShading : public sc_core::sc_module {
   CycleShading(sc_core::sc_module_name name, const HardwareConfig& config, const Workload& workload,
                CycleSystem& system, uint32_t core);
   void shade(uint32_t ray_index, const Ray& ray, const HitRecord& hit, uint64_t t);
-  bool idle() const { return accounting.count(UnitAccounting::Resident) == 0; }
+  bool idle() const { return in_flight_ == 0; }  // its own count: the accounting may be off
   void reset_counters();
   uint64_t shaded = 0, spawned = 0;
   UnitAccounting accounting;
@@ -34,6 +34,7 @@ class CycleShading : public sc_core::sc_module {
   CycleSystem& system_;
   uint32_t core_;
   uint64_t interval_ps_, latency_ps_, free_ps_ = 0;
+  uint32_t in_flight_ = 0;  // rays taken and not yet shaded
   TimedQueue<Item> queue_;
   std::vector<Ray> out_;
 };
