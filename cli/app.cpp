@@ -1,3 +1,4 @@
+#include "rtsim_revision.h"
 #include "commands.h"
 
 #include <rtsim/workloads/host.h>

@@ -1,4 +1,5 @@
 // rtsim campaign run|status|list|export|emit|collect|job
+#include "rtsim_revision.h"
 #include "cli_util.h"
 #include "commands.h"
 

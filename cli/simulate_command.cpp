@@ -3,6 +3,7 @@
 // configuration; writes DIR/config.json (resolved configuration and inputs),
 // DIR/stats.json (deterministic, hierarchical) and DIR/host.json (host time,
 // throughput, memory: kept apart so that stats.json is byte-identical across runs).
+#include "rtsim_revision.h"
 #include "cli_util.h"
 #include "commands.h"
 

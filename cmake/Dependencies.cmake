@@ -26,18 +26,6 @@ endif()
 # GLM: keep the default (radians, no experimental extensions) but allow gtx helpers.
 add_compile_definitions(GLM_FORCE_CXX17 GLM_ENABLE_EXPERIMENTAL)
 
-# The git revision goes into every result file so that runs are self-describing.
-execute_process(COMMAND git rev-parse --short=12 HEAD
-                WORKING_DIRECTORY ${CMAKE_SOURCE_DIR}
-                OUTPUT_VARIABLE RTSIM_GIT_REVISION OUTPUT_STRIP_TRAILING_WHITESPACE
-                ERROR_QUIET)
-if(NOT RTSIM_GIT_REVISION)
-  set(RTSIM_GIT_REVISION "unknown")
-endif()
-# Reconfigure when HEAD moves, so the revision in results (and campaign job keys)
-# follows the code rather than the last manual configure.
-foreach(git_file .git/HEAD .git/refs/heads/main .git/packed-refs)
-  if(EXISTS ${CMAKE_SOURCE_DIR}/${git_file})
-    set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/${git_file})
-  endif()
-endforeach()
+# The git revision goes into every result file so that runs are self-describing:
+# cmake/revision.cmake writes it at every build (cli/CMakeLists.txt), marked dirty
+# when the working tree has uncommitted changes.
