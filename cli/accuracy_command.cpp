@@ -34,10 +34,10 @@ void add_accuracy_command(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--seed", o->accuracy.seed, "Seed of every random choice")->capture_default_str();
   cmd->add_option("--fidelity-scenes", o->accuracy.fidelity_scenes,
-                  "Scenes the fidelity levels are compared on (default: --scene and, unless --quick, the fetched "
+                  "Scenes the fidelity levels are compared on (default: --scene and,\nunless --quick, the fetched "
                   "memory-bound dragon and black_forest)");
   cmd->add_option("--traffic-scenes", o->accuracy.traffic_scenes,
-                  "Scenes of the memory-traffic section (default: --scene), e.g. dragon-small interior "
+                  "Scenes of the memory-traffic section (default: --scene),\ne.g. dragon-small interior "
                   "black_forest");
   cmd->add_option("--traffic-res", o->accuracy.traffic_resolutions,
                   "Square resolutions of the memory-traffic section")

@@ -39,8 +39,8 @@ struct CampaignArgs {
 
 void add_results_cache(CLI::App* cmd, CampaignArgs& a) {
   cmd->add_option("--results-cache", a.results_cache,
-                  "folder of finished runs shared by job key across campaigns (default: "
-                  "<scene cache>/results when the jobs run this rtsim, or $RTSIM_RESULTS_CACHE: "
+                  "folder of finished runs shared by job key across campaigns\n(default: "
+                  "<scene cache>/results when the jobs run this rtsim,\nor $RTSIM_RESULTS_CACHE: "
                   "a folder or 'off')");
   cmd->add_flag("--no-results-cache", a.no_results_cache, "run every missing job, even one another campaign ran");
 }
@@ -63,7 +63,7 @@ fs::path results_cache_of(const CampaignArgs& a, std::string* source) {
 
 void add_tree_cache(CLI::App* cmd, CampaignArgs& a) {
   cmd->add_option("--tree-cache", a.tree_cache,
-                  "folder of built trees shared across jobs and campaigns (default: "
+                  "folder of built trees shared across jobs and campaigns\n(default: "
                   "<scene cache>/trees when the jobs run this rtsim)");
   cmd->add_flag("--no-tree-cache", a.no_tree_cache, "every job builds its own tree");
 }
@@ -80,7 +80,7 @@ fs::path tree_cache_of(const CampaignArgs& a) {
 void add_common(CLI::App* cmd, CampaignArgs& a) {
   cmd->add_option("file", a.file, "campaign file (.toml or .json)")->required();
   cmd->add_option("--out-dir", a.dir,
-                  "the campaign's folder: job outputs, result files, the database "
+                  "the campaign's folder: job outputs, result files, the database\n"
                   "(default: rtsim-campaigns/<campaign name> beside the campaign file)");
   add_deprecated_option(cmd, "--dir", "--out-dir", a.dir);
   cmd->add_option("--db", a.database, "results database (default: <dir>/results.sqlite)");
@@ -229,7 +229,7 @@ void add_list_subcommand(CLI::App* campaign) {
   CLI::App* cmd = campaign->add_subcommand("list", "the expanded jobs: key, group, label");
   add_common(cmd, *a);
   cmd->add_flag("--json", *json_out,
-                "the resolved jobs as JSON: key, label, simulate's arguments (DIR = the job's "
+                "the resolved jobs as JSON: key, label, simulate's arguments\n(DIR = the job's "
                 "output folder) and the hardware file the runner writes there");
   cmd->callback([=] {
     const Campaign c = load(*a);

@@ -52,7 +52,7 @@ void add_claim_command(CLI::App& root) {
   cmd->add_flag("--quick", o->quick, "a smoke run of a minute or two (cornell, 3 replicates, 32x32)");
   cmd->add_flag("--json", o->json, "print claim.json to stdout instead of the summary");
   cmd->add_flag("--retry-failed", o->claim.retry_failed,
-                "rerun the jobs recorded as failed (a read-only tree cache, a full disk) instead of keeping them");
+                "rerun the jobs recorded as failed (a read-only tree cache, a full disk)\ninstead of keeping them");
   cmd->callback([o, replicates, resolution] {
     // The flags as given first, then what --quick would replace: it must not hide them.
     uint32_t w = 0, h = 0;

@@ -369,7 +369,7 @@ void add_simulate_command(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--trace-ray", opts->trace_ray,
                   "print every request of one ray: X,Y[,TYPE[,INDEX]] (TYPE primary, ao, shadow, reflection,\n"
-                  "refraction, diffuse1..diffuse8; INDEX: the sample of a primary ray, the INDEX-th ray of TYPE the pixel spawns);\n"
+                  "refraction, diffuse1..diffuse8; INDEX: the sample of a primary ray,\nthe INDEX-th ray of TYPE the pixel spawns);\n"
                   "also written to ray_trace.json in --out-dir")
       ->type_name("X,Y[,TYPE[,INDEX]]");
   cmd->add_option("--dram-trace-out", opts->dram_trace_out,

@@ -146,7 +146,7 @@ void add_table1_command(CLI::App& root) {
   cmd->add_option("--ao", o->table.ao_samples, "AO rays per primary hit (-1: the scene's setting)")
       ->check(CLI::Range(-1, 1024))->capture_default_str();
   cmd->add_option("--diffuse-bounces", o->table.diffuse_bounces,
-                  "Diffuse path bounces per primary hit (0..8; their rays count in the combined figures and "
+                  "Diffuse path bounces per primary hit (0..8; their rays count in the\ncombined figures and "
                   "have their own column)")
       ->check(CLI::Range(0u, kMaxDiffuseBounces))
       ->capture_default_str();
@@ -165,7 +165,7 @@ void add_table1_command(CLI::App& root) {
   cmd->add_option("--build-seeds", o->table.build_seeds,
                   "Trees per sampled builder (those reading the seed: osah, aobvh, aosbvh, rdh, rdh-sbvh):\n"
                   "seeds --build-seed, +1, ...; "
-                  "their figures are the means with a 95% interval (cycles: the first seed's tree)")
+                  "their figures are the means with a 95% interval\n(cycles: the first seed's tree)")
       ->check(CLI::Range(1u, 64u))->capture_default_str();
   cmd->add_flag("--no-cycle", o->no_cycle, "Skip the cycle-level runs (no DRAM bytes or cycles)");
   cmd->add_option("-j,--jobs", o->table.jobs, "Cycle-level runs in parallel")

@@ -166,7 +166,7 @@ const std::vector<BuilderParameter>& builder_parameters() {
         "osah: on = spatial bins for the visibility split and SBVH below it (the authors'); off =\n"
         "object bins, weight w(1 - V/N), and no spatial splits", &P::osah_spatial, 0, 1, {"osah"});
     add("osah_child_order", "--osah-child-order", "",
-        "osah: visible-first = the child with more visible references first; split = the split's order",
+        "osah: visible-first = the child with more visible references first;\nsplit = the split's order",
         &P::osah_child_order, 0, 0, {"osah"})
         .choices = {"visible-first", "split"};
     add("ao_rays", "--ao-rays", "rays", "aobvh: AO rays per estimate (K; per triangle with ao_share 1)",

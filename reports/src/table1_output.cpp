@@ -56,6 +56,8 @@ std::string wrap(const std::string& text, const std::string& indent, size_t widt
 }
 
 std::string num(double value, int digits = 4) { return value < 0 ? "-" : format_number(value, digits); }
+// A whole count (cycles): every digit, no decimals ("85722", not "85722.0").
+std::string count(double value) { return value < 0 ? "-" : std::to_string(uint64_t(std::llround(value))); }
 
 // ops/ray, with the seed spread of a sampled builder: "24.85±0.31".
 std::string ops_text(double mean, const Interval& spread) {
@@ -128,7 +130,7 @@ TextTable narrow_camera_table(const Table1& table, const std::string& camera) {
                       num(r.combined.trv_per_ray), num(r.combined.ist_per_ray),
                       num(r.combined.node_fetches_per_ray),
                       dram_cold_warm(r),
-                      num(r.cycles, 6),
+                      count(r.cycles),
                       num(r.build_seconds + r.estimate_seconds, 3)});
   }
   return c.table();
@@ -162,7 +164,7 @@ TextTable camera_table(const Table1& table, const std::string& camera) {
                       median ? pct(r.combined.node_fetches_per_ray, median->combined.node_fetches_per_ray) : "-",
                       sah ? pct(r.combined.node_fetches_per_ray, sah->combined.node_fetches_per_ray) : "-",
                       num(r.node_bytes_per_triangle, 3), dram_cold_warm(r),
-                      num(r.cycles, 6), num(r.combined.pj_per_ray, 5), num(r.rays_per_joule, 4),
+                      count(r.cycles), num(r.combined.pj_per_ray, 5), num(r.rays_per_joule, 4),
                       num(r.build_seconds + r.estimate_seconds, 3)});
   }
   return c.table();

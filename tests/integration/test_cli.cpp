@@ -6,7 +6,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -24,6 +26,38 @@ TEST(Cli, HelpWorksForEverySubcommand) {
   }
   EXPECT_EQ(run_rtsim("scenes info --help").exit_code, 0);
   EXPECT_EQ(run_rtsim("scenes render --help").exit_code, 0);
+}
+
+// The subcommands a help text lists under "Subcommands:" (two-space indented names).
+std::vector<std::string> listed_subcommands(const std::string& help) {
+  std::vector<std::string> out;
+  const size_t at = help.find("Subcommands:");
+  if (at == std::string::npos) return out;
+  std::istringstream lines(help.substr(at));
+  std::string line;
+  std::getline(lines, line);
+  while (std::getline(lines, line) && line.rfind("  ", 0) == 0) {
+    const std::string name = line.substr(2, line.find(' ', 2) - 2);
+    if (!name.empty() && name[0] != ' ') out.push_back(name);
+  }
+  return out;
+}
+
+// Every help text, the root's and each subcommand's at every depth, fits a
+// 120-column terminal.
+TEST(Cli, EveryHelpTextFits120Columns) {
+  std::vector<std::string> commands = {""};
+  for (size_t i = 0; i < commands.size(); ++i) {
+    const CliResult r = run_rtsim(commands[i] + " --help");
+    ASSERT_EQ(r.exit_code, 0) << commands[i] << ": " << r.output;
+    std::istringstream lines(r.output);
+    std::string line;
+    while (std::getline(lines, line))
+      EXPECT_LE(line.size(), 120u) << "rtsim " << commands[i] << " --help: " << line;
+    for (const std::string& sub : listed_subcommands(r.output))
+      commands.push_back(commands[i].empty() ? sub : commands[i] + " " + sub);
+  }
+  EXPECT_GT(commands.size(), 15u);  // the root, its subcommands and theirs
 }
 
 TEST(Cli, UnknownSceneExitsTwoAndNamesIt) {
