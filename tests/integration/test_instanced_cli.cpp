@@ -81,6 +81,16 @@ TEST(InstancedCli, Table1OnTheInstancedSceneShowsTheTransformsAndLeavesRdhOut) {
   const std::string md = read_text(dir / "t" / "table1.md");
   EXPECT_NE(md.find("XFM/ray"), std::string::npos);
   EXPECT_NE(md.find("Left out: rdh"), std::string::npos);
+  // The new columns are the stats of the same rays simulated alone.
+  const CliResult sim = run_in(dir, "simulate " + kScene + " --instanced --res 12x12 --camera view1 "
+                                    "--fidelity functional --out-dir s");
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  const nlohmann::json stats = nlohmann::json::parse(read_text(dir / "s" / "stats.json"));
+  EXPECT_DOUBLE_EQ(combined.at("xfm_ops_per_ray").get<double>(),
+                   stats.at("ops").at("xfm_ops_per_ray").at("value").get<double>());
+  EXPECT_DOUBLE_EQ(combined.at("tlas_trv_ops_per_ray").get<double>(),
+                   stats.at("ops").at("tlas_trv_ops_per_ray").at("value").get<double>());
+  EXPECT_DOUBLE_EQ(combined.at("ops_per_ray").get<double>(), stats.at("ops").at("per_ray").at("value").get<double>());
   fs::remove_all(dir);
 }
 
