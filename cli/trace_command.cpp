@@ -44,6 +44,7 @@ struct TraceOptions {
   bool instanced = false;
   uint64_t seed = 1;
   float heat_max = 150.0f;
+  float xfm_heat_max = 64.0f;  // instances entered per pixel at the top of xfm_heatmap.png
   bool json = false, validate = false;
   // Flags whose presence matters (given or not), filled when the command is added.
   const CLI::Option* builder_flag = nullptr;
@@ -146,6 +147,7 @@ EffectSettings frame_settings(const TraceOptions& o) {
   EffectSettings settings;
   parse_resolution(o.resolution, settings.width, settings.height);
   if (!(o.heat_max > 0.0f)) throw InputError("--heat-max", "must be > 0");
+  if (!(o.xfm_heat_max > 0.0f)) throw InputError("--xfm-heat-max", "must be > 0");
   if (o.stack_limit < 1) throw InputError("--stack-limit", "must be at least 1");
   settings.spp = o.spp;
   settings.seed = o.seed;
@@ -209,7 +211,8 @@ nlohmann::json trace_json(const TraceOptions& o, const Workload& workload, const
   return j;
 }
 
-// ops_heatmap.png, ao.png (when AO ran) and shaded.png in --out-dir.
+// ops_heatmap.png, ao.png (when AO ran), xfm_heatmap.png (two-level trees) and
+// shaded.png in --out-dir.
 void write_trace_pictures(const TraceOptions& o, const Scene& scene, const FrameRun& run, OutputFolder& pictures,
                           nlohmann::json& j) {
   const std::filesystem::path dir(o.out_dir);
@@ -218,6 +221,11 @@ void write_trace_pictures(const TraceOptions& o, const Scene& scene, const Frame
   if (run.per_type[ray_type_index(RayType::Ao)].rays) write_png(dir / "ao.png", ao_image(run));
   write_png(dir / "shaded.png", shaded_image(scene, run));
   j["pictures"] = {{"dir", dir.string()}, {"heat_max_ops", o.heat_max}};
+  if (run.total.xfm_ops) {
+    // Instances entered per pixel, all rays, on a scale that compares builders too.
+    write_png(dir / "xfm_heatmap.png", heatmap(xfm_per_pixel(run), run.width, run.height, o.xfm_heat_max));
+    j["pictures"]["heat_max_xfm"] = o.xfm_heat_max;
+  }
   pictures.keep();
 }
 
@@ -296,8 +304,11 @@ void print_trace_summary(const TraceOptions& o, const nlohmann::json& j, const W
   std::printf("throughput: %.3f M rays/s (%.3f s for %llu rays in %u waves, with cache simulation)\n",
               j["rays_per_second"].get<double>() * 1e-6, run.trace_seconds,
               (unsigned long long)run.total.rays, run.waves);
-  if (!o.out_dir.empty())
-    std::printf("pictures in %s (heatmap scale 0..%g ops/pixel)\n", o.out_dir.c_str(), o.heat_max);
+  if (!o.out_dir.empty()) {
+    char xfm[96] = "";
+    if (run.total.xfm_ops) std::snprintf(xfm, sizeof xfm, "; xfm_heatmap 0..%g XFM ops/pixel", o.xfm_heat_max);
+    std::printf("pictures in %s (heatmap scale 0..%g ops/pixel%s)\n", o.out_dir.c_str(), o.heat_max, xfm);
+  }
   if (o.validate) {
     const auto& v = j["validate"];
     std::printf("validate vs Embree: %llu disagreements in %llu rays, decided by the exact referee: "
@@ -412,7 +423,11 @@ void add_trace_command(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--heat-max", options->heat_max, "ops/pixel at the top of the heatmap scale (fixed so builders compare)")
       ->capture_default_str();
-  cmd->add_option("--out-dir", options->out_dir, "write ops_heatmap.png, ao.png, shaded.png here");
+  cmd->add_option("--xfm-heat-max", options->xfm_heat_max,
+                  "instance transforms per pixel at the top of xfm_heatmap.png (two-level trees)")
+      ->capture_default_str();
+  cmd->add_option("--out-dir", options->out_dir,
+                  "write ops_heatmap.png, ao.png, shaded.png (and xfm_heatmap.png, --instanced) here");
   cmd->add_option("--rays-out", options->rays_out, "write every traced ray to this ray file");
   cmd->add_option("--rays-in", options->rays_in, "replay the rays of this ray file instead of a camera");
   cmd->add_option("--bvh", options->bvh_in, "trace this saved tree (rtsim build --out) instead of building one");

@@ -48,6 +48,12 @@ TEST(InstancedCli, ASavedTwoLevelTreeReplaysWithTheStatsOfOneBuiltInTheRun) {
   EXPECT_FALSE(a.empty());
   EXPECT_EQ(a, b);
   EXPECT_NE(a.find("xfm_ops"), std::string::npos);
+  // trace draws where the rays enter instances; a flat trace has no such picture.
+  ASSERT_EQ(run_in(dir, "trace " + kScene + " --instanced --res 16x16 --out-dir pic").exit_code, 0);
+  EXPECT_TRUE(fs::exists(dir / "pic" / "xfm_heatmap.png"));
+  ASSERT_EQ(run_in(dir, "trace --scene cornell --res 16x16 --out-dir flat").exit_code, 0);
+  EXPECT_TRUE(fs::exists(dir / "flat" / "ops_heatmap.png"));
+  EXPECT_FALSE(fs::exists(dir / "flat" / "xfm_heatmap.png"));
   fs::remove_all(dir);
 }
 

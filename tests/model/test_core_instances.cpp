@@ -6,6 +6,7 @@
 
 #include <rtsim/builder/build.h>
 #include <rtsim/model/core/exact_referee.h>
+#include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/core/validate.h>
 #include <rtsim/workloads/embree_scene.h>
 #include <rtsim/workloads/error.h>
@@ -211,6 +212,26 @@ std::map<std::string, double> simulate_town(const Scene& scene, const Bvh& bvh, 
   return small_run_stats(scene, bvh, level, 24);
 }
 }  // namespace
+
+// trace's xfm_heatmap.png: every ray's transforms credited to its pixel, so the
+// picture adds up to the frame's XFM ops (one sample per pixel), and a pixel whose
+// rays enter more instances is brighter.
+TEST(CoreInstances, TheXfmPictureAddsUpToTheFramesTransforms) {
+  const Town town;
+  EffectSettings settings;
+  settings.width = settings.height = 32;
+  settings.ao_samples = 2;
+  const FrameRun run = run_frame(*town.context, town.scene.camera("view1"), settings);
+  ASSERT_GT(run.total.xfm_ops, 0u);
+  const std::vector<float> xfm = xfm_per_pixel(run);
+  ASSERT_EQ(xfm.size(), 32u * 32u);
+  double sum = 0;
+  for (float v : xfm) sum += v;
+  EXPECT_DOUBLE_EQ(sum, double(run.total.xfm_ops));
+  std::vector<uint64_t> by_pixel(xfm.size(), 0);
+  for (size_t i = 0; i < run.rays.size(); ++i) by_pixel[run.rays[i].pixel] += run.results[i].counters.xfm_ops;
+  for (size_t p = 0; p < xfm.size(); ++p) EXPECT_EQ(xfm[p], float(by_pixel[p])) << p;
+}
 
 TEST(SimInstances, EveryLevelCountsTheSameTlasXfmAndBlasWork) {
   const Town town;

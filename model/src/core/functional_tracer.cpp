@@ -187,12 +187,24 @@ FrameRun run_rays(const TraversalContext& context, std::vector<Ray> rays, uint32
   return run;
 }
 
-std::vector<float> ops_per_pixel(const FrameRun& run) {
-  std::vector<float> ops(size_t(run.width) * run.height, 0.0f);
+namespace {
+// A count of every ray credited to its pixel, averaged over the samples.
+template <class Count>
+std::vector<float> per_pixel(const FrameRun& run, Count count) {
+  std::vector<float> out(size_t(run.width) * run.height, 0.0f);
   for (size_t i = 0; i < run.rays.size(); ++i)
-    if (run.rays[i].pixel < ops.size()) ops[run.rays[i].pixel] += float(run.results[i].counters.ops());
-  for (float& v : ops) v /= float(std::max(run.spp, 1u));
-  return ops;
+    if (run.rays[i].pixel < out.size()) out[run.rays[i].pixel] += float(count(run.results[i].counters));
+  for (float& v : out) v /= float(std::max(run.spp, 1u));
+  return out;
+}
+}  // namespace
+
+std::vector<float> ops_per_pixel(const FrameRun& run) {
+  return per_pixel(run, [](const RayCounters& c) { return c.ops(); });
+}
+
+std::vector<float> xfm_per_pixel(const FrameRun& run) {
+  return per_pixel(run, [](const RayCounters& c) { return c.xfm_ops; });
 }
 
 Image ao_image(const FrameRun& run) {

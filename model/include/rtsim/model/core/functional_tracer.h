@@ -65,6 +65,9 @@ FrameRun run_rays(const TraversalContext& context, std::vector<Ray> rays, uint32
 // Pictures of a frame (run.width x run.height).
 // TRV + IST ops of every ray (all types) credited to its pixel, averaged over samples.
 std::vector<float> ops_per_pixel(const FrameRun& run);
+// The same for instance transforms (XFM ops): where the TLAS's overlap sends rays
+// into several instances.
+std::vector<float> xfm_per_pixel(const FrameRun& run);
 // Fraction of AO rays that escaped (white = open); pixels without AO rays black.
 Image ao_image(const FrameRun& run);
 // Albedo x (ambient x AO + direct light with shadows) + mirror/refraction
