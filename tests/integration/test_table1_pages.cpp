@@ -163,3 +163,35 @@ TEST(Table1Pages, DiffuseBouncesAreAColumnAndCountInTheCombinedFigures) {
   EXPECT_NE(run_in(dir, "table1 --diffuse-bounces 9 --out-dir q").exit_code, 0);
   fs::remove_all(dir);
 }
+
+namespace {
+
+// --all-scenes with no fetched scene (an empty cache): the default scene only; a
+// relation whose trees are not all in the table decides nothing ("-", not
+// "holds"); with --instanced the flat default is left out, said so, and the
+// generated instanced forest is run instead.
+TEST(Table1AllScenes, MissingTreesDecideNothingAndInstancedRunsOnlyScenesWithInstances) {
+  const fs::path dir = fresh_folder("table1-all-scenes");
+  fs::create_directories(dir / "cache");
+  const std::string run = "RTSIM_CACHE=" + shell_quote((dir / "cache").string()) + " RTSIM_NO_PROGRESS=1 " +
+                          shell_quote(RTSIM_BINARY) + " table1 --all-scenes --builders sah aobvh --no-cycle "
+                                                      "--res 8x8 --build-seeds 2 --cameras view1 ";
+  const CliResult flat = run_rtsim_command("cd " + shell_quote(dir.string()) + " && " + run + "--out-dir flat 2>&1");
+  ASSERT_EQ(flat.exit_code, 0) << flat.output;
+  const std::string csv = rtsim::read_input_file(dir / "flat" / "summary.csv", 1 << 20);
+  EXPECT_NE(csv.find("interior"), std::string::npos) << csv;
+  EXPECT_EQ(csv.find("yes"), std::string::npos) << csv;  // no relation has its trees here
+  const size_t row = flat.output.find("\ninterior");
+  ASSERT_NE(row, std::string::npos) << flat.output;
+  const std::string line = flat.output.substr(row + 1, flat.output.find('\n', row + 1) - row - 1);
+  EXPECT_NE(line.find("- | -"), std::string::npos) << line;
+  const CliResult inst =
+      run_rtsim_command("cd " + shell_quote(dir.string()) + " && " + run + "--instanced --out-dir inst 2>&1");
+  ASSERT_EQ(inst.exit_code, 0) << inst.output;
+  EXPECT_NE(inst.output.find("interior has no instances; left out"), std::string::npos) << inst.output;
+  EXPECT_NE(inst.output.find("\nforest_instanced"), std::string::npos) << inst.output;
+  EXPECT_TRUE(fs::exists(dir / "inst" / "forest_instanced" / "table1.json"));
+  fs::remove_all(dir);
+}
+
+}  // namespace
