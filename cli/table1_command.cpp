@@ -152,8 +152,11 @@ void add_table1_command(CLI::App& root) {
   cmd->add_option("--scene", o->table.scene, "Scene name or descriptor path")->capture_default_str();
   cmd->add_flag("--all-scenes", o->all_scenes,
                 "Run on the default scene and every fetched real scene, with a summary table");
-  cmd->add_option("--cameras", o->table.cameras, "Cameras (the patent's two viewpoints)")->capture_default_str();
-  cmd->add_option("--builders", o->table.builders, "Builders to compare")->capture_default_str();
+  // Lists take spaces or commas: --builders sah aobvh, or --builders sah,aobvh.
+  cmd->add_option("--cameras", o->table.cameras, "Cameras (the patent's two viewpoints)")
+      ->delimiter(',')->capture_default_str();
+  cmd->add_option("--builders", o->table.builders, "Builders to compare (space- or comma-separated)")
+      ->delimiter(',')->capture_default_str();
   cmd->add_option("--res", o->resolution, "Primary rays per camera, WxH")->capture_default_str();
   cmd->add_option("--ao", o->table.ao_samples, "AO rays per primary hit (-1: the scene's setting)")
       ->check(CLI::Range(-1, 1024))->capture_default_str();
@@ -187,7 +190,7 @@ void add_table1_command(CLI::App& root) {
   cmd->add_option("--node-formats,--node-format", o->node_formats,
                   "Node record formats: " + node_format_names("|") +
                       "\n(several: one Table 1 each in OUT_DIR/FORMAT, and a comparison)")
-      ->capture_default_str();
+      ->delimiter(',')->capture_default_str();
   add_build_options(cmd, o->table.build);
   cmd->add_flag("--json", o->json, "Print table1.json to stdout instead of the text table");
   cmd->add_flag("--wide", o->wide, "Every column in the text tables (wider than 120 columns)");

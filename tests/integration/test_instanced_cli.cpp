@@ -73,7 +73,7 @@ TEST(InstancedCli, TheOtherFormsTreeIsRefusedNamingTheFlagToChange) {
 
 TEST(InstancedCli, Table1OnTheInstancedSceneShowsTheTransformsAndLeavesRdhOut) {
   const fs::path dir = fresh("table1");
-  const CliResult r = run_in(dir, "table1 " + kScene + " --instanced --builders sah rdh --res 12x12 --no-cycle "
+  const CliResult r = run_in(dir, "table1 " + kScene + " --instanced --builders sah,rdh --res 12x12 --no-cycle "
                                   "--cameras view1 --out-dir t");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json j = nlohmann::json::parse(read_text(dir / "t" / "table1.json"));
