@@ -233,6 +233,21 @@ size_t run_with_and_without_tree_cache(const fs::path& dir, const std::string& t
   return trees;
 }
 
+// The two runs (shared tree cache, own trees) of campaign `name` have `jobs` rows
+// each: the same jobs with byte-identical stats. `shared_rows` gets the first run's.
+void same_results_either_way(const fs::path& dir, const std::string& name, size_t jobs,
+                             std::vector<json>* shared_rows = nullptr) {
+  ResultsStore shared(dir / "shared" / "results.sqlite"), own(dir / "own" / "results.sqlite");
+  const auto a = shared.rows(name), b = own.rows(name);
+  ASSERT_EQ(a.size(), jobs);
+  ASSERT_EQ(b.size(), jobs);
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i]["job_key"], b[i]["job_key"]);
+    EXPECT_EQ(a[i]["stats_json"], b[i]["stats_json"]) << a[i]["label"];
+  }
+  if (shared_rows) *shared_rows = a;
+}
+
 // With the real simulator: jobs sharing a tree build it once (rtsim build --out into the
 // cache, simulate --bvh) and give byte-identical stats to jobs that build their own.
 TEST(CampaignRun, SharedTreesAreBuiltOnceAndChangeNoResult) {
@@ -242,13 +257,9 @@ TEST(CampaignRun, SharedTreesAreBuiltOnceAndChangeNoResult) {
                      "preset = [\"mobile\", \"desktop\"]\nresolution = \"12x12\"\n"
                      "set.l2.size_bytes = [131072, 262144]\n"),
             1u);  // 4 jobs, one (scene, builder, camera, seed)
-  ResultsStore shared(dir / "shared" / "results.sqlite"), own(dir / "own" / "results.sqlite");
-  const auto a = shared.rows("trees"), b = own.rows("trees");
-  ASSERT_EQ(a.size(), 4u);
-  ASSERT_EQ(b.size(), 4u);
+  std::vector<json> a;
+  ASSERT_NO_FATAL_FAILURE(same_results_either_way(dir, "trees", 4, &a));
   for (size_t i = 0; i < a.size(); ++i) {
-    EXPECT_EQ(a[i]["job_key"], b[i]["job_key"]);
-    EXPECT_EQ(a[i]["stats_json"], b[i]["stats_json"]) << a[i]["label"];
     const json config = json::parse(a[i]["config_json"].get<std::string>());
     EXPECT_EQ(fs::path(config["inputs"]["bvh_file"].get<std::string>()).parent_path(), dir / "cache");
   }
@@ -263,14 +274,7 @@ TEST(CampaignRun, InstancedJobsShareTheirTwoLevelTreeAndChangeNoResult) {
                      "fidelity = \"functional\"\nresolution = \"12x12\"\ninstanced = [false, true]\n"
                      "preset = [\"mobile\", \"desktop\"]\n"),
             2u);  // the flat tree and the two-level one, each shared by two presets
-  ResultsStore shared(dir / "shared" / "results.sqlite"), own(dir / "own" / "results.sqlite");
-  const auto a = shared.rows("inst"), b = own.rows("inst");
-  ASSERT_EQ(a.size(), 4u);
-  ASSERT_EQ(b.size(), 4u);
-  for (size_t i = 0; i < a.size(); ++i) {
-    EXPECT_EQ(a[i]["job_key"], b[i]["job_key"]);
-    EXPECT_EQ(a[i]["stats_json"], b[i]["stats_json"]) << a[i]["label"];
-  }
+  same_results_either_way(dir, "inst", 4);
 }
 
 // build.camera: view1's rays through the tree built for view2 use view2's tree (the
