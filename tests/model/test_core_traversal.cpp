@@ -126,6 +126,67 @@ TEST(CoreBox, FourBoxSlabTestGivesTheScalarAnswersBitForBit) {
   EXPECT_LT(hits, checked - checked / 20);
 }
 
+// The four-lane triangle test decides in float exactly the lanes the scalar test
+// decides in float, with its verdicts bit for bit, and flags the others (those
+// where the scalar test takes a step in double) for the scalar test. The cases
+// mix random triangles with rays through vertices, along edges, in the plane and
+// parallel to it, and degenerate triangles.
+TEST(CoreTriangle, FourLaneTestGivesTheScalarVerdictsBitForBit) {
+  uint64_t float_lanes = 0, exact_lanes = 0, hits = 0;
+  for (uint32_t i = 0; i < 100000; ++i) {
+    KeyedRng rng(2025, {i});
+    const auto point = [&] {
+      return vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f) * 4.0f;
+    };
+    float vertices[36];
+    vec3 tri[4][3];
+    for (int k = 0; k < 4; ++k) {
+      for (int j = 0; j < 3; ++j) tri[k][j] = point();
+      const uint32_t kind = uint32_t(rng.next_u64()) % 8;
+      if (kind == 0) tri[k][2] = tri[k][1];                                // degenerate
+      if (kind == 1 && k > 0) tri[k][0] = tri[k - 1][1], tri[k][1] = tri[k - 1][0];  // a shared edge
+      for (int j = 0; j < 3; ++j)
+        for (int a = 0; a < 3; ++a) vertices[9 * k + 3 * j + a] = tri[k][j][a];
+    }
+    vec3 o = point() * 2.0f, target;
+    const uint32_t aim = uint32_t(rng.next_u64()) % 6;
+    const vec3* t0 = tri[i % 4];
+    if (aim == 0) target = t0[0];                                   // through a vertex
+    else if (aim == 1) target = 0.5f * (t0[0] + t0[1]);             // through an edge
+    else if (aim == 2) o = t0[0] + 3.0f * (t0[1] - t0[0]), target = t0[1];  // along an edge, in the plane
+    else if (aim == 3) target = (t0[0] + t0[1] + t0[2]) / 3.0f;    // the middle
+    else target = point();
+    vec3 d = target - o;
+    if (i % 13 == 0) d[i % 3] = 0.0f;  // zero components
+    if (d == vec3(0.0f)) continue;
+    const float tmin = uint32_t(rng.next_u64()) % 2 ? 0.0f : rng.next_float() * 0.5f;
+    const float tmax = uint32_t(rng.next_u64()) % 2 ? kInf : rng.next_float() * 2.0f;
+    const RayTrianglePrecompute pre(o, d);
+    const TriangleQuadVerdict lanes = intersect_triangle_quad(RayTriangleLanes(pre), vertices, tmin, tmax);
+    for (int k = 0; k < 4; ++k) {
+      TriangleHit th{};
+      uint32_t steps = 0;
+      const bool hit = intersect_triangle(pre, tri[k][0], tri[k][1], tri[k][2], tmin, tmax, &th, &steps);
+      const bool exact = (lanes.exact >> k) & 1u;
+      ASSERT_EQ(exact, steps > 0) << "case " << i << " lane " << k;
+      if (exact) {
+        ASSERT_FALSE((lanes.hit >> k) & 1u) << "case " << i << " lane " << k;
+        ++exact_lanes;
+        continue;
+      }
+      ++float_lanes;
+      ASSERT_EQ(hit, ((lanes.hit >> k) & 1u) != 0) << "case " << i << " lane " << k;
+      if (!hit) continue;
+      ++hits;
+      const float mine[3] = {lanes.t[k], lanes.u[k], lanes.v[k]}, theirs[3] = {th.t, th.u, th.v};
+      ASSERT_EQ(std::memcmp(mine, theirs, sizeof mine), 0) << "case " << i << " lane " << k;
+    }
+  }
+  EXPECT_GT(hits, float_lanes / 20);   // both verdicts occur often
+  EXPECT_GT(exact_lanes, 5000u) << float_lanes;  // and so do the lanes left to the scalar test
+  EXPECT_GT(float_lanes, 250000u);  // of 400,000 lanes, less the skipped cases
+}
+
 TEST(CoreTriangle, FanSharedVertexAndEdgesHitAtLeastOnce) {
   // A fan of triangles around a centre vertex, in the plane z = 0 and tilted.
   for (int tilt = 0; tilt < 2; ++tilt) {

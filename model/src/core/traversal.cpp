@@ -84,8 +84,9 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
     throw InputError("traversal.stack_entry_bytes", "must be at least 1");
   // The image checked the tree's links (children after their parent), so no BVH
   // handed to the core can make a ray loop forever.
-  reserve_on_huge_pages(triangles_, image.slot_count());
-  triangles_.resize(image.slot_count());
+  // Three slots of padding: a leaf's last triangles are tested four lanes at a time.
+  reserve_on_huge_pages(triangles_, image.slot_count() + 3);
+  triangles_.resize(image.slot_count() + 3, PackedTriangle{vec3(0.0f), vec3(0.0f), vec3(0.0f)});
   for (uint32_t s = 0; s < image.slot_count(); ++s) {
     const uint32_t t = image.slot_triangle(s);
     triangles_[s] = PackedTriangle{scene.vertex(t, 0), scene.vertex(t, 1), scene.vertex(t, 2)};
@@ -178,6 +179,7 @@ void RayTraversal::reset(const Ray& ray, TraversalMode mode) {
 void RayTraversal::set_ray_space(const vec3& origin, const vec3& direction) {
   box_ray_ = RayBoxLanes(RayBoxPrecompute(origin, direction));
   tri_ray_ = RayTrianglePrecompute(origin, direction);
+  tri_lanes_ = RayTriangleLanes(tri_ray_);
   direction_ = direction;
 }
 
@@ -399,14 +401,25 @@ void RayTraversal::process_triangles() {
   counters_.triangle_bytes += (end - leaf_cursor_) * image.triangle_bytes();
   candidates_.clear();
   bool committed = false;
-  for (; leaf_cursor_ < end; ++leaf_cursor_) {
+  // The triangles are tested four lanes at a time and their verdicts taken in
+  // memory order, each against the closest hit so far, as if one by one: a lane
+  // that needs a step in double takes the scalar test (which counts it).
+  TriangleQuadVerdict lanes;
+  for (uint32_t lane = 0; leaf_cursor_ < end; ++leaf_cursor_, lane = (lane + 1) & 3u) {
     ++counters_.ist_ops;
     ++last_tests_;
     const uint32_t slot = leaf_slot_ + leaf_cursor_;
-    const PackedTriangle& tri = context_->slot_data(slot);
-    TriangleHit th;
-    if (intersect_triangle(tri_ray_, tri.v0, tri.v1, tri.v2, ray_.tmin, tfar_, &th,
-                           &counters_.ist_exact_steps)) {
+    if (lane == 0)
+      lanes = intersect_triangle_quad(tri_lanes_, &context_->slot_data(slot).v0.x, ray_.tmin, tfar_);
+    const uint32_t bit = 1u << lane;
+    TriangleHit th{lanes.t[lane], lanes.u[lane], lanes.v[lane]};
+    bool hit = (lanes.hit & bit) && th.t <= tfar_;
+    if (lanes.exact & bit) {
+      const PackedTriangle& tri = context_->slot_data(slot);
+      hit = intersect_triangle(tri_ray_, tri.v0, tri.v1, tri.v2, ray_.tmin, tfar_, &th,
+                               &counters_.ist_exact_steps);
+    }
+    if (hit) {
       if (alpha_scene_ && context_->scene().alpha_tested(image.slot_triangle(slot))) {
         candidates_.push_back({th.t, th.u, th.v, slot});  // the any-hit stage decides
         continue;

@@ -263,6 +263,118 @@ inline bool intersect_triangle(const RayTrianglePrecompute& r, const vec3& v0, c
   return true;
 }
 
+// The ray's watertight-test data broadcast to four lanes, made once per ray: its
+// origin permuted to (kx, ky, kz), the shear, and the permutation to apply to
+// the triangles' vertices.
+struct RayTriangleLanes {
+#if defined(__SSE2__)
+  __m128 origin[3], shear_x, shear_y, shear_z;
+#endif
+  int kx = 0, ky = 1, kz = 2;
+  RayTriangleLanes() = default;
+  explicit RayTriangleLanes(const RayTrianglePrecompute& r) : kx(r.kx), ky(r.ky), kz(r.kz) {
+#if defined(__SSE2__)
+    origin[0] = _mm_set1_ps(r.origin[r.kx]);
+    origin[1] = _mm_set1_ps(r.origin[r.ky]);
+    origin[2] = _mm_set1_ps(r.origin[r.kz]);
+    shear_x = _mm_set1_ps(r.shear_x);
+    shear_y = _mm_set1_ps(r.shear_y);
+    shear_z = _mm_set1_ps(r.shear_z);
+#endif
+  }
+};
+
+// intersect_triangle's verdicts on four triangles at once, for the lanes it can
+// decide in float. Lane k is `exact` where the scalar test would take a step in
+// double (an uncertain edge function, or a determinant too close to zero for
+// the float distance): the caller runs intersect_triangle on it, which takes
+// those steps and counts them. Every other lane is the scalar test's verdict
+// bit for bit (the same operations in the same order; the build has no FMA
+// contraction): `hit` with t, u, v, for hits with t in [tmin, tmax].
+// Since t does not depend on tmax, a lane hit stays exactly the scalar verdict
+// for any smaller tmax >= t: the caller may narrow tmax lane by lane as it commits.
+struct TriangleQuadVerdict {
+  uint32_t hit = 0, exact = 0;  // bit k: lane k
+  alignas(16) float t[4], u[4], v[4];
+};
+
+// `vertices`: four triangles of nine floats each (v0, v1, v2), one after another;
+// all 36 floats must be readable, lanes past the caller's count are ignored.
+inline TriangleQuadVerdict intersect_triangle_quad(const RayTriangleLanes& r, const float* vertices,
+                                                   float tmin, float tmax) {
+  TriangleQuadVerdict out;
+#if defined(__SSE2__)
+  // Four rows of nine floats to nine lanes of four: floats 0-3 and 4-7 of each
+  // triangle by two 4x4 transposes, float 8 gathered.
+  __m128 c[9];
+  c[0] = _mm_loadu_ps(vertices), c[1] = _mm_loadu_ps(vertices + 9);
+  c[2] = _mm_loadu_ps(vertices + 18), c[3] = _mm_loadu_ps(vertices + 27);
+  _MM_TRANSPOSE4_PS(c[0], c[1], c[2], c[3]);
+  c[4] = _mm_loadu_ps(vertices + 4), c[5] = _mm_loadu_ps(vertices + 13);
+  c[6] = _mm_loadu_ps(vertices + 22), c[7] = _mm_loadu_ps(vertices + 31);
+  _MM_TRANSPOSE4_PS(c[4], c[5], c[6], c[7]);
+  c[8] = _mm_set_ps(vertices[35], vertices[26], vertices[17], vertices[8]);
+  const __m128 sign_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+  const auto abs = [&](__m128 x) { return _mm_and_ps(x, sign_mask); };
+  struct Sheared {
+    __m128 z, x, y, ax, ay, mx, my;  // as triangle_detail::ShearedVertex; z = p[kz]
+  };
+  const auto shear = [&](int vertex) {
+    const __m128* p = c + 3 * vertex;
+    const __m128 px = _mm_sub_ps(p[r.kx], r.origin[0]), py = _mm_sub_ps(p[r.ky], r.origin[1]);
+    const __m128 pz = _mm_sub_ps(p[r.kz], r.origin[2]);
+    const __m128 sx = _mm_mul_ps(r.shear_x, pz), sy = _mm_mul_ps(r.shear_y, pz);
+    Sheared s;
+    s.z = pz;
+    s.x = _mm_sub_ps(px, sx), s.y = _mm_sub_ps(py, sy);
+    s.ax = abs(s.x), s.ay = abs(s.y);
+    s.mx = _mm_add_ps(abs(px), abs(sx)), s.my = _mm_add_ps(abs(py), abs(sy));
+    return s;
+  };
+  const Sheared a = shear(0), b = shear(1), cv = shear(2);
+  const __m128 gamma16 = _mm_set1_ps(float_gamma(16));
+  const __m128 gamma8_squared = _mm_set1_ps(float_gamma(8) * float_gamma(8));
+  __m128 uncertain = _mm_setzero_ps();
+  const auto edge = [&](const Sheared& p, const Sheared& q, __m128* bound) {
+    const __m128 value = _mm_sub_ps(_mm_mul_ps(p.x, q.y), _mm_mul_ps(p.y, q.x));
+    const __m128 first_order = _mm_add_ps(_mm_add_ps(_mm_mul_ps(p.mx, q.ay), _mm_mul_ps(p.ax, q.my)),
+                                          _mm_add_ps(_mm_mul_ps(p.my, q.ax), _mm_mul_ps(p.ay, q.mx)));
+    const __m128 second_order = _mm_add_ps(_mm_mul_ps(p.mx, q.my), _mm_mul_ps(p.my, q.mx));
+    *bound = _mm_add_ps(_mm_mul_ps(gamma16, first_order), _mm_mul_ps(gamma8_squared, second_order));
+    // Not (|value| > bound), so a NaN is uncertain, as in the scalar test.
+    uncertain = _mm_or_ps(uncertain, _mm_cmpngt_ps(abs(value), *bound));
+    return value;
+  };
+  __m128 bound_u, bound_v, bound_w;
+  const __m128 u = edge(cv, b, &bound_u), v = edge(a, cv, &bound_v), w = edge(b, a, &bound_w);
+  const __m128 zero = _mm_setzero_ps();
+  const __m128 some_negative = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(w, zero));
+  const __m128 some_positive = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(w, zero));
+  const __m128 det = _mm_add_ps(_mm_add_ps(u, v), w);
+  // Lanes that pass the sign test with a nonzero determinant go on to the distance.
+  const __m128 candidate = _mm_andnot_ps(_mm_or_ps(_mm_and_ps(some_negative, some_positive), _mm_cmpeq_ps(det, zero)),
+                                         _mm_castsi128_ps(_mm_set1_epi32(-1)));
+  const __m128 inv_det = _mm_div_ps(_mm_set1_ps(1.0f), det);
+  const __m128 det_certain = _mm_cmpgt_ps(
+      abs(det), _mm_mul_ps(_mm_set1_ps(256.0f), _mm_add_ps(_mm_add_ps(bound_u, bound_v), bound_w)));
+  const __m128 az = _mm_mul_ps(r.shear_z, a.z), bz = _mm_mul_ps(r.shear_z, b.z), cz = _mm_mul_ps(r.shear_z, cv.z);
+  const __m128 t = _mm_mul_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)), _mm_mul_ps(w, cz)), inv_det);
+  const __m128 in_range = _mm_and_ps(_mm_and_ps(_mm_cmpge_ps(t, _mm_set1_ps(tmin)), _mm_cmple_ps(t, _mm_set1_ps(tmax))),
+                                     _mm_cmpneq_ps(abs(t), _mm_set1_ps(std::numeric_limits<float>::infinity())));
+  const uint32_t uncertain_mask = uint32_t(_mm_movemask_ps(uncertain));
+  const uint32_t candidate_mask = uint32_t(_mm_movemask_ps(candidate));
+  out.exact = uncertain_mask | (candidate_mask & ~uint32_t(_mm_movemask_ps(det_certain)));
+  out.hit = candidate_mask & uint32_t(_mm_movemask_ps(in_range)) & ~out.exact;
+  _mm_store_ps(out.t, t);
+  _mm_store_ps(out.u, _mm_mul_ps(v, inv_det));
+  _mm_store_ps(out.v, _mm_mul_ps(w, inv_det));
+#else
+  (void)r, (void)vertices, (void)tmin, (void)tmax;
+  out.exact = 0xf;  // no lanes: every triangle takes the scalar test
+#endif
+  return out;
+}
+
 // Moves a surface point off the surface along the unit normal `n` (pointing to
 // the side the new ray leaves on) so that the new ray cannot hit the surface it
 // starts on (Waechter & Binder 2019). The step is a fixed number of float ulps

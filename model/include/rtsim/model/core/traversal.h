@@ -120,6 +120,7 @@ struct RayCounters {
 struct PackedTriangle {
   vec3 v0, v1, v2;
 };
+static_assert(sizeof(PackedTriangle) == 9 * sizeof(float), "the IST lanes read triangles as runs of nine floats");
 
 // Everything shared by all rays of one (scene, BVH, memory layout). The scene,
 // BVH and image must outlive it.
@@ -284,6 +285,7 @@ class RayTraversal {
   Ray ray_;
   RayBoxLanes box_ray_;
   RayTrianglePrecompute tri_ray_;
+  RayTriangleLanes tri_lanes_;
   vec3 direction_{0.0f};      // the ray's direction in the current space (world, or the BLAS's object space)
   TraversalMode mode_ = TraversalMode::ClosestHit;
   TraversalAction action_ = TraversalAction::Done;
