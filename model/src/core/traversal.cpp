@@ -410,7 +410,7 @@ void RayTraversal::process_triangles() {
     ++last_tests_;
     const uint32_t slot = leaf_slot_ + leaf_cursor_;
     if (lane == 0)
-      lanes = intersect_triangle_quad(tri_lanes_, &context_->slot_data(slot).v0.x, ray_.tmin, tfar_);
+      lanes = intersect_triangle_quad(tri_lanes_, context_->slot_vertices(slot), ray_.tmin, tfar_);
     const uint32_t bit = 1u << lane;
     TriangleHit th{lanes.t[lane], lanes.u[lane], lanes.v[lane]};
     bool hit = (lanes.hit & bit) && th.t <= tfar_;

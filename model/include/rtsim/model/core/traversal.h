@@ -160,6 +160,9 @@ class TraversalContext {
   const TraversalConfig& config() const { return config_; }
   // Triangle data by memory slot (see MemoryImage): the leaf's triangles in order.
   const PackedTriangle& slot_data(uint32_t slot) const { return triangles_[slot]; }
+  // The nine floats of slot `slot` and of the slots after it; readable for
+  // four slots from any slot (three slots of zero padding at the end).
+  const float* slot_vertices(uint32_t slot) const { return reinterpret_cast<const float*>(triangles_.data() + slot); }
   bool own_box_records() const { return own_box_records_; }  // bvh2-32
   // Child-box formats only: record r's head, its box quads (the boxes as the
   // record decodes them) and its children's targets.
