@@ -246,6 +246,12 @@ void RayDispatcher::add_spawned(uint32_t core, const std::vector<Ray>& rays, uin
   secondary_queued_ += rays.size();
 }
 
+void RayDispatcher::reserve_rays(uint64_t rays) {
+  // A bound far above the frame's share (glass doubles per bounce) is capped: the
+  // array still grows past it if it must.
+  rays_.reserve(size_t(std::min<uint64_t>(rays, uint64_t(initial_count_) * 16 + 1024)));
+}
+
 void RayDispatcher::restart(uint64_t frame_start_ps) {
   rays_.resize(initial_count_);
   start_frame(frame_start_ps);

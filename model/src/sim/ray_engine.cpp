@@ -80,6 +80,12 @@ bool RayEngine::EventCalendar::pop(Event* out) {
   }
 }
 
+uint64_t frame_ray_bound(const Workload& workload) {
+  const uint64_t initial = workload.initial_rays.size();
+  if (!workload.spawn_secondary || !workload.scene) return initial;
+  return max_frame_rays(*workload.scene, workload.plan, initial);
+}
+
 RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, bool timed)
     : config_(config), shape_(MachineShape::of(config)), workload_(&workload), timed_(timed),
       cycle_ps_(uint64_t(std::llround(config.clock_period_ps()))),
@@ -101,6 +107,7 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
   xfm_latency_ps_ = uint64_t(config.xfm_latency) * cycle_ps_;
   test_latency_ps_ = uint64_t(config.ist_test_latency) * cycle_ps_;
   shading_latency_ps_ = uint64_t(config.shading_latency) * cycle_ps_;
+  dispatcher_.reserve_rays(frame_ray_bound(workload));
   anyhit_tests_.assign(shape_.ist_units(), 0);
   anyhit_interval_ps_ = interval_ps(config.anyhit_tests_per_cycle, cycle_ps_);
   anyhit_latency_ps_ = uint64_t(config.anyhit_test_latency) * cycle_ps_;

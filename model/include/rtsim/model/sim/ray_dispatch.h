@@ -73,6 +73,10 @@ class RayDispatcher {
   const std::vector<RayReorderBuffer>& reorder_units() const { return reorder_; }
   // Rays a core's shading spawned (ready at ready_ps), appended to rays().
   void add_spawned(uint32_t core, const std::vector<Ray>& rays, uint64_t ready_ps);
+  // Room for `rays` rays in all (the initial and the spawned) before the frame
+  // runs: a frame of a million rays otherwise grows the array twenty times, each
+  // a copy of all of it onto fresh pages.
+  void reserve_rays(uint64_t rays);
   const std::vector<Ray>& rays() const { return rays_; }
   // The next frame, from frame_start_ps: the same initial rays again (shading spawns
   // the same secondaries).

@@ -105,6 +105,11 @@ using AccessObserver = std::function<void(const Ray& ray, const MemoryAccess& ac
 
 // The rays of one run: the initial set (primary rays or a ray file) and, when
 // the scene's effects call for them, the secondary rays shading spawns.
+struct Workload;
+// The most rays a frame of the workload holds (its initial rays and, where shading
+// spawns, max_frame_rays), for the dispatcher to reserve.
+uint64_t frame_ray_bound(const Workload& workload);
+
 struct Workload {
   const Scene* scene = nullptr;
   const TraversalContext* context = nullptr;
