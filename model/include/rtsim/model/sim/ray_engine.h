@@ -105,11 +105,6 @@ using AccessObserver = std::function<void(const Ray& ray, const MemoryAccess& ac
 
 // The rays of one run: the initial set (primary rays or a ray file) and, when
 // the scene's effects call for them, the secondary rays shading spawns.
-struct Workload;
-// The most rays a frame of the workload holds (its initial rays and, where shading
-// spawns, max_frame_rays), for the dispatcher to reserve.
-uint64_t frame_ray_bound(const Workload& workload);
-
 struct Workload {
   const Scene* scene = nullptr;
   const TraversalContext* context = nullptr;
@@ -123,6 +118,10 @@ struct Workload {
   RayProbe* probe = nullptr;     // optional: the ray whose every request is traced
   Timeline* timeline = nullptr;  // optional (lt, cycle): the run drawn as spans
 };
+
+// The most rays a frame of the workload holds (its initial rays and, where shading
+// spawns, max_frame_rays), for the dispatcher to reserve.
+uint64_t frame_ray_bound(const Workload& workload);
 
 // What each frame of a multi-frame run cost: the first shows the cold caches, the
 // last the steady state (the run's stats are the last frame's).
