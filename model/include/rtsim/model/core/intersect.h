@@ -371,6 +371,7 @@ inline TriangleQuadVerdict intersect_triangle_quad(const RayTriangleLanes& r, co
 #else
   (void)r, (void)vertices, (void)tmin, (void)tmax;
   out.exact = 0xf;  // no lanes: every triangle takes the scalar test
+  for (int k = 0; k < 4; ++k) out.t[k] = out.u[k] = out.v[k] = 0.0f;  // the caller copies them before it asks
 #endif
   return out;
 }
