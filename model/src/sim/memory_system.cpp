@@ -226,7 +226,7 @@ LtSystem::LtSystem(sc_core::sc_module_name name, const HardwareConfig& config,
     const std::string instance = shape.l1_node_name(u);
     l1_node.push_back(std::make_unique<LtCache>(MachineShape::module_name(instance).c_str(),
                                                 config.l1_node_of(shape.core_of_trv(u)), cycle_ps));
-    l1_node.back()->set_level(1, &engine.trv_accounting()[u]);
+    l1_node.back()->set_level(1, &engine.trv_units()[u].accounting);
     trv_ports_.push_back(std::make_unique<tlm_utils::simple_initiator_socket<LtSystem>>(
         MachineShape::module_name(shape.trv_name(u) + "_memory").c_str()));
     trv_ports_.back()->bind(l1_node.back()->target);

@@ -20,12 +20,6 @@ void append_line_accesses_merging(const MemoryAccess& a, RayType type, uint32_t 
   });
 }
 
-namespace {
-uint64_t interval_ps(double per_cycle, uint64_t cycle_ps) {
-  return std::max<uint64_t>(1, uint64_t(std::llround(double(cycle_ps) / per_cycle)));
-}
-}  // namespace
-
 void RayEngine::EventCalendar::push(const Event& e) {
   const uint64_t bucket = e.time_ps / bucket_ps_;
   if (in_buckets_ == 0 && overflow_.empty()) base_ = bucket;  // events never go back in time
@@ -92,25 +86,11 @@ RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, boo
       dispatcher_(IssuePolicy::from(config), workload.initial_rays, workload.width,
                   workload.height, workload.spawn_secondary, workload.context),
       visit_order_(free_slot_order(shape_.trv_units(), config.trv_ray_slots)),
-      trv_free_(shape_.trv_units(), 0), ist_free_(shape_.ist_units(), 0),
-      shading_free_(shape_.cores, 0), raygen_free_(shape_.cores, 0),
-      trv_account_(timed ? shape_.trv_units() : 0), ist_account_(timed ? shape_.ist_units() : 0),
-      shading_account_(timed && workload.spawn_secondary ? shape_.cores : 0),
-      trv_passes_(shape_.trv_units(), 0), ist_tests_(shape_.ist_units(), 0),
-      shaded_(shape_.cores, 0), spawned_count_(shape_.cores, 0),
+      trv_(shape_.trv_units(), TrvUnit(config_, cycle_ps_)), ist_(shape_.ist_units(), IstUnit(config_, cycle_ps_)),
+      shading_(workload.spawn_secondary ? shape_.cores : 0, ShadingUnit(config_, cycle_ps_)),
+      raygen_(shape_.cores, RayGenUnit(config_, cycle_ps_)),
       events_(cycle_ps_, /*heaps=*/shape_.slots() > 512) {
-  trv_interval_ps_ = interval_ps(config.trv_nodes_per_cycle, cycle_ps_);
-  ist_interval_ps_ = interval_ps(config.ist_tests_per_cycle, cycle_ps_);
-  shading_interval_ps_ = interval_ps(config.shading_rays_per_cycle, cycle_ps_);
-  raygen_interval_ps_ = interval_ps(config.raygen_rays_per_cycle, cycle_ps_);
-  box_latency_ps_ = uint64_t(config.trv_box_test_latency) * cycle_ps_;
-  xfm_latency_ps_ = uint64_t(config.xfm_latency) * cycle_ps_;
-  test_latency_ps_ = uint64_t(config.ist_test_latency) * cycle_ps_;
-  shading_latency_ps_ = uint64_t(config.shading_latency) * cycle_ps_;
   dispatcher_.reserve_rays(frame_ray_bound(workload));
-  anyhit_tests_.assign(shape_.ist_units(), 0);
-  anyhit_interval_ps_ = interval_ps(config.anyhit_tests_per_cycle, cycle_ps_);
-  anyhit_latency_ps_ = uint64_t(config.anyhit_test_latency) * cycle_ps_;
   const uint32_t count = shape_.slots();
   slots_.reserve(count);
   for (uint32_t id = 0; id < count; ++id)
@@ -125,15 +105,10 @@ CounterTotals RayEngine::total() const {
 }
 
 void RayEngine::reset_counters() {
-  for (auto* units : {&trv_account_, &ist_account_, &shading_account_})
-    for (UnitAccounting& a : *units) a.restart(frame_start_ps_);
-  trv_passes_by_type_ = ist_tests_by_type_ = ray_ps_by_type_ = {};
-  std::fill(trv_passes_.begin(), trv_passes_.end(), 0);
-  std::fill(ist_tests_.begin(), ist_tests_.end(), 0);
-  std::fill(anyhit_tests_.begin(), anyhit_tests_.end(), 0);
+  for (TrvUnit& u : trv_) u.restart(frame_start_ps_);
+  for (IstUnit& u : ist_) u.restart(frame_start_ps_);
+  for (ShadingUnit& u : shading_) u.restart(frame_start_ps_);
   per_type_ = {};
-  std::fill(shaded_.begin(), shaded_.end(), 0);
-  std::fill(spawned_count_.begin(), spawned_count_.end(), 0);
 }
 
 template <class Port>
@@ -216,15 +191,14 @@ bool RayEngine::start_next_ray(Slot& slot, uint64_t now_ps, uint64_t* start_ps) 
   slot.ray = ray;
   slot.traversal.reset(dispatcher_.rays()[ray]);
   slot.active = true;
-  const uint64_t start = std::max(now_ps, raygen_free_[core]);
-  raygen_free_[core] = start + raygen_interval_ps_;
+  const uint64_t start = raygen_[core].issue(now_ps);
   slot.start_ps = start;
   *start_ps = start;
   RayProbe* probe = workload_->probe;
   slot.probed = probe && probe->is(slot.traversal.ray());
   slot.watched = slot.probed || bool(workload_->observer);
   if (slot.probed) probe->begin(timed_ ? start : 0);
-  if (timed_) trv_account_[slot.unit].change(now_ps, start, UnitAccounting::Resident, +1);
+  if (timed_) trv_[slot.unit].accounting.change(now_ps, start, UnitAccounting::Resident, +1);
   return true;
 }
 
@@ -233,30 +207,23 @@ void RayEngine::finish(Slot& slot, uint64_t now, uint64_t t) {
   per_type_[size_t(trv.ray().type)].add(trv.counters(), trv.hit().hit());
   if (slot.probed) workload_->probe->end(t, trv.counters());
   if (timed_) {
-    trv_account_[slot.unit].change(now, t, UnitAccounting::Resident, -1);
-    ray_ps_by_type_[size_t(trv.ray().type)] += t - slot.start_ps;
+    trv_[slot.unit].accounting.change(now, t, UnitAccounting::Resident, -1);
+    trv_[slot.unit].ray_done(trv.ray().type, slot.start_ps, t);
   }
   slot.active = false;
   ++done_rays_;
   end_ps_ = std::max(end_ps_, t);
   if (!workload_->spawn_secondary) return;
-  spawned_.clear();
-  // dispatcher_.rays() may grow below: take what spawning needs first.
-  const Ray ray = trv.ray();
-  spawn_secondary_rays(*workload_->scene, workload_->plan, workload_->settings, ray, slot.ray,
-                       trv.hit(), spawned_);
   const uint32_t core = slot.core;
-  ++shaded_[core];
-  spawned_count_[core] += spawned_.size();
+  ShadingUnit& shading = shading_[core];
+  shading.shade(*workload_, trv.ray(), slot.ray, trv.hit(), spawned_);
   uint64_t ready = 0;
   if (timed_) {
-    const uint64_t start = std::max(t, shading_free_[core]);
-    shading_free_[core] = start + shading_interval_ps_;
-    ready = start + shading_latency_ps_;
-    UnitAccounting& shading = shading_account_[core];
-    shading.reserve(now, start, shading_free_[core]);
-    shading.change(now, start, UnitAccounting::Resident, +1);
-    shading.change(now, ready, UnitAccounting::Resident, -1);
+    // The ray is resident from its turn in the pipeline to its result.
+    const Issue issue = shading.take(now, t);
+    ready = issue.ready;
+    shading.accounting.change(now, issue.start, UnitAccounting::Resident, +1);
+    shading.accounting.change(now, ready, UnitAccounting::Resident, -1);
     end_ps_ = std::max(end_ps_, ready);
   }
   if (spawned_.empty()) return;
@@ -286,8 +253,11 @@ void RayEngine::run(MemoryPort& port, const std::function<void(uint64_t)>& sync,
     else run_rounds(port, progress);
     frame_end(frame + 1 == frames);
   }
-  for (auto* units : {&trv_account_, &ist_account_, &shading_account_})
-    for (UnitAccounting& a : *units) a.finish(end_ps_);
+  if (timed_) {
+    for (TrvUnit& u : trv_) u.accounting.finish(end_ps_);
+    for (IstUnit& u : ist_) u.accounting.finish(end_ps_);
+    for (ShadingUnit& u : shading_) u.accounting.finish(end_ps_);
+  }
   progress(done_rays_);
 }
 
@@ -302,19 +272,14 @@ void RayEngine::run_rounds(Port& port, const std::function<void(uint64_t)>& prog
       uint64_t start = 0;
       if (!slot.active && !start_next_ray(slot, UINT64_MAX, &start)) continue;
       RayTraversal& trv = slot.traversal;
-      const bool transform = trv.action() == TraversalAction::Transform;
-      const bool node_step = trv.action() == TraversalAction::FetchNode || transform;
-      const bool alpha_step = trv.action() == TraversalAction::AlphaTest;
-      const uint32_t passes = node_step ? config_.trv_step_passes(trv.step_box_tests(), transform) : 0;
       if (!trv.done()) {
         if (slot.probed) workload_->probe->next_step();
         const std::vector<MemoryAccess>& reads = trv.step_reads();
         issue(port, slot, reads, 0, reads.size(), 0);
-        trv.process();
-        const size_t type = size_t(trv.ray().type);
-        if (node_step) trv_passes_[slot.unit] += passes, trv_passes_by_type_[type] += passes;
-        else if (alpha_step) ++anyhit_tests_[slot.ist];
-        else ist_tests_[slot.ist] += trv.last_step_tests(), ist_tests_by_type_[type] += trv.last_step_tests();
+        if (trv.action() == TraversalAction::FetchNode || trv.action() == TraversalAction::Transform)
+          trv_[slot.unit].take_step(trv);
+        else
+          ist_[slot.ist].take_step(trv);
         const std::vector<MemoryAccess>& stack = trv.stack_accesses();
         if (!stack.empty()) issue(port, slot, stack, 0, stack.size(), 0);
       }
@@ -342,7 +307,7 @@ void RayEngine::issue_step(MemoryPort& port, uint32_t id, uint64_t t) {
   const bool triangles =
       trv.action() == TraversalAction::TestTriangles || trv.action() == TraversalAction::AlphaTest;
   slot.step = triangles ? Slot::Step::Triangles : Slot::Step::Node;
-  trv_account_[slot.unit].change(t, triangles ? UnitAccounting::Downstream : UnitAccounting::AtL1, +1);
+  trv_[slot.unit].accounting.change(t, triangles ? UnitAccounting::Downstream : UnitAccounting::AtL1, +1);
   const std::vector<MemoryAccess>& reads = trv.step_reads();
   const size_t independent = trv.step_independent_reads();
   const uint64_t back = issue(port, slot, reads, 0, independent, t);
@@ -384,55 +349,25 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
         break;
       }
       case EventKind::Arrive: {
+        // The step's data is here: a node (or instance transform) enters its TRV unit's
+        // box-test pipeline; a leaf's triangles, or an alpha test, its IST unit's test
+        // pipeline, which holds the step from the data's arrival to its last result.
         uint64_t ready;
-        const size_t type = size_t(trv.ray().type);
-        const bool transform = trv.action() == TraversalAction::Transform;
-        if (trv.action() == TraversalAction::FetchNode || transform) {
-          // A node takes one pipeline pass per trv.boxes_per_pass child boxes; an
-          // instance transform xfm.passes, with its own latency.
-          const uint32_t passes = config_.trv_step_passes(trv.step_box_tests(), transform);
-          const uint64_t start = std::max(t, trv_free_[slot.unit]);
-          trv_free_[slot.unit] = start + passes * trv_interval_ps_;
-          UnitAccounting& unit = trv_account_[slot.unit];
-          unit.change(t, UnitAccounting::AtL1, -1);
-          unit.reserve(t, start, trv_free_[slot.unit]);
-          ready = start + (passes - 1) * trv_interval_ps_ + (transform ? xfm_latency_ps_ : box_latency_ps_);
-          trv.process();
-          trv_passes_[slot.unit] += passes;
-          trv_passes_by_type_[type] += passes;
-        } else if (trv.action() == TraversalAction::AlphaTest) {
-          // The IST unit's any-hit stage: one alpha test, issued into the unit's
-          // pipeline (the stage shares its issue slot) with its own rate and latency.
-          trv.process();
-          const uint32_t ist = slot.ist;
-          const uint64_t start = std::max(t, ist_free_[ist]);
-          ist_free_[ist] = start + anyhit_interval_ps_;
-          ready = start + anyhit_latency_ps_;
-          UnitAccounting& unit = ist_account_[ist];
-          unit.reserve(t, start, ist_free_[ist]);
-          unit.change(t, UnitAccounting::Resident, +1);
-          unit.change(t, ready, UnitAccounting::Resident, -1);
-          ++anyhit_tests_[ist];
+        if (trv.action() == TraversalAction::FetchNode || trv.action() == TraversalAction::Transform) {
+          TrvUnit& unit = trv_[slot.unit];
+          unit.accounting.change(t, UnitAccounting::AtL1, -1);
+          ready = unit.take_step(trv, t);
         } else {
-          trv.process();
-          const uint32_t tests = trv.last_step_tests();
-          const uint32_t ist = slot.ist;
-          const uint64_t start = std::max(t, ist_free_[ist]);
-          ist_free_[ist] = start + tests * ist_interval_ps_;
-          ready = start + (tests - 1) * ist_interval_ps_ + test_latency_ps_;
-          // The IST unit holds the leaf from its data's arrival to its last test's result.
-          UnitAccounting& unit = ist_account_[ist];
-          unit.reserve(t, start, ist_free_[ist]);
-          unit.change(t, UnitAccounting::Resident, +1);
-          unit.change(t, ready, UnitAccounting::Resident, -1);
-          ist_tests_[ist] += tests;
-          ist_tests_by_type_[type] += tests;
+          IstUnit& unit = ist_[slot.ist];
+          ready = unit.take_step(trv, t);
+          unit.accounting.change(t, UnitAccounting::Resident, +1);
+          unit.accounting.change(t, ready, UnitAccounting::Resident, -1);
         }
         schedule(ready, e.slot, EventKind::Complete);
         break;
       }
       case EventKind::Complete: {
-        UnitAccounting& unit = trv_account_[slot.unit];
+        UnitAccounting& unit = trv_[slot.unit].accounting;
         if (slot.step == Slot::Step::Triangles) unit.change(t, UnitAccounting::Downstream, -1);
         slot.step = Slot::Step::None;
         const std::vector<MemoryAccess>& stack = trv.stack_accesses();
@@ -463,8 +398,8 @@ void RayEngine::run_timed(MemoryPort& port, const std::function<void(uint64_t)>&
   for (const Slot& slot : slots_)
     if (slot.active) throw std::logic_error("lt engine: events ran out with rays in flight");
   if (!dispatcher_.empty()) throw std::logic_error("lt engine: events ran out with rays queued");
-  for (uint64_t f : trv_free_) end_ps_ = std::max(end_ps_, f);
-  for (uint64_t f : ist_free_) end_ps_ = std::max(end_ps_, f);
+  for (const TrvUnit& u : trv_) end_ps_ = std::max(end_ps_, u.pipeline_free_ps());
+  for (const IstUnit& u : ist_) end_ps_ = std::max(end_ps_, u.pipeline_free_ps());
 }
 
 }  // namespace rtsim::sim

@@ -465,58 +465,83 @@ namespace {
 
 using Progress = std::function<void(uint64_t)>;
 
-// Figures of the engine's units (functional and lt). Untimed, a unit is busy for
-// its work / throughput and idle for the rest of the estimate; timed, the engine's
-// accounting splits the time (accounting.h).
-void engine_figures(RayEngine& engine, bool timed, const HardwareConfig& c, uint64_t total_ps,
-                    MachineFigures& f) {
+template <typename T>
+std::vector<const T*> pointers_to(const std::vector<T>& units) {
+  std::vector<const T*> out;
+  for (const T& u : units) out.push_back(&u);
+  return out;
+}
+
+// Figures of the units (units/*.h), the same for every level. Timed, each unit's
+// accounting (finished at the run's end) splits the time, and its steps' reserved
+// pipeline time is what each ray type kept it busy. Untimed (functional), a unit is
+// busy for its work / throughput and idle for the rest of the estimate.
+// `queued_ist`: the level models the IST queue that holds leaves back (cycle).
+void unit_figures(const std::vector<const TrvUnit*>& trv, const std::vector<const IstUnit*>& ist,
+                  const std::vector<const ShadingUnit*>& shading, bool timed, bool queued_ist,
+                  const HardwareConfig& c, uint64_t total_ps,
+                  const std::array<CounterTotals, kRayTypeCount>& per_type, MachineFigures& f) {
   const double cycle_ps = c.clock_period_ps();
-  const auto untimed = [&](const std::vector<uint64_t>& work, double per_cycle, std::vector<CycleSplit>& out) {
-    for (uint64_t w : work) {
-      const uint64_t busy = std::min(total_ps, uint64_t(std::llround(double(w) / per_cycle * cycle_ps)));
-      CycleSplit split{};
-      split[size_t(CycleBucket::Busy)] = busy;
-      split[size_t(CycleBucket::Idle)] = total_ps - busy;
-      out.push_back(split);
+  const auto untimed = [&](uint64_t work, double per_cycle) {
+    const uint64_t busy = std::min(total_ps, uint64_t(std::llround(double(work) / per_cycle * cycle_ps)));
+    CycleSplit split{};
+    split[size_t(CycleBucket::Busy)] = busy;
+    split[size_t(CycleBucket::Idle)] = total_ps - busy;
+    return split;
+  };
+  const auto busy_ps = [&](uint64_t work, double per_cycle) {
+    return uint64_t(std::llround(double(work) / per_cycle * cycle_ps));
+  };
+  for (const TrvUnit* u : trv) {
+    f.trv_passes.push_back(u->passes);
+    f.trv.push_back(timed ? u->accounting.ps() : untimed(u->passes, c.trv_nodes_per_cycle));
+    if (queued_ist) f.trv_leaves_blocked.push_back(u->leaves_blocked);
+    for (size_t t = 0; timed && t < kRayTypeCount; ++t) {
+      f.trv_busy_ps_by_type[t] += u->busy_ps_by_type[t];
+      f.ray_ps_by_type[t] += u->ray_ps_by_type[t];
     }
-  };
-  const auto accounted = [](const std::vector<UnitAccounting>& units, std::vector<CycleSplit>& out) {
-    for (const UnitAccounting& u : units) out.push_back(u.ps());
-  };
-  f.trv_passes = engine.trv_passes();
-  f.ist_tests = engine.ist_tests();
-  f.anyhit_tests = engine.anyhit_tests();
-  f.anyhit = engine.anyhit_stage();
-  f.shaded = engine.shaded();
-  f.spawned = engine.spawned();
-  if (timed) {
-    f.reorder = engine.dispatcher().finish_reorder_accounting(engine.end_ps());
-    accounted(engine.trv_accounting(), f.trv);
-    accounted(engine.ist_accounting(), f.ist);
-    accounted(engine.shading_accounting(), f.shading);
-  } else {
-    untimed(f.trv_passes, c.trv_nodes_per_cycle, f.trv);
-    untimed(f.ist_tests, c.ist_tests_per_cycle, f.ist);
+  }
+  for (const IstUnit* u : ist) {
+    f.ist_tests.push_back(u->tests);
+    f.anyhit_tests.push_back(u->anyhit_tests);
+    if (timed) {
+      f.ist.push_back(u->accounting.ps());
+      for (size_t t = 0; t < kRayTypeCount; ++t) f.ist_busy_ps_by_type[t] += u->busy_ps_by_type[t];
+      continue;
+    }
     // The any-hit stage issues into the IST pipeline: its tests add to the unit's busy time.
-    for (size_t u = 0; f.anyhit && u < f.ist.size(); ++u) {
-      CycleSplit& split = f.ist[u];
-      const uint64_t more = std::min(split[size_t(CycleBucket::Idle)],
-                                     uint64_t(std::llround(double(f.anyhit_tests[u]) / c.anyhit_tests_per_cycle * cycle_ps)));
+    CycleSplit split = untimed(u->tests, c.ist_tests_per_cycle);
+    if (f.anyhit) {
+      const uint64_t more = std::min(split[size_t(CycleBucket::Idle)], busy_ps(u->anyhit_tests, c.anyhit_tests_per_cycle));
       split[size_t(CycleBucket::Busy)] += more;
       split[size_t(CycleBucket::Idle)] -= more;
     }
-    if (engine.spawned_rays_are_shaded()) untimed(f.shaded, c.shading_rays_per_cycle, f.shading);
+    f.ist.push_back(split);
   }
+  for (const ShadingUnit* u : shading) {
+    f.shading.push_back(timed ? u->accounting.ps() : untimed(u->shaded, c.shading_rays_per_cycle));
+    f.shaded.push_back(u->shaded);
+    f.spawned.push_back(u->spawned);
+  }
+  if (timed) return;
   for (size_t t = 0; t < kRayTypeCount; ++t) {
-    f.trv_busy_ps_by_type[t] = uint64_t(std::llround(double(engine.trv_passes_by_type()[t]) /
-                                                     c.trv_nodes_per_cycle * cycle_ps));
-    // The any-hit stage's tests take the IST pipeline too (as the cycle level counts them).
-    f.ist_busy_ps_by_type[t] = uint64_t(std::llround(double(engine.ist_tests_by_type()[t]) /
-                                                     c.ist_tests_per_cycle * cycle_ps)) +
-                               uint64_t(std::llround(double(engine.per_type()[t].anyhit_tests) /
-                                                     c.anyhit_tests_per_cycle * cycle_ps));
+    uint64_t passes = 0, tests = 0;
+    for (const TrvUnit* u : trv) passes += u->passes_by_type[t];
+    for (const IstUnit* u : ist) tests += u->tests_by_type[t];
+    f.trv_busy_ps_by_type[t] = busy_ps(passes, c.trv_nodes_per_cycle);
+    // The any-hit stage's tests take the IST pipeline too (as the timed levels count them).
+    f.ist_busy_ps_by_type[t] = busy_ps(tests, c.ist_tests_per_cycle) +
+                               busy_ps(per_type[t].anyhit_tests, c.anyhit_tests_per_cycle);
   }
-  f.ray_ps_by_type = engine.ray_ps_by_type();
+}
+
+// The engine's units (functional and lt).
+void engine_figures(RayEngine& engine, bool timed, const HardwareConfig& c, uint64_t total_ps,
+                    MachineFigures& f) {
+  f.anyhit = engine.anyhit_stage();
+  if (timed) f.reorder = engine.dispatcher().finish_reorder_accounting(engine.end_ps());
+  unit_figures(pointers_to(engine.trv_units()), pointers_to(engine.ist_units()),
+               pointers_to(engine.shading_units()), timed, false, c, total_ps, engine.per_type(), f);
   f.dispatcher = &engine.dispatcher();
 }
 
@@ -573,7 +598,7 @@ void run_functional(const SimulationRequest& request, const HardwareConfig& conf
   const double bytes_per_cycle = memory.dram.peak_bytes_per_second() * cycle_ps * 1e-12;
   const uint64_t dram_bytes = memory.dram.counters().bytes;
   uint64_t trv_passes = 0;
-  for (uint64_t p : engine.trv_passes()) trv_passes += p;
+  for (const TrvUnit& u : engine.trv_units()) trv_passes += u.passes;
   const double trv_cycles = double(trv_passes) / (m.trv_units() * config.trv_nodes_per_cycle);
   // The any-hit stage shares the IST pipeline (zero tests on an opaque scene).
   const double ist_cycles = double(total.ist_ops) / (m.ist_units() * config.ist_tests_per_cycle) +
@@ -602,15 +627,16 @@ void run_lt(const SimulationRequest& request, const HardwareConfig& config, cons
             const Progress& progress, const std::function<void()>& stop_clock, SimulationResult& result) {
   LtSystem lt("lt", config, work, progress);
   if (!config.accounted()) {
-    for (auto* units : {&lt.engine.trv_accounting(), &lt.engine.ist_accounting(), &lt.engine.shading_accounting()})
-      for (UnitAccounting& a : *units) a.switch_off();
+    for (TrvUnit& u : lt.engine.trv_units()) u.accounting.switch_off();
+    for (IstUnit& u : lt.engine.ist_units()) u.accounting.switch_off();
+    for (ShadingUnit& u : lt.engine.shading_units()) u.accounting.switch_off();
     for (RayReorderBuffer& r : lt.engine.dispatcher().reorder_units()) r.accounting.switch_off();
   }
   if (work.timeline) {
     RayEngine& e = lt.engine;
-    const auto pointers = [](std::vector<UnitAccounting>& v) {
+    const auto pointers = [](auto& units) {
       std::vector<UnitAccounting*> out;
-      for (UnitAccounting& a : v) out.push_back(&a);
+      for (auto& u : units) out.push_back(&u.accounting);
       return out;
     };
     const auto caches = [](std::vector<std::unique_ptr<LtCache>>& v) {
@@ -618,8 +644,8 @@ void run_lt(const SimulationRequest& request, const HardwareConfig& config, cons
       for (auto& c : v) out.push_back(c.get());
       return out;
     };
-    draw_machine(*work.timeline, config, lt.shape, pointers(e.trv_accounting()), pointers(e.ist_accounting()),
-                 pointers(e.shading_accounting()), e.dispatcher(), caches(lt.l1_node), caches(lt.l1_triangle),
+    draw_machine(*work.timeline, config, lt.shape, pointers(e.trv_units()), pointers(e.ist_units()),
+                 pointers(e.shading_units()), e.dispatcher(), caches(lt.l1_node), caches(lt.l1_triangle),
                  caches(lt.l1_texture), caches(lt.l2),
                  lt.noc_model, lt.dram->model);
   }
@@ -650,16 +676,16 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
                SimulationResult& result) {
   CycleSystem system("accelerator", config, work, progress);
   if (!config.accounted()) {
-    for (auto& u : system.trv) u->accounting.switch_off();
-    for (auto& u : system.ist) u->accounting.switch_off();
-    for (auto& u : system.shading) u->accounting.switch_off();
+    for (auto& u : system.trv) u->model.accounting.switch_off();
+    for (auto& u : system.ist) u->model.accounting.switch_off();
+    for (auto& u : system.shading) u->model.accounting.switch_off();
     for (RayReorderBuffer& r : system.dispatcher.reorder_units()) r.accounting.switch_off();
   }
   if (work.timeline) {
     std::vector<UnitAccounting*> trv, ist, shading;
-    for (auto& u : system.trv) trv.push_back(&u->accounting);
-    for (auto& u : system.ist) ist.push_back(&u->accounting);
-    for (auto& u : system.shading) shading.push_back(&u->accounting);
+    for (auto& u : system.trv) trv.push_back(&u->model.accounting);
+    for (auto& u : system.ist) ist.push_back(&u->model.accounting);
+    for (auto& u : system.shading) shading.push_back(&u->model.accounting);
     const auto caches = [](std::vector<std::unique_ptr<CycleCache>>& v) {
       std::vector<CycleCache*> out;
       for (auto& c : v) out.push_back(c.get());
@@ -684,31 +710,14 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
   result.frame_start_ps = system.frame_start_ps;
   system.dram->settle(system.end_ps);  // idle-time refreshes (or the reference's counts)
   MachineFigures f;
-  const auto add = [](std::array<uint64_t, kRayTypeCount>& sum, const std::array<uint64_t, kRayTypeCount>& part) {
-    for (size_t t = 0; t < kRayTypeCount; ++t) sum[t] += part[t];
-  };
-  for (auto& u : system.trv) {
-    u->accounting.finish(system.end_ps);
-    f.trv.push_back(u->accounting.ps());
-    f.trv_passes.push_back(u->passes);
-    f.trv_leaves_blocked.push_back(u->leaves_blocked);
-    add(f.trv_busy_ps_by_type, u->busy_ps_by_type);
-    add(f.ray_ps_by_type, u->ray_ps_by_type);
-  }
-  for (auto& u : system.ist) {
-    u->accounting.finish(system.end_ps);
-    f.ist.push_back(u->accounting.ps());
-    f.ist_tests.push_back(u->tests);
-    f.anyhit_tests.push_back(u->anyhit_tests);
-    add(f.ist_busy_ps_by_type, u->busy_ps_by_type);
-  }
+  std::vector<const TrvUnit*> trv;
+  std::vector<const IstUnit*> ist;
+  std::vector<const ShadingUnit*> shading;
+  for (auto& u : system.trv) u->model.accounting.finish(system.end_ps), trv.push_back(&u->model);
+  for (auto& u : system.ist) u->model.accounting.finish(system.end_ps), ist.push_back(&u->model);
+  for (auto& u : system.shading) u->model.accounting.finish(system.end_ps), shading.push_back(&u->model);
   f.anyhit = work.context->image().has_alpha_data();
-  for (auto& sh : system.shading) {
-    sh->accounting.finish(system.end_ps);
-    f.shading.push_back(sh->accounting.ps());
-    f.shaded.push_back(sh->shaded);
-    f.spawned.push_back(sh->spawned);
-  }
+  unit_figures(trv, ist, shading, true, true, config, result.simulated_ps, result.per_type, f);
   for (auto& r : system.raygen) f.raygen_blocked_ps.push_back(r->blocked_ps);
   for (auto& c : system.l1_node) f.l1_node.push_back(&c->model);
   for (auto& c : system.l1_triangle) f.l1_triangle.push_back(&c->model);

@@ -9,13 +9,9 @@
 namespace rtsim::sim {
 
 CycleIst::CycleIst(sc_core::sc_module_name name, const HardwareConfig& config, CycleSystem& system)
-    : sc_module(name), memory("memory"), config_(config), system_(system),
-      jobs_(config.ist_queue_entries), queue_(system.scheduler, [this] { on_event(); }) {
-  const uint64_t cycle_ps = uint64_t(std::llround(config.clock_period_ps()));
-  interval_ps_ = uint64_t(std::llround(double(cycle_ps) / config.ist_tests_per_cycle));
-  latency_ps_ = uint64_t(config.ist_test_latency) * cycle_ps;
-  anyhit_interval_ps_ = uint64_t(std::llround(double(cycle_ps) / config.anyhit_tests_per_cycle));
-  anyhit_latency_ps_ = uint64_t(config.anyhit_test_latency) * cycle_ps;
+    : sc_module(name), memory("memory"), model(config, uint64_t(std::llround(config.clock_period_ps()))),
+      config_(config), system_(system), jobs_(config.ist_queue_entries),
+      queue_(system.scheduler, [this] { on_event(); }) {
   if (system.workload.context->image().has_alpha_data()) {
     texture_memory = std::make_unique<tlm_utils::simple_initiator_socket<CycleIst>>("texture_memory");
     texture_memory->register_nb_transport_bw(this, &CycleIst::nb_transport_bw);
@@ -24,18 +20,14 @@ CycleIst::CycleIst(sc_core::sc_module_name name, const HardwareConfig& config, C
   memory.register_nb_transport_bw(this, &CycleIst::nb_transport_bw);
 }
 
-void CycleIst::reset_counters() {
-  accounting.restart(now_ps());
-  tests = anyhit_tests = 0;
-  busy_ps_by_type = {};
-}
+void CycleIst::reset_counters() { model.restart(now_ps()); }
 
 void CycleIst::accept(CycleTrv* from, uint32_t slot, RayTraversal* traversal, uint32_t ray,
                       uint64_t t, bool probed) {
   const uint32_t j = free_jobs_.back();
   free_jobs_.pop_back();
   jobs_[j] = Job{from, slot, ray, traversal, 0, false, probed};
-  accounting.change(t, UnitAccounting::Resident, +1);
+  model.accounting.change(t, UnitAccounting::Resident, +1);
   queue_.push(t, Item{Item::Fetch, j});
 }
 
@@ -61,7 +53,7 @@ void CycleIst::send(uint32_t j, const std::vector<MemoryAccess>& reads, size_t b
                              config_.l1_node.line_bytes, config_.l1_triangle.line_bytes,
                              config_.l1_texture.line_bytes, now);
   // The job waits on its L1 from its first read to its last one's data.
-  if (!lines_.empty()) accounting.change(now, UnitAccounting::AtL1, +1);
+  if (!lines_.empty()) model.accounting.change(now, UnitAccounting::AtL1, +1);
   for (const LineAccess& line : lines_) {
     tlm::tlm_generic_payload* p = payloads_.get();
     AccessExtension& ext = PayloadPool::extension(*p);
@@ -95,29 +87,8 @@ tlm::tlm_sync_enum CycleIst::nb_transport_bw(tlm::tlm_generic_payload& p, tlm::t
 }
 
 void CycleIst::tests_start(uint32_t j) {
-  // The step's data is here: the core tests its triangles (an any-hit ray may
-  // stop early), and the tests it made go through the pipeline.
-  RayTraversal& trv = *jobs_[j].traversal;
-  if (trv.action() == TraversalAction::AlphaTest) {  // the any-hit stage: one alpha test
-    trv.process();
-    const uint64_t now = now_ps();
-    const uint64_t start = std::max(now, pipe_free_ps_);
-    pipe_free_ps_ = start + anyhit_interval_ps_;
-    accounting.reserve(now, start, pipe_free_ps_);
-    busy_ps_by_type[size_t(trv.ray().type)] += anyhit_interval_ps_;
-    ++anyhit_tests;
-    queue_.push(start + anyhit_latency_ps_, Item{Item::TestDone, j});
-    return;
-  }
-  trv.process();
-  const uint32_t n = trv.last_step_tests();
-  const uint64_t now = now_ps();
-  const uint64_t start = std::max(now, pipe_free_ps_);
-  pipe_free_ps_ = start + n * interval_ps_;
-  accounting.reserve(now, start, pipe_free_ps_);
-  busy_ps_by_type[size_t(trv.ray().type)] += n * interval_ps_;
-  tests += n;
-  queue_.push(start + (n - 1) * interval_ps_ + latency_ps_, Item{Item::TestDone, j});
+  // The step's data is here: its tests (or alpha test) through the pipeline.
+  queue_.push(model.take_step(*jobs_[j].traversal, now_ps()), Item{Item::TestDone, j});
 }
 
 void CycleIst::handle(const Item& item) {
@@ -135,7 +106,7 @@ void CycleIst::handle(const Item& item) {
     }
     case Item::MemoryBack:
       if (--job.pending > 0) break;
-      accounting.change(now, UnitAccounting::AtL1, -1);
+      model.accounting.change(now, UnitAccounting::AtL1, -1);
       if (!job.dependent_sent) {  // the prim refs are here: now the triangles they point to
         job.dependent_sent = true;
         const std::vector<MemoryAccess>& reads = trv.step_reads();
@@ -153,7 +124,7 @@ void CycleIst::handle(const Item& item) {
       // Leaf finished: back to TRV, and the entry is free for a waiting leaf.
       job.trv->leaf_done(job.slot, now);
       free_jobs_.push_back(item.job);
-      accounting.change(now, UnitAccounting::Resident, -1);
+      model.accounting.change(now, UnitAccounting::Resident, -1);
       for (CycleTrv* client : clients_) client->ist_has_space(now);
       break;
   }

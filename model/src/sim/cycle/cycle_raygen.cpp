@@ -8,10 +8,9 @@ namespace rtsim::sim {
 
 CycleRayGen::CycleRayGen(sc_core::sc_module_name name, const HardwareConfig& config,
                          RayDispatcher& dispatcher, uint32_t core, UnitScheduler& scheduler)
-    : sc_module(name), dispatcher_(dispatcher), core_(core), wake_(scheduler, [this] { on_event(); }) {
-  const double cycle_ps = config.clock_period_ps();
-  interval_ps_ = uint64_t(std::llround(cycle_ps / config.raygen_rays_per_cycle));
-}
+    : sc_module(name), dispatcher_(dispatcher), core_(core),
+      model_(config, uint64_t(std::llround(config.clock_period_ps()))),
+      wake_(scheduler, [this] { on_event(); }) {}
 
 void CycleRayGen::slot_free(CycleTrv* trv, uint32_t slot, uint64_t t) {
   free_slots_.emplace_back(trv, slot);
@@ -36,7 +35,7 @@ void CycleRayGen::on_event() {
   for (;;) {
     const uint64_t ready = dispatcher_.next_ready_ps(core_);
     if (ready == UINT64_MAX) break;  // nothing queued for this core
-    const uint64_t issue = std::max({now, ready, next_issue_ps_});
+    const uint64_t issue = model_.earliest(std::max(now, ready));
     if (issue > now) {
       wake_.push(issue, 0);
       break;
@@ -55,7 +54,7 @@ void CycleRayGen::on_event() {
     free_slots_.pop_front();
     trv->start_ray(slot, ray, dispatcher_.rays()[ray], now);
     ++issued_;
-    next_issue_ps_ = now + interval_ps_;
+    model_.issue(now);
   }
 }
 

@@ -32,13 +32,13 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
     ist.push_back(std::make_unique<CycleIst>(module(shape.ist_name(i)).c_str(), cfg, *this));
     l1_triangle.push_back(std::make_unique<CycleCache>(module(shape.l1_triangle_name(i)).c_str(),
                                                        cfg.l1_triangle_of(shape.core_of_ist(i)), cycle_ps, scheduler));
-    l1_triangle.back()->set_level(1, &ist.back()->accounting);
+    l1_triangle.back()->set_level(1, &ist.back()->model.accounting);
     ist.back()->memory.bind(l1_triangle.back()->target);
     noc->bind_l1(l1_triangle.back()->next, shape.core_of_ist(i));
     if (ist.back()->texture_memory) {  // a scene with alpha-tested materials
       l1_texture.push_back(std::make_unique<CycleCache>(module(shape.l1_texture_name(i)).c_str(),
                                                         cfg.l1_texture, cycle_ps, scheduler));
-      l1_texture.back()->set_level(1, &ist.back()->accounting);
+      l1_texture.back()->set_level(1, &ist.back()->model.accounting);
       ist.back()->texture_memory->bind(l1_texture.back()->target);
       noc->bind_l1(l1_texture.back()->next, shape.core_of_ist(i));
     }
@@ -48,7 +48,7 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
         std::make_unique<CycleTrv>(module(shape.trv_name(u)).c_str(), cfg, *work.context, u, *this));
     l1_node.push_back(std::make_unique<CycleCache>(module(shape.l1_node_name(u)).c_str(),
                                                    cfg.l1_node_of(shape.core_of_trv(u)), cycle_ps, scheduler));
-    l1_node.back()->set_level(1, &trv.back()->accounting);
+    l1_node.back()->set_level(1, &trv.back()->model.accounting);
     trv.back()->memory.bind(l1_node.back()->target);
     noc->bind_l1(l1_node.back()->next, shape.core_of_trv(u));
     ist_for(u).serve(trv.back().get());

@@ -13,24 +13,17 @@ constexpr uint64_t kWriteToken = uint64_t(1) << 32;  // a posted write: nobody w
 
 CycleTrv::CycleTrv(sc_core::sc_module_name name, const HardwareConfig& config,
                    const TraversalContext& context, uint32_t unit, CycleSystem& system)
-    : sc_module(name), memory("memory"), config_(config), system_(system), unit_(unit),
+    : sc_module(name), memory("memory"), model(config, uint64_t(std::llround(config.clock_period_ps()))),
+      config_(config), system_(system), unit_(unit),
       ist_(system.ist_for(unit)),  // the IST units are built first
-      cycle_ps_(uint64_t(std::llround(config.clock_period_ps()))),
       queue_(system.scheduler, [this] { on_event(); }) {
-  interval_ps_ = uint64_t(std::llround(double(cycle_ps_) / config.trv_nodes_per_cycle));
-  latency_ps_ = uint64_t(config.trv_box_test_latency) * cycle_ps_;
   slots_.reserve(config.trv_ray_slots);
   for (uint32_t s = 0; s < config.trv_ray_slots; ++s)
     slots_.emplace_back(context, unit * config.trv_ray_slots + s);
   memory.register_nb_transport_bw(this, &CycleTrv::nb_transport_bw);
 }
 
-void CycleTrv::reset_counters() {
-  accounting.restart(now_ps());
-  passes = leaves_blocked = 0;
-  busy_ps_by_type = {};
-  ray_ps_by_type = {};
-}
+void CycleTrv::reset_counters() { model.restart(now_ps()); }
 
 void CycleTrv::start_ray(uint32_t s, uint32_t ray_index, const Ray& ray, uint64_t t) {
   Slot& slot = slots_[s];
@@ -41,12 +34,12 @@ void CycleTrv::start_ray(uint32_t s, uint32_t ray_index, const Ray& ray, uint64_
   RayProbe* probe = system_.workload.probe;
   slot.probed = probe && probe->is(ray);
   if (slot.probed) probe->begin(t);
-  accounting.change(t, UnitAccounting::Resident, +1);
+  model.accounting.change(t, UnitAccounting::Resident, +1);
   queue_.push(t, Item{Item::Continue, s});
 }
 
 void CycleTrv::leaf_done(uint32_t s, uint64_t t) {
-  accounting.change(t, UnitAccounting::Downstream, -1);
+  model.accounting.change(t, UnitAccounting::Downstream, -1);
   queue_.push(t, Item{Item::Continue, s});
 }
 
@@ -93,7 +86,7 @@ uint32_t CycleTrv::send(uint32_t s, const std::vector<MemoryAccess>& accesses) {
   }
   // The slot waits on its L1 from its first read to its last one's data (MemoryBack;
   // a hit's comes later than now, so after the sends is the same instant).
-  if (reads) accounting.change(now, UnitAccounting::AtL1, +1);
+  if (reads) model.accounting.change(now, UnitAccounting::AtL1, +1);
   return reads;
 }
 
@@ -116,8 +109,8 @@ void CycleTrv::handle(const Item& item) {
     while (!waiting_for_ist_.empty() && ist_.can_accept()) {
       const uint32_t s = waiting_for_ist_.front();
       waiting_for_ist_.pop_front();
-      accounting.change(now, UnitAccounting::Blocked, -1);
-      accounting.change(now, UnitAccounting::Downstream, +1);
+      model.accounting.change(now, UnitAccounting::Blocked, -1);
+      model.accounting.change(now, UnitAccounting::Downstream, +1);
       slots_[s].phase = Phase::InIst;
       ist_.accept(this, s, &slots_[s].traversal, slots_[s].ray, now, slots_[s].probed);
     }
@@ -130,27 +123,16 @@ void CycleTrv::handle(const Item& item) {
       break;
     case Item::MemoryBack:
       if (--slot.pending > 0) break;
-      accounting.change(now, UnitAccounting::AtL1, -1);
+      model.accounting.change(now, UnitAccounting::AtL1, -1);
       if (slot.phase == Phase::WaitNode) {
-        // Box-test pipeline: one pass per interval, a node of more than
-        // trv.boxes_per_pass children takes several; the result after the last.
-        // An instance transform issues into the same pipeline (xfm.passes, xfm.latency).
-        const bool transform = slot.traversal.action() == TraversalAction::Transform;
-        const uint32_t passes = config_.trv_step_passes(slot.traversal.step_box_tests(), transform);
-        const uint64_t start = std::max(now, pipe_free_ps_);
-        pipe_free_ps_ = start + passes * interval_ps_;
-        accounting.reserve(now, start, pipe_free_ps_);
-        busy_ps_by_type[size_t(slot.traversal.ray().type)] += passes * interval_ps_;
-        const uint64_t latency = transform ? uint64_t(config_.xfm_latency) * cycle_ps_ : latency_ps_;
-        queue_.push(start + (passes - 1) * interval_ps_ + latency, Item{Item::NodeDone, item.slot});
+        // The node (or instance transform) through the box-test pipeline; the slot
+        // goes on when its result is out.
+        queue_.push(model.take_step(slot.traversal, now), Item{Item::NodeDone, item.slot});
       } else {
         next_action(item.slot);
       }
       break;
     case Item::NodeDone:
-      passes += config_.trv_step_passes(slot.traversal.step_box_tests(),
-                                        slot.traversal.action() == TraversalAction::Transform);
-      slot.traversal.process();
       after_step(item.slot);
       break;
     case Item::IstSpace: break;
@@ -179,20 +161,20 @@ void CycleTrv::next_action(uint32_t s) {
     case TraversalAction::TestTriangles: {
       if (ist_.can_accept() && waiting_for_ist_.empty()) {
         slot.phase = Phase::InIst;
-        accounting.change(now, UnitAccounting::Downstream, +1);
+        model.accounting.change(now, UnitAccounting::Downstream, +1);
         ist_.accept(this, s, &slot.traversal, slot.ray, now, slot.probed);
       } else {
         slot.phase = Phase::WaitIst;
-        ++leaves_blocked;
-        accounting.change(now, UnitAccounting::Blocked, +1);
+        ++model.leaves_blocked;
+        model.accounting.change(now, UnitAccounting::Blocked, +1);
         waiting_for_ist_.push_back(s);
       }
       break;
     }
     case TraversalAction::Done:
       slot.phase = Phase::Idle;
-      accounting.change(now, UnitAccounting::Resident, -1);
-      ray_ps_by_type[size_t(slot.traversal.ray().type)] += now - slot.start_ps;
+      model.accounting.change(now, UnitAccounting::Resident, -1);
+      model.ray_done(slot.traversal.ray().type, slot.start_ps, now);
       if (slot.probed) system_.workload.probe->end(now, slot.traversal.counters());
       system_.ray_finished(*this, s, slot.ray, slot.traversal, now);
       break;

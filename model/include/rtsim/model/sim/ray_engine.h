@@ -32,6 +32,10 @@
 #include <rtsim/model/sim/machine.h>
 #include <rtsim/model/sim/ray_dispatch.h>
 #include <rtsim/model/sim/stats.h>
+#include <rtsim/model/sim/units/ist_unit.h>
+#include <rtsim/model/sim/units/raygen_unit.h>
+#include <rtsim/model/sim/units/shading_unit.h>
+#include <rtsim/model/sim/units/trv_unit.h>
 
 #include <algorithm>
 #include <array>
@@ -148,21 +152,13 @@ class RayEngine {
   RayDispatcher& dispatcher() { return dispatcher_; }
   const std::array<CounterTotals, kRayTypeCount>& per_type() const { return per_type_; }
   CounterTotals total() const;
-  // lt: each unit's cycle accounting (finished at end_ps() by run()).
-  std::vector<UnitAccounting>& trv_accounting() { return trv_account_; }
-  std::vector<UnitAccounting>& ist_accounting() { return ist_account_; }
-  std::vector<UnitAccounting>& shading_accounting() { return shading_account_; }  // per core
-  const std::vector<uint64_t>& trv_passes() const { return trv_passes_; }  // per TRV unit
-  const std::vector<uint64_t>& ist_tests() const { return ist_tests_; }  // per IST unit
-  const std::vector<uint64_t>& anyhit_tests() const { return anyhit_tests_; }  // per IST unit
+  // The units, written once for every level (units/*.h): per TRV unit, per IST
+  // unit, per core (shading only when finished rays spawn more). lt: their cycle
+  // accounting is finished at end_ps() by run().
+  std::vector<TrvUnit>& trv_units() { return trv_; }
+  std::vector<IstUnit>& ist_units() { return ist_; }
+  std::vector<ShadingUnit>& shading_units() { return shading_; }
   bool anyhit_stage() const { return workload_->context->image().has_alpha_data(); }  // built
-  const std::vector<uint64_t>& shaded() const { return shaded_; }  // per core
-  const std::vector<uint64_t>& spawned() const { return spawned_count_; }  // per core
-  // By ray type: box-test passes and triangle tests, and (lt) the rays' time from
-  // their start in a TRV slot to their finish.
-  const std::array<uint64_t, kRayTypeCount>& trv_passes_by_type() const { return trv_passes_by_type_; }
-  const std::array<uint64_t, kRayTypeCount>& ist_tests_by_type() const { return ist_tests_by_type_; }
-  const std::array<uint64_t, kRayTypeCount>& ray_ps_by_type() const { return ray_ps_by_type_; }
   const MachineShape& shape() const { return shape_; }
   bool spawned_rays_are_shaded() const { return workload_->spawn_secondary; }  // shading exists
 
@@ -221,24 +217,16 @@ class RayEngine {
   RayDispatcher dispatcher_;
   std::vector<Slot> slots_;              // by global slot id (unit * slots + slot)
   std::vector<uint32_t> visit_order_;   // free_slot_order
-  std::vector<uint64_t> trv_free_, ist_free_;
-  std::vector<uint64_t> shading_free_, raygen_free_;  // per core
-  uint64_t trv_interval_ps_, ist_interval_ps_, shading_interval_ps_, raygen_interval_ps_;
-  uint64_t box_latency_ps_, test_latency_ps_, shading_latency_ps_, xfm_latency_ps_;
-  std::vector<UnitAccounting> trv_account_, ist_account_, shading_account_;
-  std::vector<uint64_t> trv_passes_, ist_tests_;
-  std::array<uint64_t, kRayTypeCount> trv_passes_by_type_{}, ist_tests_by_type_{}, ray_ps_by_type_{};
-  std::vector<uint64_t> shaded_, spawned_count_;
+  std::vector<TrvUnit> trv_;
+  std::vector<IstUnit> ist_;
+  std::vector<ShadingUnit> shading_;  // per core, when finished rays spawn more
+  std::vector<RayGenUnit> raygen_;    // per core
   std::array<CounterTotals, kRayTypeCount> per_type_{};
   uint64_t frame_start_ps_ = 0, end_ps_ = 0;
   uint64_t done_rays_ = 0;
   std::vector<Ray> spawned_;
   std::vector<LineAccess> lines_;
   std::array<uint32_t, kRequesterCount> line_bytes_{64, 64, 64};  // L1 line per requester, asked once per run
-  // The any-hit stage of each IST unit (alpha-tested scenes): it issues into the
-  // unit's pipeline (ist_free_) at its own rate, with its own latency.
-  std::vector<uint64_t> anyhit_tests_;
-  uint64_t anyhit_interval_ps_ = 1, anyhit_latency_ps_ = 0;
   // lt events
   // The lt events: a calendar of one-cycle buckets over a window of cycles, the few
   // events beyond it in a heap. Popped in (time, sequence) order, as a heap would,

@@ -3,17 +3,18 @@
 // A job takes the leaf a step at a time (ist.triangles_in_flight triangles):
 // the step's reads go out together through the unit's L1 triangle cache, the
 // triangles behind a prim-ref list once the list is back; then the step's tests
-// enter the test pipeline (throughput tests_per_cycle, latency test_latency).
+// enter the test pipeline of the unit's model (IstUnit, units/ist_unit.h, as at the
+// lt level).
 // Closest-hit jobs test the whole leaf, any-hit jobs stop at a hit (the core
 // decides). A hit on an alpha-tested triangle goes to the unit's any-hit stage:
 // its UV and texel reads go through the unit's L1 texture cache (texture_memory,
-// built only for such scenes), then one alpha test issues into the same pipeline
-// (anyhit.tests_per_cycle, anyhit.test_latency). The finished leaf goes back to
-// its TRV slot.
+// built only for such scenes), then one alpha test issues into the same pipeline.
+// The finished leaf goes back to its TRV slot.
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/memory_system.h>
 #include <rtsim/model/sim/cycle/unit_scheduler.h>
+#include <rtsim/model/sim/units/ist_unit.h>
 
 #include <tlm_utils/simple_initiator_socket.h>
 
@@ -35,9 +36,7 @@ class CycleIst : public sc_core::sc_module {
               bool probed);
   void reset_counters();
 
-  UnitAccounting accounting;
-  uint64_t tests = 0, anyhit_tests = 0;
-  std::array<uint64_t, kRayTypeCount> busy_ps_by_type{};  // test pipeline time of each type's tests
+  IstUnit model;  // the unit's work, counts and accounting
 
  private:
   struct Job {
@@ -66,12 +65,10 @@ class CycleIst : public sc_core::sc_module {
 
   const HardwareConfig& config_;
   CycleSystem& system_;
-  uint64_t interval_ps_, latency_ps_, anyhit_interval_ps_, anyhit_latency_ps_;
   std::vector<Job> jobs_;
   std::vector<uint32_t> free_jobs_;
   std::vector<CycleTrv*> clients_;
   TimedQueue<Item> queue_;
-  uint64_t pipe_free_ps_ = 0;
   std::vector<LineAccess> lines_;
   PayloadPool payloads_;
 };

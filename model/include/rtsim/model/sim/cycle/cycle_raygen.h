@@ -1,11 +1,13 @@
 #pragma once
 // Cycle level ray generation, one per core: hands the core's rays, in the
-// RayDispatcher's issue order, to the core's free TRV slots at
-// raygen.rays_per_cycle, never before a ray is ready (spawned rays: after shading).
+// RayDispatcher's issue order, to the core's free TRV slots at the times its model
+// (RayGenUnit, units/raygen_unit.h, as at the lt level) gives, never before a ray
+// is ready (spawned rays: after shading).
 #include <rtsim/model/core/ray.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/ray_dispatch.h>
 #include <rtsim/model/sim/cycle/unit_scheduler.h>
+#include <rtsim/model/sim/units/raygen_unit.h>
 
 #include <deque>
 
@@ -29,7 +31,7 @@ class CycleRayGen : public sc_core::sc_module {
   RayDispatcher& dispatcher_;
   uint32_t core_;
   uint64_t issued_ = 0;
-  uint64_t interval_ps_, next_issue_ps_ = 0;
+  RayGenUnit model_;
   std::deque<std::pair<CycleTrv*, uint32_t>> free_slots_;
   TimedQueue<int> wake_;
   uint64_t no_slot_since_ = UINT64_MAX;

@@ -1,12 +1,13 @@
 #pragma once
-// Cycle level shading, one per core: takes the core's finished rays, and after its latency (throughput
-// shading.rays_per_cycle) spawns the secondary rays the scene's effects call
-// for through the core's spawn_secondary_rays. Elaborated only when some effect
-// needs secondary rays.
+// Cycle level shading, one per core: takes the core's finished rays into the
+// unit's model (ShadingUnit, units/shading_unit.h, as at the lt level) and, when
+// its result is out, hands the secondary rays it spawned to ray generation.
+// Elaborated only when some effect needs secondary rays.
 #include <rtsim/model/core/ray_generation.h>
 #include <rtsim/model/sim/accounting.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/cycle/unit_scheduler.h>
+#include <rtsim/model/sim/units/shading_unit.h>
 
 namespace rtsim::sim {
 
@@ -20,8 +21,7 @@ class CycleShading : public sc_core::sc_module {
   void shade(uint32_t ray_index, const Ray& ray, const HitRecord& hit, uint64_t t);
   bool idle() const { return in_flight_ == 0; }  // its own count: the accounting may be off
   void reset_counters();
-  uint64_t shaded = 0, spawned = 0;
-  UnitAccounting accounting;
+  ShadingUnit model;  // the unit's work, counts and accounting
 
  private:
   struct Item {
@@ -33,7 +33,6 @@ class CycleShading : public sc_core::sc_module {
   const Workload& workload_;
   CycleSystem& system_;
   uint32_t core_;
-  uint64_t interval_ps_, latency_ps_, free_ps_ = 0;
   uint32_t in_flight_ = 0;  // rays taken and not yet shaded
   TimedQueue<Item> queue_;
   std::vector<Ray> out_;

@@ -2,14 +2,15 @@
 // Cycle level TRV unit: ray slots, each driving the functional core's
 // RayTraversal. A slot sends the reads its step names through the unit's L1
 // node cache (TLM-2.0 socket); when they are back the node enters the box-test
-// pipeline (throughput nodes_per_cycle, latency box_test_latency) and process()
-// runs at the pipeline's end. Leaves go to the IST unit (a full IST queue stalls
-// the slot). The stack traffic of a step follows it: spills are posted writes,
-// refills reads the slot waits for.
+// pipeline of the unit's model (TrvUnit, units/trv_unit.h, as at the lt level),
+// and the slot goes on when the result is out. Leaves go to the IST unit (a full
+// IST queue stalls the slot). The stack traffic of a step follows it: spills are
+// posted writes, refills reads the slot waits for.
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/memory_system.h>
 #include <rtsim/model/sim/cycle/unit_scheduler.h>
+#include <rtsim/model/sim/units/trv_unit.h>
 
 #include <tlm_utils/simple_initiator_socket.h>
 
@@ -33,11 +34,7 @@ class CycleTrv : public sc_core::sc_module {
   void ist_has_space(uint64_t t);             // from IST: retry blocked leaves
   void reset_counters();
 
-  UnitAccounting accounting;
-  uint64_t passes = 0;  // box-test pipeline passes (trv.boxes_per_pass)
-  uint64_t leaves_blocked = 0;  // leaves that found the IST queue full and waited
-  std::array<uint64_t, kRayTypeCount> busy_ps_by_type{};  // pipeline time of each type's nodes
-  std::array<uint64_t, kRayTypeCount> ray_ps_by_type{};   // rays' time from start to finish
+  TrvUnit model;  // the unit's work, counts and accounting
 
  private:
   enum class Phase : uint8_t { Idle, WaitNode, WaitStack, InIst, WaitIst };
@@ -73,10 +70,8 @@ class CycleTrv : public sc_core::sc_module {
   CycleSystem& system_;
   uint32_t unit_;  // global TRV unit number (machine.h)
   CycleIst& ist_;  // the IST unit of its core that tests its leaves
-  uint64_t cycle_ps_, interval_ps_, latency_ps_;
   std::vector<Slot> slots_;
   TimedQueue<Item> queue_;
-  uint64_t pipe_free_ps_ = 0;
   std::deque<uint32_t> waiting_for_ist_;  // slots whose leaf found the IST queue full
   std::vector<LineAccess> lines_;
   PayloadPool payloads_;
