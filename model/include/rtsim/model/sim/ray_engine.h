@@ -137,6 +137,9 @@ struct FrameFigures {
 class RayEngine {
  public:
   RayEngine(const HardwareConfig& config, const Workload& workload, bool timed);
+  // Its units keep a reference to config_, its slots to the workload's tree: it stays put.
+  RayEngine(const RayEngine&) = delete;
+  RayEngine& operator=(const RayEngine&) = delete;
 
   // Runs every frame to completion. `sync(t)` is called before each lt event at
   // time t (the quantum keeper hooks in); `frame_end(last)` after each frame (the

@@ -41,7 +41,7 @@ class TrvUnit {
 
  private:
   uint32_t count(const RayTraversal& traversal);  // the step's passes, counted
-  const HardwareConfig* config_;
+  const HardwareConfig* config_;  // its owner's, which outlives it
   uint64_t interval_ps_, box_latency_ps_, xfm_latency_ps_;
   IssuePort box_tests_;
 };
