@@ -55,13 +55,8 @@ void CycleIst::send(uint32_t j, const std::vector<MemoryAccess>& reads, size_t b
   // The job waits on its L1 from its first read to its last one's data.
   if (!lines_.empty()) model.accounting.change(now, UnitAccounting::AtL1, +1);
   for (const LineAccess& line : lines_) {
-    tlm::tlm_generic_payload* p = payloads_.get();
-    AccessExtension& ext = PayloadPool::extension(*p);
-    ext.kind = line.kind, ext.ray_type = type, ext.token = j;
-    if (probe) ext.probe_request = request ? request++ : 0;  // pooled payloads: never stale
-    p->set_command(tlm::TLM_READ_COMMAND);
-    p->set_address(line.line);
-    p->set_data_length(line.bytes);
+    tlm::tlm_generic_payload* p = payloads_.request(line, type, j, request ? request++ : 0);
+    const AccessExtension& ext = PayloadPool::extension(*p);
     ++job.pending;
     tlm::tlm_phase phase = tlm::BEGIN_REQ;
     sc_core::sc_time delay = sc_core::SC_ZERO_TIME;

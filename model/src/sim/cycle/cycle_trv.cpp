@@ -68,13 +68,9 @@ uint32_t CycleTrv::send(uint32_t s, const std::vector<MemoryAccess>& accesses) {
                              config_.l1_node.line_bytes, config_.l1_triangle.line_bytes,
                              config_.l1_texture.line_bytes, now);
   for (const LineAccess& line : lines_) {
-    tlm::tlm_generic_payload* p = payloads_.get();
-    AccessExtension& ext = PayloadPool::extension(*p);
-    ext.kind = line.kind, ext.ray_type = type, ext.token = s | (line.write ? kWriteToken : 0);
-    if (probe) ext.probe_request = request ? request++ : 0;  // pooled payloads: never stale
-    p->set_command(line.write ? tlm::TLM_WRITE_COMMAND : tlm::TLM_READ_COMMAND);
-    p->set_address(line.line);
-    p->set_data_length(line.bytes);
+    tlm::tlm_generic_payload* p =
+        payloads_.request(line, type, s | (line.write ? kWriteToken : 0), request ? request++ : 0);
+    const AccessExtension& ext = PayloadPool::extension(*p);
     if (!line.write) ++reads, ++slot.pending;
     tlm::tlm_phase phase = tlm::BEGIN_REQ;
     sc_core::sc_time delay = sc_core::SC_ZERO_TIME;

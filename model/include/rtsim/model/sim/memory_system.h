@@ -92,6 +92,19 @@ class PayloadPool {
     return p;
   }
   void put(tlm::tlm_generic_payload* p) { free_.push_back(p); }
+  // A payload for a unit's line request: a read or write of `line`, its extension
+  // naming the kind, ray type, the unit's token and the probed request (0: none).
+  tlm::tlm_generic_payload* request(const LineAccess& line, RayType type, uint64_t token,
+                                    uint32_t probe_request) {
+    tlm::tlm_generic_payload* p = get();
+    AccessExtension& ext = extension(*p);
+    ext.kind = line.kind, ext.ray_type = type, ext.token = token;
+    ext.probe_request = probe_request;  // pooled payloads: never stale
+    p->set_command(line.write ? tlm::TLM_WRITE_COMMAND : tlm::TLM_READ_COMMAND);
+    p->set_address(line.line);
+    p->set_data_length(line.bytes);
+    return p;
+  }
   // p must come from a PayloadPool.
   static AccessExtension& extension(tlm::tlm_generic_payload& p) {
     return *static_cast<Pooled&>(p).access;
