@@ -35,8 +35,9 @@ TEST(Units, IntervalsRoundToWholePicosecondsAndNeverReachZero) {
 
 TEST(Units, RayGenerationIssuesAtItsRateAndNeverBeforeItIsAsked) {
   HardwareConfig config;
+  config.clock_mhz = 1000;              // 1000 ps a cycle
   config.raygen_rays_per_cycle = 0.5;  // a ray every other cycle
-  RayGenUnit raygen(config, 1000);
+  RayGenUnit raygen(config);
   EXPECT_EQ(raygen.earliest(0), 0u);
   EXPECT_EQ(raygen.issue(0), 0u);
   EXPECT_EQ(raygen.earliest(100), 2000u);

@@ -86,7 +86,7 @@ std::string MachineShape::module_name(const std::string& instance) {
 
 Crossbar::Crossbar(const HardwareConfig& c, const MachineShape& m, bool timed)
     : timed_(timed), flit_bytes_(c.noc_flit_bytes), header_bytes_(c.noc_header_bytes),
-      cycle_ps_(uint64_t(std::llround(c.clock_period_ps()))),
+      cycle_ps_(c.cycle_ps()),
       latency_ps_(uint64_t(c.noc_latency_cycles) * cycle_ps_),
       core_in_flits_(m.cores, 0), slice_in_flits_(m.l2_slices, 0) {
   // Reservations reach a DRAM access ahead of the calls (microseconds).

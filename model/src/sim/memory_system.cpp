@@ -212,7 +212,7 @@ LtSystem::LtSystem(sc_core::sc_module_name name, const HardwareConfig& config,
                    const Workload& workload, std::function<void(uint64_t)> progress)
     : sc_module(name), engine(config, workload, true), shape(MachineShape::of(config)),
       noc_model(config, shape, true), config_(config), progress_(std::move(progress)) {
-  const uint64_t cycle_ps = uint64_t(std::llround(config.clock_period_ps()));
+  const uint64_t cycle_ps = config.cycle_ps();
   dram = std::make_unique<LtDram>("dram", config.dram, config.l2.line_bytes);
   noc = std::make_unique<LtCrossbar>("noc", noc_model, shape);
   for (uint32_t s = 0; s < shape.l2_slices; ++s) {

@@ -9,7 +9,7 @@
 namespace rtsim::sim {
 
 CycleIst::CycleIst(sc_core::sc_module_name name, const HardwareConfig& config, CycleSystem& system)
-    : sc_module(name), memory("memory"), model(config, uint64_t(std::llround(config.clock_period_ps()))),
+    : sc_module(name), memory("memory"), model(config),
       config_(config), system_(system), jobs_(config.ist_queue_entries),
       queue_(system.scheduler, [this] { on_event(); }) {
   if (system.workload.context->image().has_alpha_data()) {

@@ -9,7 +9,7 @@ namespace rtsim::sim {
 CycleRayGen::CycleRayGen(sc_core::sc_module_name name, const HardwareConfig& config,
                          RayDispatcher& dispatcher, uint32_t core, UnitScheduler& scheduler)
     : sc_module(name), dispatcher_(dispatcher), core_(core),
-      model_(config, uint64_t(std::llround(config.clock_period_ps()))),
+      model_(config),
       wake_(scheduler, [this] { on_event(); }) {}
 
 void CycleRayGen::slot_free(CycleTrv* trv, uint32_t slot, uint64_t t) {

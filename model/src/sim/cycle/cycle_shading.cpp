@@ -7,7 +7,7 @@ namespace rtsim::sim {
 
 CycleShading::CycleShading(sc_core::sc_module_name name, const HardwareConfig& config,
                            const Workload& workload, CycleSystem& system, uint32_t core)
-    : sc_module(name), model(config, uint64_t(std::llround(config.clock_period_ps()))),
+    : sc_module(name), model(config),
       workload_(workload), system_(system), core_(core), queue_(system.scheduler, [this] { on_event(); }) {}
 
 void CycleShading::reset_counters() { model.restart(now_ps()); }

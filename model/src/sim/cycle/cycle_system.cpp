@@ -11,7 +11,7 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
                  work.spawn_secondary, work.context),
       noc_model(cfg, shape, true), progress_(std::move(progress)) {
   dispatcher.reserve_rays(frame_ray_bound(work));
-  const uint64_t cycle_ps = uint64_t(std::llround(cfg.clock_period_ps()));
+  const uint64_t cycle_ps = cfg.cycle_ps();
   const auto module = [](const std::string& instance) { return MachineShape::module_name(instance); };
   // Built in the order of the one-core model before it (ray generation, L2, DRAM,
   // IST, TRV, shading). It is also the order in which the scheduler runs units

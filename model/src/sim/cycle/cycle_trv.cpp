@@ -13,7 +13,7 @@ constexpr uint64_t kWriteToken = uint64_t(1) << 32;  // a posted write: nobody w
 
 CycleTrv::CycleTrv(sc_core::sc_module_name name, const HardwareConfig& config,
                    const TraversalContext& context, uint32_t unit, CycleSystem& system)
-    : sc_module(name), memory("memory"), model(config, uint64_t(std::llround(config.clock_period_ps()))),
+    : sc_module(name), memory("memory"), model(config),
       config_(config), system_(system), unit_(unit),
       ist_(system.ist_for(unit)),  // the IST units are built first
       queue_(system.scheduler, [this] { on_event(); }) {

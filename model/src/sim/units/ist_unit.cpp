@@ -2,11 +2,11 @@
 
 namespace rtsim::sim {
 
-IstUnit::IstUnit(const HardwareConfig& config, uint64_t cycle_ps)
-    : test_interval_ps_(issue_interval_ps(config.ist_tests_per_cycle, cycle_ps)),
-      test_latency_ps_(uint64_t(config.ist_test_latency) * cycle_ps),
-      alpha_interval_ps_(issue_interval_ps(config.anyhit_tests_per_cycle, cycle_ps)),
-      alpha_latency_ps_(uint64_t(config.anyhit_test_latency) * cycle_ps) {}
+IstUnit::IstUnit(const HardwareConfig& config)
+    : test_interval_ps_(issue_interval_ps(config.ist_tests_per_cycle, config.cycle_ps())),
+      test_latency_ps_(uint64_t(config.ist_test_latency) * config.cycle_ps()),
+      alpha_interval_ps_(issue_interval_ps(config.anyhit_tests_per_cycle, config.cycle_ps())),
+      alpha_latency_ps_(uint64_t(config.anyhit_test_latency) * config.cycle_ps()) {}
 
 void IstUnit::count(const RayTraversal& traversal, bool alpha) {
   if (alpha) {

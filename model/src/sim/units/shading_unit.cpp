@@ -3,9 +3,9 @@
 
 namespace rtsim::sim {
 
-ShadingUnit::ShadingUnit(const HardwareConfig& config, uint64_t cycle_ps)
-    : interval_ps_(issue_interval_ps(config.shading_rays_per_cycle, cycle_ps)),
-      latency_ps_(uint64_t(config.shading_latency) * cycle_ps) {}
+ShadingUnit::ShadingUnit(const HardwareConfig& config)
+    : interval_ps_(issue_interval_ps(config.shading_rays_per_cycle, config.cycle_ps())),
+      latency_ps_(uint64_t(config.shading_latency) * config.cycle_ps()) {}
 
 Issue ShadingUnit::take(uint64_t now, uint64_t t) {
   const Issue issue = port_.reserve(t, 1, interval_ps_, latency_ps_);

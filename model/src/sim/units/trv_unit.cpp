@@ -2,10 +2,10 @@
 
 namespace rtsim::sim {
 
-TrvUnit::TrvUnit(const HardwareConfig& config, uint64_t cycle_ps)
-    : config_(&config), interval_ps_(issue_interval_ps(config.trv_nodes_per_cycle, cycle_ps)),
-      box_latency_ps_(uint64_t(config.trv_box_test_latency) * cycle_ps),
-      xfm_latency_ps_(uint64_t(config.xfm_latency) * cycle_ps) {}
+TrvUnit::TrvUnit(const HardwareConfig& config)
+    : config_(&config), interval_ps_(issue_interval_ps(config.trv_nodes_per_cycle, config.cycle_ps())),
+      box_latency_ps_(uint64_t(config.trv_box_test_latency) * config.cycle_ps()),
+      xfm_latency_ps_(uint64_t(config.xfm_latency) * config.cycle_ps()) {}
 
 uint32_t TrvUnit::count(const RayTraversal& traversal) {
   const uint32_t n = config_->trv_step_passes(traversal.step_box_tests(),

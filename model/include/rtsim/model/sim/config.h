@@ -7,6 +7,7 @@
 // file, writing the resolved configuration as JSON and the documentation of
 // model/presets/*.toml all walk it, so they cannot drift apart.
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -221,6 +222,8 @@ struct HardwareConfig {
   uint32_t lt_quantum_cycles = 1000;
 
   double clock_period_ps() const { return 1e6 / clock_mhz; }
+  // The period in whole picoseconds: the grid every unit's timing is on.
+  uint64_t cycle_ps() const { return uint64_t(std::llround(clock_period_ps())); }
 };
 
 // Kinds of parameter values the table knows.

@@ -16,7 +16,7 @@ namespace rtsim::sim {
 
 class IstUnit {
  public:
-  IstUnit(const HardwareConfig& config, uint64_t cycle_ps);
+  explicit IstUnit(const HardwareConfig& config);
 
   // The step is a leaf's triangles (TestTriangles) or an alpha test (AlphaTest) whose
   // data is here: the core takes it and its tests are counted. Untimed.

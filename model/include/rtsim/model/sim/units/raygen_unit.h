@@ -10,8 +10,8 @@ namespace rtsim::sim {
 // slot is free, and when a ray is ready, is the level's to say.
 class RayGenUnit {
  public:
-  RayGenUnit(const HardwareConfig& config, uint64_t cycle_ps)
-      : interval_ps_(issue_interval_ps(config.raygen_rays_per_cycle, cycle_ps)) {}
+  explicit RayGenUnit(const HardwareConfig& config)
+      : interval_ps_(issue_interval_ps(config.raygen_rays_per_cycle, config.cycle_ps())) {}
   uint64_t earliest(uint64_t t) const { return std::max(t, port_.free_ps()); }  // the next issue, from t
   uint64_t issue(uint64_t t) { return port_.reserve(t, 1, interval_ps_, 0).start; }  // a ray issues
 

@@ -17,7 +17,7 @@ struct Workload;
 
 class ShadingUnit {
  public:
-  ShadingUnit(const HardwareConfig& config, uint64_t cycle_ps);
+  explicit ShadingUnit(const HardwareConfig& config);
 
   // Timed: the ray that finished at t (>= now) enters the unit's pipeline, in which
   // it is resident until its result is out (Issue::ready).

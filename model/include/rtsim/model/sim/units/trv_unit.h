@@ -16,7 +16,7 @@ namespace rtsim::sim {
 
 class TrvUnit {
  public:
-  TrvUnit(const HardwareConfig& config, uint64_t cycle_ps);
+  explicit TrvUnit(const HardwareConfig& config);
 
   // The step is a node or an instance transform whose data is here: the core takes
   // it (process()), and it takes config.trv_step_passes passes. Untimed.
