@@ -13,6 +13,7 @@
 #include <rtsim/model/core/ray_file.h>
 #include <rtsim/model/sim/memory_trace.h>
 #include <rtsim/model/sim/simulator.h>
+#include <rtsim/model/sim/stat_names.h>
 #include <rtsim/workloads/error.h>
 #include <rtsim/workloads/files.h>
 #include <rtsim/workloads/numbers.h>
@@ -82,10 +83,10 @@ void print_accounting(const sim::StatsRegistry& s, bool accounted) {
     std::printf(" %7s", name.c_str());
   }
   std::printf("\n");
-  for (sim::UnitKind kind : sim::kAllUnitKinds) {
-    const std::string p = std::string("machine.") + sim::unit_kind_name(kind) + ".";
+  for (const sim::UnitTraits* kind : sim::all_unit_kinds()) {
+    const std::string p = std::string("machine.") + kind->name + ".";
     if (!s.contains(p + "busy_cycles.mean")) continue;
-    std::printf("  %-33s", sim::unit_kind_name(kind));
+    std::printf("  %-33s", kind->name);
     for (sim::CycleBucket b : sim::kAllCycleBuckets) {
       const std::string key = p + sim::cycle_bucket_name(b) + "_cycles.mean";
       if (s.contains(key)) std::printf(" %7.1f", 100.0 * s.number(key) / total);

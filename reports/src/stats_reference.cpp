@@ -3,6 +3,7 @@
 #include <rtsim/model/core/fetch.h>
 #include <rtsim/model/core/ray.h>
 #include <rtsim/model/sim/accounting.h>
+#include <rtsim/model/sim/ray_dispatch.h>
 #include <rtsim/reports/results_store.h>
 #include <rtsim/reports/simulation_job.h>
 #include <rtsim/workloads/files.h>
@@ -138,7 +139,7 @@ std::string stats_reference_markdown(const std::vector<StatReferenceRow>& rows, 
         "line written back is charged to the ray type that wrote it); `dram.bytes_per_ray` = `dram.bytes` "
         "/ `rays.total`. The report's DRAM figure stacks exactly these (`test_report_figures.cpp`).\n"
      << "- `energy.total_pj` = the sum of `energy.<component>.pj` over the dynamic components (TRV, IST, "
-        "the caches, the crossbar, the DRAM's commands, and the ray-reordering units where they are built), and `energy.pj_per_ray` of "
+        "the caches, the crossbar, the DRAM's commands, and the optional stages where they are built), and `energy.pj_per_ray` of "
         "`energy.<component>.pj_per_ray`; the DRAM's standby energy `energy.dram_background` is beside the "
         "total, not in it: `energy.pj_per_ray_with_background` = `energy.pj_per_ray` + "
         "`energy.dram_background.pj_per_ray`.\n"
@@ -160,11 +161,13 @@ std::string stats_reference_markdown(const std::vector<StatReferenceRow>& rows, 
 std::string make_stats_reference(const std::filesystem::path& binary, const std::filesystem::path& work_dir) {
   std::filesystem::create_directories(work_dir);
   const std::filesystem::path machine = work_dir / "machine.toml";
-  // Small L1s: the second frame still reaches the L2 and DRAM (their latencies). A
-  // ray-reordering unit with the key that box-tests, so its stats are listed too.
-  write_file_atomic(machine, "preset = \"mobile-gpu\"\ncores = 2\nl1_node.size_bytes = 1024\n"
-                             "l1_triangle.size_bytes = 1024\nreorder.batch_rays = 64\n"
-                             "reorder.key = \"first_node\"\n");
+  // Small L1s: the second frame still reaches the L2 and DRAM (their latencies). Every
+  // optional stage, each as its description builds it, so its stats are listed too.
+  std::string machine_text = "preset = \"mobile-gpu\"\ncores = 2\nl1_node.size_bytes = 1024\n"
+                             "l1_triangle.size_bytes = 1024\n";
+  for (const rtsim::sim::StageDescription& stage : rtsim::sim::RayDispatcher::stage_kinds())
+    machine_text += stage.config_lines;
+  write_file_atomic(machine, machine_text);
   const JobRunner runner(binary);
   std::vector<std::pair<std::string, json>> runs;
   for (const char* level : {"functional", "lt", "cycle"}) {

@@ -9,6 +9,7 @@
 #include <rtsim/model/core/ray_file.h>
 #include <rtsim/model/sim/accounting.h>
 #include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/ray_reorder.h>
 
 #include <gtest/gtest.h>
 
@@ -79,7 +80,7 @@ TEST_P(Accounting, EveryUnitsCyclesAddUpToTheRunsCycles) {
     for (CycleBucket b : rtsim::sim::kAllCycleBuckets) {
       const std::string key = unit + "." + rtsim::sim::cycle_bucket_name(b) + "_cycles";
       // A unit reports exactly the buckets its kind can be in.
-      ASSERT_EQ(s.count(key) == 1, rtsim::sim::unit_has_bucket(kind, b)) << key;
+      ASSERT_EQ(s.count(key) == 1, rtsim::sim::unit_traits(kind).has(b)) << key;
       if (s.count(key)) sum += s.at(key).get<uint64_t>();
     }
     EXPECT_EQ(sum, total) << unit;
@@ -98,7 +99,7 @@ TEST_P(Accounting, EveryUnitsCyclesAddUpToTheRunsCycles) {
   // The roll-ups are the units' mean, least and most.
   for (UnitKind kind : kinds)
     for (CycleBucket b : rtsim::sim::kAllCycleBuckets) {
-      if (!rtsim::sim::unit_has_bucket(kind, b)) continue;
+      if (!rtsim::sim::unit_traits(kind).has(b)) continue;
       const std::string name = std::string(rtsim::sim::cycle_bucket_name(b)) + "_cycles";
       double sum = 0, lo = INFINITY, hi = -INFINITY;
       int n = 0;
@@ -107,7 +108,7 @@ TEST_P(Accounting, EveryUnitsCyclesAddUpToTheRunsCycles) {
           const double v = stat_number(s, unit + "." + name);
           sum += v, lo = std::min(lo, v), hi = std::max(hi, v), ++n;
         }
-      const std::string p = std::string("machine.") + rtsim::sim::unit_kind_name(kind) + "." + name;
+      const std::string p = std::string("machine.") + rtsim::sim::unit_traits(kind).name + "." + name;
       EXPECT_DOUBLE_EQ(stat_number(s, p + ".mean"), sum / n) << p;
       EXPECT_EQ(stat_number(s, p + ".min"), lo) << p;
       EXPECT_EQ(stat_number(s, p + ".max"), hi) << p;
@@ -200,7 +201,7 @@ TEST(Accounting, TheReorderingUnitsCyclesAddUpAndBusyIsItsSorts) {
       uint64_t sum = 0;
       for (CycleBucket b : rtsim::sim::kAllCycleBuckets) {
         const std::string key = unit + "." + rtsim::sim::cycle_bucket_name(b) + "_cycles";
-        ASSERT_EQ(s.count(key) == 1, rtsim::sim::unit_has_bucket(UnitKind::Reorder, b)) << level << " " << key;
+        ASSERT_EQ(s.count(key) == 1, rtsim::sim::RayReorderUnit::description().traits->has(b)) << level << " " << key;
         if (s.count(key)) sum += s.at(key).get<uint64_t>();
       }
       EXPECT_EQ(sum, total) << level << " " << unit;

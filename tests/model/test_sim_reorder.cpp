@@ -83,10 +83,10 @@ TEST(RayReorder, EachBatchLeavesSortedByItsKeyAndEveryRayOnce) {
     SCOPED_TRACE(key);
     IssuePolicy policy;
     policy.order = IssuePolicy::Order::Scanline;
-    policy.reorder_rays = 16;
-    policy.reorder_key = parse_reorder_key(key);
+    policy.reorder.batch_rays = 16;
+    policy.reorder.key = parse_reorder_key(key);
     RayDispatcher d(policy, rays, width, height, false, &context);
-    const RayReorderKeys keys(policy.reorder_key, context);
+    const RayReorderKeys keys(policy.reorder.key, context);
     std::vector<uint32_t> issued;
     uint32_t r;
     while (d.next(0, UINT64_MAX, &r)) issued.push_back(r);
@@ -114,7 +114,7 @@ TEST(RayReorder, EachBatchLeavesSortedByItsKeyAndEveryRayOnce) {
       for (const Ray& ray : rays) distinct.insert(keys(ray));
       EXPECT_GE(distinct.size(), 2u) << "every ray enters the same node: the test shows nothing";
     }
-    const ReorderFigures f = d.reorder_figures();
+    const ReorderFigures f = d.reorder_unit()->figures();
     EXPECT_EQ(f.total.rays, rays.size());
     EXPECT_EQ(f.total.batches, (rays.size() + 15) / 16);
     EXPECT_EQ(f.total.full_batches, rays.size() / 16);

@@ -43,31 +43,17 @@ const char* cycle_bucket_meaning(CycleBucket bucket) {
   return "?";
 }
 
-const char* unit_kind_name(UnitKind kind) {
+const UnitTraits& unit_traits(UnitKind kind) {
+  // Busy, WaitingL1, WaitingNoc, WaitingL2, WaitingDram, Blocked, WaitingIst, Latency, Idle
+  static const UnitTraits trv{"trv", {true, true, true, true, true, true, true, true, true}};
+  static const UnitTraits ist{"ist", {true, true, true, true, true, false, false, true, true}};
+  static const UnitTraits shading{"shading", {true, false, false, false, false, false, false, true, true}};
   switch (kind) {
-    case UnitKind::Trv: return "trv";
-    case UnitKind::Ist: return "ist";
-    case UnitKind::Shading: return "shading";
-    case UnitKind::Reorder: return "reorder";
+    case UnitKind::Trv: return trv;
+    case UnitKind::Ist: return ist;
+    case UnitKind::Shading: return shading;
   }
-  return "?";
-}
-
-bool unit_has_bucket(UnitKind kind, CycleBucket bucket) {
-  switch (bucket) {
-    case CycleBucket::Busy:
-    case CycleBucket::Idle: return true;
-    // The reordering unit's sort is its busy time; its rays are then blocked at once.
-    case CycleBucket::Latency: return kind != UnitKind::Reorder;
-    case CycleBucket::WaitingL1:
-    case CycleBucket::WaitingNoc:
-    case CycleBucket::WaitingL2:
-    case CycleBucket::WaitingDram: return kind == UnitKind::Trv || kind == UnitKind::Ist;
-    // The reordering unit is blocked while it holds sorted rays no TRV slot has taken.
-    case CycleBucket::Blocked: return kind == UnitKind::Trv || kind == UnitKind::Reorder;
-    case CycleBucket::WaitingIst: return kind == UnitKind::Trv;
-  }
-  return false;
+  return trv;
 }
 
 CycleSplit bucket_cycles(const CycleSplit& ps, double cycle_ps) {

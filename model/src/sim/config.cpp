@@ -585,12 +585,6 @@ HardwareConfig preset(const std::string& name) {
   return c;
 }
 
-uint32_t reorder_sort_cycles(const HardwareConfig& c, uint32_t rays) {
-  uint32_t k = 0;
-  while ((1ull << k) < rays) ++k;
-  return k * (k + 1) / 2 * c.reorder_stage_cycles;
-}
-
 std::pair<uint32_t, uint32_t> parse_tile(const std::string& text) {
   uint32_t w = 0, h = 0;
   read_size_text(text, 4096, "raygen.tile", w, h);

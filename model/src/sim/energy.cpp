@@ -75,21 +75,19 @@ void report_energy(StatsRegistry& s, const HardwareConfig& config, const EnergyC
     total += p.pj;
     for (size_t t = 0; t < kRayTypeCount; ++t) by_type[t] += p.pj * p.share[t];
   }
-  // The reordering units, only where built (a run without them keeps its stats): each
-  // ray is written into and read out of a buffer of batch_rays entries, priced as a
-  // cache of that size; a first-node key adds its root box tests.
-  if (c.reorder_built) {
-    const ReorderCounters& r = c.reorder.total;
-    const uint64_t buffer_bytes = uint64_t(config.reorder_batch_rays) * config.reorder_entry_bytes;
-    const double pj = double(r.rays) * 2 * cache_access_pj(buffer_bytes) * sram +
-                      double(c.reorder.key_box_tests) * e.box_test_pj * at65;
-    s.set_real("energy.reorder.pj", pj, "pJ",
-               "energy of the ray-reordering buffers (a write and a read per ray) and their key tests");
-    s.set_real("energy.reorder.pj_per_ray", rays ? pj / double(rays) : 0, "pJ/ray",
-               "energy of the ray-reordering buffers / rays");
-    total += pj;
+  // The stages, only where built (a run without them keeps its stats).
+  const EnergyPrices prices{e, at65, sram};
+  for (const Stage* stage : c.stages) {
+    const StageEnergy part = stage->energy(config, prices);
+    const std::string name = std::string("energy.") + stage->traits().name;
+    s.set_real(name + ".pj", part.pj, "pJ", "energy of " + part.what);
+    s.set_real(name + ".pj_per_ray", rays ? part.pj / double(rays) : 0, "pJ/ray",
+               "energy of " + part.what_per_ray + " / rays");
+    total += part.pj;
+    double caused = 0;
+    for (double v : part.caused) caused += v;
     for (size_t t = 0; t < kRayTypeCount; ++t)
-      if (r.rays) by_type[t] += pj * double(r.rays_by_type[t]) / double(r.rays);
+      if (caused > 0) by_type[t] += part.pj * part.caused[t] / caused;
   }
   // The instance transforms (instanced scenes: a run whose rays entered instances).
   uint64_t transforms = 0;

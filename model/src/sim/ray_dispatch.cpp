@@ -17,9 +17,7 @@ IssuePolicy IssuePolicy::from(const HardwareConfig& c) {
   p.secondary_behind = c.raygen_secondary != "after";
   p.cores = c.cores;
   p.dynamic = c.raygen_dispatch == "dynamic";
-  p.reorder_rays = c.reorder_batch_rays;
-  p.reorder_key = parse_reorder_key(c.reorder_key);
-  p.reorder_latency_ps = uint64_t(std::llround(reorder_sort_cycles(c, c.reorder_batch_rays) * c.clock_period_ps()));
+  p.reorder = ReorderSettings::from(c);
   return p;
 }
 
@@ -74,10 +72,9 @@ RayDispatcher::RayDispatcher(const IssuePolicy& policy, std::vector<Ray> initial
                              uint32_t height, bool spawn, const TraversalContext* context)
     : policy_(policy), rays_(std::move(initial)), initial_count_(rays_.size()),
       cores_(std::max<uint32_t>(1, policy.cores)) {
-  if (policy.reorder_rays > 0) {
+  if (policy.reorder.batch_rays > 0) {
     if (!context) throw std::logic_error("ray dispatcher: a reordering unit needs the tree");
-    reorder_keys_ = std::make_unique<RayReorderKeys>(policy.reorder_key, *context);
-    reorder_.assign(cores_.size(), RayReorderBuffer(policy.reorder_rays, policy.reorder_latency_ps));
+    reorder_ = std::make_unique<RayReorderUnit>(policy.reorder, uint32_t(cores_.size()), *context);
     wake_ps_.assign(cores_.size(), UINT64_MAX);
   }
   const size_t n = rays_.size();
@@ -146,9 +143,8 @@ void RayDispatcher::start_frame(uint64_t t) {
   for (uint32_t c = 0; c < cores_.size(); ++c) cores_[c] = CoreQueue{0, 0, c, {}};
   next_free_tile_ = 0;
   secondary_queued_ = 0;
-  for (RayReorderBuffer& b : reorder_) b.restart(t);
+  if (reorder_) reorder_->restart(t);
   for (uint64_t& w : wake_ps_) w = UINT64_MAX;
-  if (reorder_keys_) reorder_keys_->restart();
 }
 
 bool RayDispatcher::primary_left(const CoreQueue& q) const {
@@ -174,14 +170,9 @@ bool RayDispatcher::take_tile(uint32_t core) {
 }
 
 bool RayDispatcher::next(uint32_t core, uint64_t now_ps, uint32_t* ray_index) {
-  if (reorder_.empty()) return take(core, now_ps, ray_index);
-  RayReorderBuffer& unit = reorder_[core];
-  if (!unit.holding()) {
-    unit.form(now_ps, rays_, *reorder_keys_,
-              [&](uint64_t t, uint32_t* ray) { return take(core, t, ray); });
-    if (unit.holding() && unit.ready_ps() > now_ps) wake_ps_[core] = unit.ready_ps();
-  }
-  return unit.release(now_ps, ray_index);
+  if (!reorder_) return take(core, now_ps, ray_index);
+  return reorder_->next(core, now_ps, rays_, ray_index, &wake_ps_[core],
+                        [&](uint64_t t, uint32_t* ray) { return take(core, t, ray); });
 }
 
 uint64_t RayDispatcher::take_wake(uint32_t core) {
@@ -191,17 +182,17 @@ uint64_t RayDispatcher::take_wake(uint32_t core) {
   return w;
 }
 
-ReorderFigures RayDispatcher::reorder_figures() const {
-  ReorderFigures f;
-  for (const RayReorderBuffer& b : reorder_) {
-    const ReorderCounters& c = b.counters();
-    f.total.batches += c.batches, f.total.full_batches += c.full_batches, f.total.rays += c.rays;
-    f.total.wait_ps += c.wait_ps;
-    for (size_t t = 0; t < kRayTypeCount; ++t) f.total.rays_by_type[t] += c.rays_by_type[t];
-  }
-  if (reorder_keys_) f.key_box_tests = reorder_keys_->box_tests();
-  return f;
+std::vector<Stage*> RayDispatcher::stages() {
+  if (!reorder_) return {};
+  return {reorder_.get()};
 }
+
+std::vector<const Stage*> RayDispatcher::stages() const {
+  if (!reorder_) return {};
+  return {reorder_.get()};
+}
+
+std::vector<StageDescription> RayDispatcher::stage_kinds() { return {RayReorderUnit::description()}; }
 
 bool RayDispatcher::take(uint32_t core, uint64_t now_ps, uint32_t* ray_index) {
   CoreQueue& q = cores_[core];
@@ -223,7 +214,7 @@ bool RayDispatcher::take(uint32_t core, uint64_t now_ps, uint32_t* ray_index) {
 }
 
 uint64_t RayDispatcher::next_ready_ps(uint32_t core) const {
-  if (!reorder_.empty() && reorder_[core].holding()) return reorder_[core].ready_ps();
+  if (reorder_ && reorder_->holding(core)) return reorder_->ready_ps(core);
   const CoreQueue& q = cores_[core];
   if (primary_left(q)) return 0;
   return q.secondary.empty() ? UINT64_MAX : q.secondary.front().ready_ps;
@@ -231,8 +222,7 @@ uint64_t RayDispatcher::next_ready_ps(uint32_t core) const {
 
 bool RayDispatcher::empty() const {
   if (secondary_queued_ != 0) return false;
-  for (const RayReorderBuffer& b : reorder_)
-    if (b.holding()) return false;
+  if (reorder_ && reorder_->holding_any()) return false;
   for (const CoreQueue& q : cores_)
     if (primary_left(q)) return false;
   return true;
@@ -255,15 +245,6 @@ void RayDispatcher::reserve_rays(uint64_t rays) {
 void RayDispatcher::restart(uint64_t frame_start_ps) {
   rays_.resize(initial_count_);
   start_frame(frame_start_ps);
-}
-
-std::vector<CycleSplit> RayDispatcher::finish_reorder_accounting(uint64_t end_ps) {
-  std::vector<CycleSplit> out;
-  for (RayReorderBuffer& b : reorder_) {
-    b.accounting.finish(end_ps);
-    out.push_back(b.accounting.ps());
-  }
-  return out;
 }
 
 }  // namespace rtsim::sim

@@ -183,7 +183,7 @@ bool RayEngine::start_next_ray(Slot& slot, uint64_t now_ps, uint64_t* start_ps) 
   uint32_t ray = 0;
   const uint32_t core = slot.core;
   if (!dispatcher_.next(core, now_ps, &ray)) {
-    // A batch the reordering unit releases later: ray generation wakes then.
+    // Rays a stage on the path (units/stage.h) releases later: ray generation wakes then.
     if (const uint64_t wake = dispatcher_.take_wake(core); timed_ && wake != UINT64_MAX)
       schedule(wake, core, EventKind::Dispatch);
     return false;

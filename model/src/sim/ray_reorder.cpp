@@ -3,6 +3,7 @@
 #include <rtsim/model/sim/stats.h>
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace rtsim::sim {
@@ -62,7 +63,64 @@ void RayReorderBuffer::sort_batch(uint64_t now_ps, const std::vector<Ray>& rays)
   for (const Entry& e : batch_) ++counters_.rays_by_type[size_t(rays[e.ray].type)];
 }
 
-void report_reorder(StatsRegistry& s, const HardwareConfig& c, const ReorderFigures& f, bool timed) {
+uint32_t reorder_sort_cycles(const HardwareConfig& c, uint32_t rays) {
+  uint32_t k = 0;
+  while ((1ull << k) < rays) ++k;
+  return k * (k + 1) / 2 * c.reorder_stage_cycles;
+}
+
+ReorderSettings ReorderSettings::from(const HardwareConfig& c) {
+  ReorderSettings r;
+  r.batch_rays = c.reorder_batch_rays;
+  r.key = parse_reorder_key(c.reorder_key);
+  r.latency_ps = uint64_t(std::llround(reorder_sort_cycles(c, c.reorder_batch_rays) * c.clock_period_ps()));
+  r.entry_bytes = c.reorder_entry_bytes;
+  return r;
+}
+
+RayReorderUnit::RayReorderUnit(const ReorderSettings& settings, uint32_t cores, const TraversalContext& context)
+    : settings_(settings), keys_(settings.key, context),
+      buffers_(cores, RayReorderBuffer(settings.batch_rays, settings.latency_ps)) {}
+
+const StageDescription& RayReorderUnit::description() {
+  // Busy, WaitingL1, WaitingNoc, WaitingL2, WaitingDram, Blocked, WaitingIst, Latency, Idle:
+  // the sort is its busy time, then its rays are blocked at once until TRV takes them.
+  static const UnitTraits traits{"reorder", {true, false, false, false, false, true, false, false, true}};
+  static const StageDescription d{&traits, "reorder.batch_rays = 64\nreorder.key = \"first_node\"\n"};
+  return d;
+}
+
+const UnitTraits& RayReorderUnit::traits() const { return *description().traits; }
+
+bool RayReorderUnit::holding_any() const {
+  for (const RayReorderBuffer& b : buffers_)
+    if (b.holding()) return true;
+  return false;
+}
+
+void RayReorderUnit::restart(uint64_t t) {
+  for (RayReorderBuffer& b : buffers_) b.restart(t);
+  keys_.restart();
+}
+
+ReorderFigures RayReorderUnit::figures() const {
+  ReorderFigures f;
+  for (const RayReorderBuffer& b : buffers_) {
+    const ReorderCounters& c = b.counters();
+    f.total.batches += c.batches, f.total.full_batches += c.full_batches, f.total.rays += c.rays;
+    f.total.wait_ps += c.wait_ps;
+    for (size_t t = 0; t < kRayTypeCount; ++t) f.total.rays_by_type[t] += c.rays_by_type[t];
+  }
+  f.key_box_tests = keys_.box_tests();
+  return f;
+}
+
+StageWork RayReorderUnit::work(uint32_t core) const {
+  return {buffers_[core].counters().rays, "rays", "rays the unit sorted and released"};
+}
+
+void RayReorderUnit::report(StatsRegistry& s, const HardwareConfig& c, bool timed) const {
+  const ReorderFigures f = figures();
   const ReorderCounters& t = f.total;
   s.set("reorder.batches", t.batches, "batches", "sorted batches the ray-reordering units released");
   s.set("reorder.full_batches", t.full_batches, "batches",
@@ -73,8 +131,22 @@ void report_reorder(StatsRegistry& s, const HardwareConfig& c, const ReorderFigu
   if (timed)
     s.set_real("reorder.wait_cycles_per_ray", t.rays ? double(t.wait_ps) / c.clock_period_ps() / double(t.rays) : 0,
                "cycles/ray", "mean cycles from a ray's batch forming to the ray leaving for TRV");
-  if (parse_reorder_key(c.reorder_key) == ReorderKey::FirstNode)
+  if (settings_.key == ReorderKey::FirstNode)
     s.set("reorder.key_box_tests", f.key_box_tests, "tests", "root box tests computing the first_node key");
+}
+
+StageEnergy RayReorderUnit::energy(const HardwareConfig&, const EnergyPrices& prices) const {
+  // Each ray is written into and read out of a buffer of batch_rays entries, priced
+  // as a cache of that size; a first-node key adds its root box tests.
+  const ReorderFigures f = figures();
+  const uint64_t buffer_bytes = uint64_t(settings_.batch_rays) * settings_.entry_bytes;
+  StageEnergy e;
+  e.pj = double(f.total.rays) * 2 * cache_access_pj(buffer_bytes) * prices.sram +
+         double(f.key_box_tests) * prices.energy.box_test_pj * prices.logic;
+  for (size_t t = 0; t < kRayTypeCount; ++t) e.caused[t] = double(f.total.rays_by_type[t]);
+  e.what = "the ray-reordering buffers (a write and a read per ray) and their key tests";
+  e.what_per_ray = "the ray-reordering buffers";
+  return e;
 }
 
 }  // namespace rtsim::sim

@@ -38,7 +38,7 @@ uint64_t peak_rss_bytes() {
 // A unit's cycles split exclusively (accounting.h): <prefix>.<bucket>_cycles for every
 // bucket its kind has, adding up to time.cycles, its utilisation and its work (the
 // work alone with stats.accounting off).
-void report_unit(StatsRegistry& s, const std::string& prefix, UnitKind kind, const CycleSplit& ps,
+void report_unit(StatsRegistry& s, const std::string& prefix, const UnitTraits& kind, const CycleSplit& ps,
                  double cycle_ps, uint64_t work, const std::string& work_unit,
                  const std::string& work_description, bool accounted) {
   if (!accounted) return s.set(prefix + "." + work_unit, work, work_unit, work_description);
@@ -46,7 +46,7 @@ void report_unit(StatsRegistry& s, const std::string& prefix, UnitKind kind, con
   uint64_t total = 0;
   for (uint64_t c : cycles) total += c;
   for (CycleBucket b : kAllCycleBuckets)
-    if (unit_has_bucket(kind, b))
+    if (kind.has(b))
       s.set(prefix + "." + cycle_bucket_name(b) + "_cycles", cycles[size_t(b)], "cycles",
             cycle_bucket_meaning(b));
   s.set_real(prefix + ".utilisation", total ? double(cycles[size_t(CycleBucket::Busy)]) / double(total) : 0,
@@ -56,10 +56,11 @@ void report_unit(StatsRegistry& s, const std::string& prefix, UnitKind kind, con
 
 // Mean, least and most over a kind's units of each bucket and of utilisation:
 // machine.<kind>.<bucket>_cycles.{mean,min,max}.
-void report_rollup(StatsRegistry& s, UnitKind kind, const std::vector<CycleSplit>& units, double cycle_ps) {
+void report_rollup(StatsRegistry& s, const UnitTraits& kind, const std::vector<CycleSplit>& units,
+                   double cycle_ps) {
   if (units.empty()) return;
-  const std::string p = std::string("machine.") + unit_kind_name(kind) + ".";
-  const std::string of = std::string(" over the machine's ") + unit_kind_name(kind) + " units";
+  const std::string p = std::string("machine.") + kind.name + ".";
+  const std::string of = std::string(" over the machine's ") + kind.name + " units";
   std::vector<CycleSplit> cycles;
   for (const CycleSplit& u : units) cycles.push_back(bucket_cycles(u, cycle_ps));
   const auto rollup = [&](const std::string& name, const std::string& unit, const std::string& what,
@@ -74,7 +75,7 @@ void report_rollup(StatsRegistry& s, UnitKind kind, const std::vector<CycleSplit
     s.set_real(p + name + ".max", hi, unit, "most" + of + " of the " + what);
   };
   for (CycleBucket b : kAllCycleBuckets)
-    if (unit_has_bucket(kind, b))
+    if (kind.has(b))
       rollup(std::string(cycle_bucket_name(b)) + "_cycles", "cycles", cycle_bucket_meaning(b),
              [b](const CycleSplit& c) { return double(c[size_t(b)]); });
   rollup("utilisation", "ratio", "busy cycles / simulated cycles", [](const CycleSplit& c) {
@@ -186,8 +187,8 @@ struct MachineFigures {
   std::vector<uint64_t> l2_downstream_stall_ps, l2_downstream_refusals;  // per slice (cycle)
   const DramModel* dram = nullptr;
   const Crossbar* noc = nullptr;
-  const RayDispatcher* dispatcher = nullptr;  // its ray-reordering units, if built
-  std::vector<CycleSplit> reorder;            // per core (timed levels, when built)
+  std::vector<const Stage*> stages;                  // the optional stages built (units/stage.h)
+  std::vector<std::vector<CycleSplit>> stage_cycles;  // per stage, per instance (timed levels)
 };
 
 // The energy model's event counts from the figures (energy.h).
@@ -215,10 +216,7 @@ EnergyCounts energy_counts(const MachineFigures& f,
   e.dram_write_bursts = (d.bytes_written + dram.burst_bytes - 1) / dram.burst_bytes;
   e.dram_refreshes = d.refreshes;
   e.per_type = per_type;
-  if (f.dispatcher->reorders()) {
-    e.reorder = f.dispatcher->reorder_figures();
-    e.reorder_built = true;
-  }
+  e.stages = f.stages;
   return e;
 }
 
@@ -231,14 +229,14 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
   const auto cycles = [&](uint64_t ps) { return uint64_t(std::llround(double(ps) / cycle_ps)); };
   const bool accounted = config.accounted();
   for (uint32_t u = 0; u < f.trv.size(); ++u)
-    report_unit(s, m.trv_name(u), UnitKind::Trv, f.trv[u], cycle_ps, f.trv_passes[u], "passes",
+    report_unit(s, m.trv_name(u), unit_traits(UnitKind::Trv), f.trv[u], cycle_ps, f.trv_passes[u], "passes",
                 "box-test pipeline passes (a node takes ceil(children / trv.boxes_per_pass))", accounted);
   for (uint32_t u = 0; u < f.ist.size(); ++u)
-    report_unit(s, m.ist_name(u), UnitKind::Ist, f.ist[u], cycle_ps, f.ist_tests[u], "tests",
+    report_unit(s, m.ist_name(u), unit_traits(UnitKind::Ist), f.ist[u], cycle_ps, f.ist_tests[u], "tests",
                 "triangle tests through the pipeline", accounted);
   for (uint32_t c = 0; c < f.shading.size(); ++c) {
     const std::string p = MachineShape::core_name(c) + ".shading";
-    report_unit(s, p, UnitKind::Shading, f.shading[c], cycle_ps, f.shaded[c], "rays", "rays shaded", accounted);
+    report_unit(s, p, unit_traits(UnitKind::Shading), f.shading[c], cycle_ps, f.shaded[c], "rays", "rays shaded", accounted);
     s.set(p + ".spawned", f.spawned[c], "rays", "secondary rays spawned");
   }
   for (uint32_t u = 0; f.anyhit && u < f.anyhit_tests.size(); ++u)
@@ -247,16 +245,21 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
   for (uint32_t u = 0; u < f.trv_leaves_blocked.size(); ++u)
     s.set(m.trv_name(u) + ".leaves_blocked", f.trv_leaves_blocked[u], "leaves",
           "leaves that found the IST unit's queue full and waited for room");
-  if (f.dispatcher->reorders()) report_reorder(s, config, f.dispatcher->reorder_figures(), timed);
-  for (uint32_t c = 0; c < f.reorder.size(); ++c)
-    report_unit(s, MachineShape::core_name(c) + ".reorder", UnitKind::Reorder, f.reorder[c], cycle_ps,
-                f.dispatcher->reorder_units()[c].counters().rays, "rays", "rays the unit sorted and released",
-                accounted);
+  for (size_t k = 0; k < f.stages.size(); ++k) {
+    const Stage& stage = *f.stages[k];
+    stage.report(s, config, timed);
+    for (uint32_t c = 0; timed && c < stage.instances(); ++c) {
+      const StageWork w = stage.work(c);
+      report_unit(s, MachineShape::core_name(c) + "." + stage.traits().name, stage.traits(), f.stage_cycles[k][c],
+                  cycle_ps, w.count, w.unit, w.meaning, accounted);
+    }
+  }
   if (accounted) {
-    report_rollup(s, UnitKind::Trv, f.trv, cycle_ps);
-    report_rollup(s, UnitKind::Ist, f.ist, cycle_ps);
-    report_rollup(s, UnitKind::Shading, f.shading, cycle_ps);
-    report_rollup(s, UnitKind::Reorder, f.reorder, cycle_ps);
+    report_rollup(s, unit_traits(UnitKind::Trv), f.trv, cycle_ps);
+    report_rollup(s, unit_traits(UnitKind::Ist), f.ist, cycle_ps);
+    report_rollup(s, unit_traits(UnitKind::Shading), f.shading, cycle_ps);
+    for (size_t k = 0; timed && k < f.stages.size(); ++k)
+      report_rollup(s, f.stages[k]->traits(), f.stage_cycles[k], cycle_ps);
   }
   for (uint32_t c = 0; c < f.raygen_blocked_ps.size(); ++c)
     s.set(MachineShape::core_name(c) + ".raygen.blocked_cycles", cycles(f.raygen_blocked_ps[c]),
@@ -412,9 +415,9 @@ void draw_machine(Timeline& t, const HardwareConfig& config, const MachineShape&
       l1_texture[i]->draw_on(&t, t.track(core(m.core_of_ist(i)), m.l1_texture_name(i) + " misses", true));
   }
   for (uint32_t c = 0; c < shading.size(); ++c) shading[c]->draw_on(&t, t.track(core(c), core(c) + ".shading"));
-  std::vector<RayReorderBuffer>& reorder = dispatcher.reorder_units();
-  for (uint32_t c = 0; c < reorder.size(); ++c)
-    reorder[c].accounting.draw_on(&t, t.track(core(c), core(c) + ".reorder"));
+  for (Stage* stage : dispatcher.stages())
+    for (uint32_t c = 0; c < stage->instances(); ++c)
+      stage->accounting(c).draw_on(&t, t.track(core(c), core(c) + "." + stage->traits().name));
   for (uint32_t s = 0; s < l2.size(); ++s)
     l2[s]->draw_on(&t, t.track("memory", MachineShape::slice_name(s) + " misses", true));
   std::vector<uint32_t> to_slice, to_core;
@@ -539,10 +542,12 @@ void unit_figures(const std::vector<const TrvUnit*>& trv, const std::vector<cons
 void engine_figures(RayEngine& engine, bool timed, const HardwareConfig& c, uint64_t total_ps,
                     MachineFigures& f) {
   f.anyhit = engine.anyhit_stage();
-  if (timed) f.reorder = engine.dispatcher().finish_reorder_accounting(engine.end_ps());
+  for (Stage* stage : engine.dispatcher().stages()) {
+    f.stages.push_back(stage);
+    if (timed) f.stage_cycles.push_back(stage->finish_accounting(engine.end_ps()));
+  }
   unit_figures(pointers_to(engine.trv_units()), pointers_to(engine.ist_units()),
                pointers_to(engine.shading_units()), timed, false, c, total_ps, engine.per_type(), f);
-  f.dispatcher = &engine.dispatcher();
 }
 
 // Connects the request's traces, if any, to the level's DRAM model and caches.
@@ -630,7 +635,7 @@ void run_lt(const SimulationRequest& request, const HardwareConfig& config, cons
     for (TrvUnit& u : lt.engine.trv_units()) u.accounting.switch_off();
     for (IstUnit& u : lt.engine.ist_units()) u.accounting.switch_off();
     for (ShadingUnit& u : lt.engine.shading_units()) u.accounting.switch_off();
-    for (RayReorderBuffer& r : lt.engine.dispatcher().reorder_units()) r.accounting.switch_off();
+    for (Stage* stage : lt.engine.dispatcher().stages()) stage->switch_off_accounting();
   }
   if (work.timeline) {
     RayEngine& e = lt.engine;
@@ -679,7 +684,7 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
     for (auto& u : system.trv) u->model.accounting.switch_off();
     for (auto& u : system.ist) u->model.accounting.switch_off();
     for (auto& u : system.shading) u->model.accounting.switch_off();
-    for (RayReorderBuffer& r : system.dispatcher.reorder_units()) r.accounting.switch_off();
+    for (Stage* stage : system.dispatcher.stages()) stage->switch_off_accounting();
   }
   if (work.timeline) {
     std::vector<UnitAccounting*> trv, ist, shading;
@@ -729,8 +734,10 @@ void run_cycle(const SimulationRequest& request, const HardwareConfig& config, c
   }
   f.dram = &system.dram->model;
   f.noc = &system.noc_model;
-  f.dispatcher = &system.dispatcher;
-  f.reorder = system.dispatcher.finish_reorder_accounting(system.end_ps);
+  for (Stage* stage : system.dispatcher.stages()) {
+    f.stages.push_back(stage);
+    f.stage_cycles.push_back(stage->finish_accounting(system.end_ps));
+  }
   report_machine(result.stats, config, system.shape, f, result.per_type, result.simulated_ps, true);
 }
 

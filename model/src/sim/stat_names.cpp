@@ -4,8 +4,16 @@
 #include <rtsim/model/core/ray.h>
 #include <rtsim/model/sim/accounting.h>
 #include <rtsim/model/sim/energy.h>
+#include <rtsim/model/sim/ray_dispatch.h>
 
 namespace rtsim::sim {
+
+std::vector<const UnitTraits*> all_unit_kinds() {
+  std::vector<const UnitTraits*> out;
+  for (UnitKind u : kAllUnitKinds) out.push_back(&unit_traits(u));
+  for (const StageDescription& stage : RayDispatcher::stage_kinds()) out.push_back(stage.traits);
+  return out;
+}
 
 nlohmann::json vocabulary_json() {
   using nlohmann::json;
@@ -14,11 +22,11 @@ nlohmann::json vocabulary_json() {
   for (RayType t : kAllRayTypes) types.push_back(ray_type_name(t));
   for (CycleBucket b : kAllCycleBuckets)
     buckets.push_back({{"name", cycle_bucket_name(b)}, {"meaning", cycle_bucket_meaning(b)}});
-  for (UnitKind u : kAllUnitKinds) {
+  for (const UnitTraits* u : all_unit_kinds()) {
     json has = json::array();
     for (CycleBucket b : kAllCycleBuckets)
-      if (unit_has_bucket(u, b)) has.push_back(cycle_bucket_name(b));
-    units.push_back({{"name", unit_kind_name(u)}, {"buckets", has}});
+      if (u->has(b)) has.push_back(cycle_bucket_name(b));
+    units.push_back({{"name", u->name}, {"buckets", has}});
   }
   json energy = json::array();
   for (const char* part : kEnergyComponents) energy.push_back(part);

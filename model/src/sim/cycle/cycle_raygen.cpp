@@ -46,7 +46,7 @@ void CycleRayGen::on_event() {
     }
     uint32_t ray = 0;
     if (!dispatcher_.next(core_, now, &ray)) {
-      // A batch the reordering unit releases later: wake then.
+      // Rays a stage on the path (units/stage.h) releases later: wake then.
       if (const uint64_t wake = dispatcher_.take_wake(core_); wake != UINT64_MAX) wake_.push(wake, 0);
       break;
     }

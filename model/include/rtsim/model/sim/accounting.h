@@ -45,11 +45,16 @@ const char* cycle_bucket_name(CycleBucket bucket);
 // What a cycle of the bucket is, for the stat's description and docs/stats.md.
 const char* cycle_bucket_meaning(CycleBucket bucket);
 
-// The kinds of unit, each with the buckets it can be in.
-enum class UnitKind : uint8_t { Trv, Ist, Shading, Reorder };
-constexpr UnitKind kAllUnitKinds[] = {UnitKind::Trv, UnitKind::Ist, UnitKind::Shading, UnitKind::Reorder};
-const char* unit_kind_name(UnitKind kind);  // "trv", "ist", "shading", "reorder"
-bool unit_has_bucket(UnitKind kind, CycleBucket bucket);
+// A kind of unit: its name and the buckets it can be in.
+struct UnitTraits {
+  const char* name;  // "trv": the roll-up machine.<name>.*
+  std::array<bool, kCycleBucketCount> buckets;  // by CycleBucket
+  bool has(CycleBucket b) const { return buckets[size_t(b)]; }
+};
+// The units every machine has; optional stages (units/stage.h) bring their own traits.
+enum class UnitKind : uint8_t { Trv, Ist, Shading };
+constexpr UnitKind kAllUnitKinds[] = {UnitKind::Trv, UnitKind::Ist, UnitKind::Shading};
+const UnitTraits& unit_traits(UnitKind kind);
 
 using CycleSplit = std::array<uint64_t, kCycleBucketCount>;  // by CycleBucket
 

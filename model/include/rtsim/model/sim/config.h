@@ -270,9 +270,6 @@ HardwareConfig parse_hardware_config(const std::string& toml_text, const std::st
 // Cross-parameter checks (powers of two, line sizes, set counts, DRAM bank groups,
 // refresh and write-drain limits); throws InputError naming the key.
 void validate(const HardwareConfig& config);
-// Cycles from a batch of `rays` forming to its first release: the depth of
-// Batcher's bitonic sorting network over it, k (k + 1) / 2 stages for k = ceil(log2 rays).
-uint32_t reorder_sort_cycles(const HardwareConfig& c, uint32_t rays);
 // raygen.tile "WxH" -> (W, H); throws InputError naming raygen.tile.
 std::pair<uint32_t, uint32_t> parse_tile(const std::string& text);
 // The resolved configuration as a JSON object text, keys sorted.

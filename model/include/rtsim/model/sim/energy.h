@@ -10,12 +10,13 @@
 //   bytes (caches, crossbar, DRAM) or ops (TRV, IST) each ray type caused there.
 #include <rtsim/model/core/functional_tracer.h>
 #include <rtsim/model/sim/cache_model.h>
-#include <rtsim/model/sim/ray_reorder.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/stats.h>
+#include <rtsim/model/sim/units/stage.h>
 
 #include <array>
 #include <cstdint>
+#include <vector>
 
 namespace rtsim::sim {
 
@@ -33,9 +34,8 @@ struct EnergyCounts {
   uint64_t dram_activates = 0, dram_read_bursts = 0, dram_write_bursts = 0, dram_refreshes = 0;
   double dram_background_pj = 0;  // dram.background_mw x channels x simulated time
   std::array<CounterTotals, kRayTypeCount> per_type{};  // box tests and triangle tests by type
-  // The ray-reordering units, if built: a write and a read of each ray's entry.
-  bool reorder_built = false;
-  ReorderFigures reorder;
+  // The stages the run built (units/stage.h): each prices its own work.
+  std::vector<const Stage*> stages;
   // The any-hit stages and their L1 texture caches, if built (alpha-tested scenes);
   // their tests by type are per_type[t].anyhit_tests.
   bool anyhit_built = false;

@@ -16,14 +16,16 @@
 // core i mod cores (static), or a core that finishes its tile takes the next one
 // not yet taken (dynamic). A core's spawned rays queue on that core. One core
 // issues exactly the single order above.
-// With reorder.batch_rays > 0 each core's rays pass its ray-reordering unit
-// (ray_reorder.h) on their way to TRV: next() is where every level meets it.
+// The stages (units/stage.h) sit on this path: with reorder.batch_rays > 0 each
+// core's rays pass its ray-reordering unit (ray_reorder.h) on their way to TRV.
+// next() is where every level meets them; stages() is how the rest reaches them.
 #include <rtsim/model/core/ray.h>
 #include <rtsim/model/sim/config.h>
 #include <rtsim/model/sim/ray_reorder.h>
 
 #include <cstdint>
 #include <deque>
+#include <memory>
 #include <vector>
 
 namespace rtsim::sim {
@@ -34,9 +36,7 @@ struct IssuePolicy {
   bool secondary_behind = true;
   uint32_t cores = 1;
   bool dynamic = false;  // raygen.dispatch
-  uint32_t reorder_rays = 0;  // reorder.batch_rays (0: no reordering unit)
-  ReorderKey reorder_key = ReorderKey::None;
-  uint64_t reorder_latency_ps = 0;
+  ReorderSettings reorder;  // batch_rays 0: no reordering unit
   static IssuePolicy from(const HardwareConfig& config);
 };
 
@@ -50,27 +50,25 @@ class RayDispatcher {
  public:
   // initial: the frame's rays. spawn = true: they are primary rays and shading
   // adds secondary rays (add_spawned); false: a replayed ray set, ordered once
-  // with its parent links. context: the tree the reordering unit's keys read
-  // (only with a unit).
+  // with its parent links. context: the tree the stages read (only with a stage).
   RayDispatcher(const IssuePolicy& policy, std::vector<Ray> initial, uint32_t width,
                 uint32_t height, bool spawn, const TraversalContext* context = nullptr);
 
   // The next ray core `core` issues that is ready at now_ps (index into rays();
   // UINT64_MAX: untimed); false if none.
   bool next(uint32_t core, uint64_t now_ps, uint32_t* ray_index);
-  // After a next() that returned false: when the core's reordering unit releases
-  // the batch it just formed, once (UINT64_MAX: no such batch). The level wakes
-  // the core's ray generation then.
+  // After a next() that returned false: when a stage of the core releases the
+  // rays it just took in, once (UINT64_MAX: nothing held). The level wakes the
+  // core's ray generation then.
   uint64_t take_wake(uint32_t core);
   // Earliest time a ray queued for the core is ready (UINT64_MAX: nothing queued).
   uint64_t next_ready_ps(uint32_t core) const;
   bool empty() const;  // nothing queued for any core
-  bool reorders() const { return !reorder_.empty(); }
-  ReorderFigures reorder_figures() const;  // summed over the cores' units, this frame
-  // The timed levels: each core's unit's cycle accounting, finished at end_ps.
-  std::vector<CycleSplit> finish_reorder_accounting(uint64_t end_ps);
-  std::vector<RayReorderBuffer>& reorder_units() { return reorder_; }  // per core; empty: none
-  const std::vector<RayReorderBuffer>& reorder_units() const { return reorder_; }
+  // The stages this run built, in path order, and every kind it can build.
+  std::vector<Stage*> stages();
+  std::vector<const Stage*> stages() const;
+  static std::vector<StageDescription> stage_kinds();
+  const RayReorderUnit* reorder_unit() const { return reorder_.get(); }  // null: not built
   // Rays a core's shading spawned (ready at ready_ps), appended to rays().
   void add_spawned(uint32_t core, const std::vector<Ray>& rays, uint64_t ready_ps);
   // Room for `rays` rays in all (the initial and the spawned) before the frame
@@ -106,8 +104,7 @@ class RayDispatcher {
   size_t next_free_tile_ = 0;         // dynamic
   size_t secondary_queued_ = 0;
   std::vector<CoreQueue> cores_;
-  std::unique_ptr<RayReorderKeys> reorder_keys_;
-  std::vector<RayReorderBuffer> reorder_;  // per core; empty: no unit
+  std::unique_ptr<RayReorderUnit> reorder_;  // null: no unit
   std::vector<uint64_t> wake_ps_;          // per core, for take_wake
 };
 

@@ -2,7 +2,7 @@
 // The ray-reordering unit: one per core, between ray generation (primary and
 // secondary rays alike) and the TRV units. It takes up to reorder.batch_rays rays
 // from ray generation, sorts them by a key and releases them in that order, the
-// batch's first ray reorder.latency_cycles after the batch was formed. Rays with
+// batch's first ray reorder_sort_cycles after the batch was formed. Rays with
 // equal keys keep their arrival order, so key "none" changes only the timing.
 //
 // A batch forms when TRV asks for a ray and the previous batch is gone: it takes
@@ -10,13 +10,16 @@
 // that waited for a full batch while TRV starved would only cost cycles). One
 // buffer per core: the next batch forms when the last ray of this one has left.
 //
-// Written once for every level: the dispatcher (ray_dispatch.h) owns it, and the
-// functional, lt and cycle levels reach it through RayDispatcher::next. Untimed,
-// the latency is zero. Timed, its cycles split (accounting.h) into busy (sorting a
-// batch), blocked (holding sorted rays no TRV slot has taken yet) and idle.
+// A stage (units/stage.h), written once for every level: the dispatcher
+// (ray_dispatch.h) builds it and the functional, lt and cycle levels reach it
+// through RayDispatcher::next; the reports, the energy model and the timeline reach
+// it as a Stage. Untimed, the latency is zero. Timed, its cycles split
+// (accounting.h) into busy (sorting a batch), blocked (holding sorted rays no TRV
+// slot has taken yet) and idle.
 #include <rtsim/model/core/ray.h>
 #include <rtsim/model/sim/accounting.h>
 #include <rtsim/model/sim/config.h>
+#include <rtsim/model/sim/units/stage.h>
 
 #include <array>
 #include <cstdint>
@@ -40,6 +43,19 @@ enum class ReorderKey : uint8_t {
   FirstNode,    // the node the ray enters after the root (a root box test)
 };
 ReorderKey parse_reorder_key(const std::string& text);  // a reorder.key value
+
+// Cycles from a batch of `rays` forming to its first release: the depth of
+// Batcher's bitonic sorting network over it, k (k + 1) / 2 stages for k = ceil(log2 rays).
+uint32_t reorder_sort_cycles(const HardwareConfig& c, uint32_t rays);
+
+// The unit's parameters (reorder.*); batch_rays 0: no unit.
+struct ReorderSettings {
+  uint32_t batch_rays = 0;
+  ReorderKey key = ReorderKey::None;
+  uint64_t latency_ps = 0;  // a batch's sort
+  uint32_t entry_bytes = 48;
+  static ReorderSettings from(const HardwareConfig& config);
+};
 
 // The sort key of one ray.
 class RayReorderKeys {
@@ -116,12 +132,50 @@ class RayReorderBuffer {
 };
 
 // The unit's figures, summed over the cores' buffers: its stats (reorder.*) and
-// the counts its energy comes from (energy.h).
+// the counts its energy comes from.
 struct ReorderFigures {
   ReorderCounters total;
   uint64_t key_box_tests = 0;
 };
-void report_reorder(StatsRegistry& s, const HardwareConfig& config, const ReorderFigures& figures,
-                    bool timed);
+
+// The stage: every core's buffer and the keys they share.
+class RayReorderUnit final : public Stage {
+ public:
+  RayReorderUnit(const ReorderSettings& settings, uint32_t cores, const TraversalContext& context);
+  static const StageDescription& description();
+
+  // The core's next ray for TRV (an index into rays), ready at now_ps (UINT64_MAX:
+  // untimed), forming a batch from take(t, &ray) (ray generation) when none is held.
+  // A batch formed now but released later sets *wake_ps to its release.
+  template <class Take>
+  bool next(uint32_t core, uint64_t now_ps, const std::vector<Ray>& rays, uint32_t* ray, uint64_t* wake_ps,
+            Take take) {
+    RayReorderBuffer& unit = buffers_[core];
+    if (!unit.holding()) {
+      unit.form(now_ps, rays, keys_, take);
+      if (unit.holding() && unit.ready_ps() > now_ps) *wake_ps = unit.ready_ps();
+    }
+    return unit.release(now_ps, ray);
+  }
+  bool holding(uint32_t core) const { return buffers_[core].holding(); }
+  bool holding_any() const;
+  uint64_t ready_ps(uint32_t core) const { return buffers_[core].ready_ps(); }
+  void restart(uint64_t t);
+  ReorderFigures figures() const;
+  const std::vector<RayReorderBuffer>& buffers() const { return buffers_; }
+
+  // Stage
+  const UnitTraits& traits() const override;
+  uint32_t instances() const override { return uint32_t(buffers_.size()); }
+  UnitAccounting& accounting(uint32_t core) override { return buffers_[core].accounting; }
+  StageWork work(uint32_t core) const override;
+  void report(StatsRegistry& stats, const HardwareConfig& config, bool timed) const override;
+  StageEnergy energy(const HardwareConfig& config, const EnergyPrices& prices) const override;
+
+ private:
+  ReorderSettings settings_;
+  RayReorderKeys keys_;
+  std::vector<RayReorderBuffer> buffers_;  // per core
+};
 
 }  // namespace rtsim::sim

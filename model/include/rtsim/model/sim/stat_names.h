@@ -8,7 +8,11 @@
 //   ray types      ray_type_name (ray.h): primary, ao, shadow, reflection, refraction
 //   cycle buckets  cycle_bucket_name (accounting.h), per unit kind
 //   energy parts   kEnergyComponents (energy.h)
+#include <rtsim/model/sim/accounting.h>
+
 #include <nlohmann/json.hpp>
+
+#include <vector>
 
 namespace rtsim::sim::stat {
 
@@ -26,6 +30,9 @@ inline constexpr const char* kPerType = "per_type";
 }  // namespace rtsim::sim::stat
 
 namespace rtsim::sim {
+
+// Every kind of unit a machine can have: TRV, IST, shading, then the optional stages.
+std::vector<const UnitTraits*> all_unit_kinds();
 
 // Every name above, and the stats they head, as the reports and their scripts read them:
 // {"byte_kinds": [...], "ray_types": [...], "cycle_buckets": [{name, meaning}],
