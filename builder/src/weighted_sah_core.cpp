@@ -12,7 +12,10 @@
 #include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
-#if defined(__SSE2__)
+// RTSIM_SIMD=OFF (RTSIM_NO_SIMD) builds the scalar fallback of the bin sweep, as on a
+// machine without SSE2: the same trees, bit for bit.
+#if defined(__SSE2__) && !defined(RTSIM_NO_SIMD)
+#define RTSIM_SAH_SSE2 1
 #include <emmintrin.h>
 #endif
 
@@ -136,7 +139,7 @@ struct CentroidBinning {
       const float s = extent > 0 ? float(bins) * (1.0f - 1e-6f) / extent : 0.0f;
       scale[a] = std::isfinite(s) ? s : 0.0f;
     }
-#if defined(__SSE2__)
+#if defined(RTSIM_SAH_SSE2)
     origin_lanes = _mm_setr_ps(origin.x, origin.y, origin.z, 0.0f);
     scale_lanes = _mm_setr_ps(scale.x, scale.y, scale.z, 0.0f);
     last_lanes = _mm_set1_ps(float(bins - 1));
@@ -152,7 +155,7 @@ struct CentroidBinning {
   // index() on the three axes at once (out[3] is not a bin), with the same float
   // operations: binning's hot loop.
   void indices(const Ref& r, uint32_t out[4]) const {
-#if defined(__SSE2__)
+#if defined(RTSIM_SAH_SSE2)
     const __m128 f = _mm_mul_ps(
         _mm_sub_ps(_mm_add_ps(_mm_loadu_ps(&r.lo.x), _mm_loadu_ps(&r.hi.x)), origin_lanes),
         scale_lanes);
@@ -164,7 +167,7 @@ struct CentroidBinning {
     for (int a = 0; a < 3; ++a) out[a] = index(r, a);
 #endif
   }
-#if defined(__SSE2__)
+#if defined(RTSIM_SAH_SSE2)
   __m128 origin_lanes, scale_lanes, last_lanes;
 #endif
 };
@@ -175,7 +178,7 @@ struct CentroidBinning {
 // max(p, hi) are glm::min(lo, p) and glm::max(hi, p) lane by lane, NaN and signed
 // zeros alike.
 struct BoxLanes {
-#if defined(__SSE2__)
+#if defined(RTSIM_SAH_SSE2)
   __m128 lo = _mm_set1_ps(kInf), hi = _mm_set1_ps(-kInf);
   void extend(__m128 l, __m128 h) {
     lo = _mm_min_ps(l, lo);
@@ -229,7 +232,7 @@ class TriangleCut {
   TriangleCut(const Scene& scene, uint32_t tri) {
     for (int i = 0; i < 3; ++i) {
       v_[i] = scene.vertex(tri, i);
-#if defined(__SSE2__)
+#if defined(RTSIM_SAH_SSE2)
       lanes_[i] = _mm_setr_ps(v_[i].x, v_[i].y, v_[i].z, 0.0f);
 #endif
     }
@@ -242,12 +245,12 @@ class TriangleCut {
 
  private:
   vec3 v_[3];
-#if defined(__SSE2__)
+#if defined(RTSIM_SAH_SSE2)
   __m128 lanes_[3];
 #endif
 };
 
-#if defined(__SSE2__)
+#if defined(RTSIM_SAH_SSE2)
 inline void TriangleCut::split(const BoxLanes& within, int axis, float position, BoxLanes* left,
                         BoxLanes* right) const {
   alignas(16) static const uint32_t kAxisLane[3][4] = {{~0u, 0, 0, 0}, {0, ~0u, 0, 0}, {0, 0, ~0u, 0}};

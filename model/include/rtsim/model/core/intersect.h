@@ -8,7 +8,11 @@
 #include <cstring>
 #include <limits>
 
-#if defined(__SSE2__)
+// RTSIM_SSE2: the lane tests below use SSE2 (every x86-64 has it). A build with
+// RTSIM_SIMD=OFF (RTSIM_NO_SIMD) takes the scalar fallback instead, the path a
+// machine without SSE2 would take, so that path is built and tested here too.
+#if defined(__SSE2__) && !defined(RTSIM_NO_SIMD)
+#define RTSIM_SSE2 1
 #include <emmintrin.h>
 #endif
 
@@ -74,13 +78,13 @@ struct BoxQuadLanes {
 
 // The ray's slab-test data broadcast to four lanes, made once per ray.
 struct RayBoxLanes {
-#if defined(__SSE2__)
+#if defined(RTSIM_SSE2)
   __m128 origin[3], inv_direction[3];
 #endif
   RayBoxPrecompute scalar;
   RayBoxLanes() = default;
   explicit RayBoxLanes(const RayBoxPrecompute& r) : scalar(r) {
-#if defined(__SSE2__)
+#if defined(RTSIM_SSE2)
     for (int a = 0; a < 3; ++a) {
       origin[a] = _mm_set1_ps(r.origin[a]);
       inv_direction[a] = _mm_set1_ps(r.inv_direction[a]);
@@ -96,7 +100,7 @@ struct RayBoxLanes {
 // Returns a hit mask (bit i: box i) and writes all four entry distances.
 inline uint32_t intersect_box_quad(const RayBoxLanes& r, const BoxQuadLanes& quad, float tmin,
                                    float tmax, float t_entry[4]) {
-#if defined(__SSE2__)
+#if defined(RTSIM_SSE2)
   constexpr float kFarScale = 1.0f + 2.0f * float_gamma(3);
   const __m128 scale = _mm_set1_ps(kFarScale);
   __m128 t_near = _mm_set1_ps(tmin), t_far = _mm_set1_ps(tmax);
@@ -267,13 +271,13 @@ inline bool intersect_triangle(const RayTrianglePrecompute& r, const vec3& v0, c
 // origin permuted to (kx, ky, kz), the shear, and the permutation to apply to
 // the triangles' vertices.
 struct RayTriangleLanes {
-#if defined(__SSE2__)
+#if defined(RTSIM_SSE2)
   __m128 origin[3], shear_x, shear_y, shear_z;
 #endif
   int kx = 0, ky = 1, kz = 2;
   RayTriangleLanes() = default;
   explicit RayTriangleLanes(const RayTrianglePrecompute& r) : kx(r.kx), ky(r.ky), kz(r.kz) {
-#if defined(__SSE2__)
+#if defined(RTSIM_SSE2)
     origin[0] = _mm_set1_ps(r.origin[r.kx]);
     origin[1] = _mm_set1_ps(r.origin[r.ky]);
     origin[2] = _mm_set1_ps(r.origin[r.kz]);
@@ -303,7 +307,7 @@ struct TriangleQuadVerdict {
 inline TriangleQuadVerdict intersect_triangle_quad(const RayTriangleLanes& r, const float* vertices,
                                                    float tmin, float tmax) {
   TriangleQuadVerdict out;
-#if defined(__SSE2__)
+#if defined(RTSIM_SSE2)
   // Four rows of nine floats to nine lanes of four: floats 0-3 and 4-7 of each
   // triangle by two 4x4 transposes, float 8 gathered.
   __m128 c[9];
