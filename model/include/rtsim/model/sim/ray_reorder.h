@@ -162,7 +162,6 @@ class RayReorderUnit final : public Stage {
   uint64_t ready_ps(uint32_t core) const { return buffers_[core].ready_ps(); }
   void restart(uint64_t t);
   ReorderFigures figures() const;
-  const std::vector<RayReorderBuffer>& buffers() const { return buffers_; }
 
   // Stage
   const UnitTraits& traits() const override;
