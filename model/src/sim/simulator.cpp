@@ -236,7 +236,8 @@ void report_machine(StatsRegistry& s, const HardwareConfig& config, const Machin
                 "triangle tests through the pipeline", accounted);
   for (uint32_t c = 0; c < f.shading.size(); ++c) {
     const std::string p = MachineShape::core_name(c) + ".shading";
-    report_unit(s, p, unit_traits(UnitKind::Shading), f.shading[c], cycle_ps, f.shaded[c], "rays", "rays shaded", accounted);
+    report_unit(s, p, unit_traits(UnitKind::Shading), f.shading[c], cycle_ps, f.shaded[c], "rays", "rays shaded",
+                accounted);
     s.set(p + ".spawned", f.spawned[c], "rays", "secondary rays spawned");
   }
   for (uint32_t u = 0; f.anyhit && u < f.anyhit_tests.size(); ++u)
