@@ -1,14 +1,11 @@
 #include <rtsim/model/core/traversal.h>
+#include <rtsim/model/core/huge_pages.h>
 #include <rtsim/workloads/error.h>
 
 #include <algorithm>
 #include <cmath>
 #include <new>
 #include <string>
-
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
 
 namespace rtsim {
 
@@ -18,21 +15,6 @@ inline void prefetch(const void* p, size_t bytes) {
   const char* c = static_cast<const char*>(p);
   for (size_t off = 0; off < bytes; off += 64) __builtin_prefetch(c + off);
   __builtin_prefetch(c + bytes - 1);
-}
-
-// Reserves room for `count` elements and asks Linux to back it with huge pages
-// (a hint, before the first touch). The node blocks
-// and triangles of a million-triangle scene span ~100 MB that rays visit at
-// random: with 4 KiB pages nearly every step's prefetch also misses the TLB.
-template <typename T>
-void reserve_on_huge_pages(std::vector<T>& v, size_t count) {
-  v.reserve(count);
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-  constexpr uintptr_t kHuge = uintptr_t(2) << 20;
-  const uintptr_t begin = (reinterpret_cast<uintptr_t>(v.data()) + kHuge - 1) & ~(kHuge - 1);
-  const uintptr_t end = (reinterpret_cast<uintptr_t>(v.data()) + count * sizeof(T)) & ~(kHuge - 1);
-  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
-#endif
 }
 }  // namespace
 

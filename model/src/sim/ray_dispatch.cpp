@@ -1,5 +1,7 @@
 #include <rtsim/model/sim/ray_dispatch.h>
 
+#include <rtsim/model/core/huge_pages.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -238,8 +240,9 @@ void RayDispatcher::add_spawned(uint32_t core, const std::vector<Ray>& rays, uin
 
 void RayDispatcher::reserve_rays(uint64_t rays) {
   // A bound far above the frame's share (glass doubles per bounce) is capped: the
-  // array still grows past it if it must.
-  rays_.reserve(size_t(std::min<uint64_t>(rays, uint64_t(initial_count_) * 16 + 1024)));
+  // array still grows past it if it must. Huge pages: the spawned rays' first
+  // touch of fresh pages was the functional level's largest kernel cost.
+  reserve_on_huge_pages(rays_, size_t(std::min<uint64_t>(rays, uint64_t(initial_count_) * 16 + 1024)));
 }
 
 void RayDispatcher::restart(uint64_t frame_start_ps) {
