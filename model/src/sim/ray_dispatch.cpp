@@ -70,10 +70,16 @@ std::vector<uint32_t> free_slot_order(uint32_t units, uint32_t slots_per_unit) {
   return order;
 }
 
-RayDispatcher::RayDispatcher(const IssuePolicy& policy, std::vector<Ray> initial, uint32_t width,
-                             uint32_t height, bool spawn, const TraversalContext* context)
-    : policy_(policy), rays_(std::move(initial)), initial_count_(rays_.size()),
-      cores_(std::max<uint32_t>(1, policy.cores)) {
+RayDispatcher::RayDispatcher(const IssuePolicy& policy, const std::vector<Ray>& initial, uint32_t width,
+                             uint32_t height, bool spawn, const TraversalContext* context, uint64_t frame_rays)
+    : policy_(policy), initial_count_(initial.size()), cores_(std::max<uint32_t>(1, policy.cores)) {
+  // A bound far above the frame's share (glass doubles per bounce) is capped: the
+  // array still grows past it if it must. On huge pages, reserved before the first
+  // ray is written: the rays' first touch of fresh 4 KiB pages was the functional
+  // level's largest kernel cost.
+  const uint64_t room = std::min<uint64_t>(frame_rays, uint64_t(initial.size()) * 16 + 1024);
+  reserve_on_huge_pages(rays_, size_t(std::max<uint64_t>(room, initial.size())));
+  rays_.insert(rays_.end(), initial.begin(), initial.end());
   if (policy.reorder.batch_rays > 0) {
     if (!context) throw std::logic_error("ray dispatcher: a reordering unit needs the tree");
     reorder_ = std::make_unique<RayReorderUnit>(policy.reorder, uint32_t(cores_.size()), *context);
@@ -236,13 +242,6 @@ void RayDispatcher::add_spawned(uint32_t core, const std::vector<Ray>& rays, uin
     rays_.push_back(r);
   }
   secondary_queued_ += rays.size();
-}
-
-void RayDispatcher::reserve_rays(uint64_t rays) {
-  // A bound far above the frame's share (glass doubles per bounce) is capped: the
-  // array still grows past it if it must. Huge pages: the spawned rays' first
-  // touch of fresh pages was the functional level's largest kernel cost.
-  reserve_on_huge_pages(rays_, size_t(std::min<uint64_t>(rays, uint64_t(initial_count_) * 16 + 1024)));
 }
 
 void RayDispatcher::restart(uint64_t frame_start_ps) {

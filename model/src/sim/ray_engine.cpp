@@ -83,14 +83,13 @@ uint64_t frame_ray_bound(const Workload& workload) {
 RayEngine::RayEngine(const HardwareConfig& config, const Workload& workload, bool timed)
     : config_(config), shape_(MachineShape::of(config)), workload_(&workload), timed_(timed),
       cycle_ps_(config.cycle_ps()),
-      dispatcher_(IssuePolicy::from(config), workload.initial_rays, workload.width,
-                  workload.height, workload.spawn_secondary, workload.context),
+      dispatcher_(IssuePolicy::from(config), workload.initial_rays, workload.width, workload.height,
+                  workload.spawn_secondary, workload.context, frame_ray_bound(workload)),
       visit_order_(free_slot_order(shape_.trv_units(), config.trv_ray_slots)),
       trv_(shape_.trv_units(), TrvUnit(config_)), ist_(shape_.ist_units(), IstUnit(config_)),
       shading_(workload.spawn_secondary ? shape_.cores : 0, ShadingUnit(config_)),
       raygen_(shape_.cores, RayGenUnit(config_)),
       events_(cycle_ps_, /*heaps=*/shape_.slots() > 512) {
-  dispatcher_.reserve_rays(frame_ray_bound(workload));
   const uint32_t count = shape_.slots();
   slots_.reserve(count);
   for (uint32_t id = 0; id < count; ++id)

@@ -8,9 +8,8 @@ CycleSystem::CycleSystem(sc_core::sc_module_name name, const HardwareConfig& cfg
                          const Workload& work, std::function<void(uint64_t)> progress)
     : sc_module(name), config(cfg), workload(work), shape(MachineShape::of(cfg)), scheduler("scheduler"),
       dispatcher(IssuePolicy::from(cfg), work.initial_rays, work.width, work.height,
-                 work.spawn_secondary, work.context),
+                 work.spawn_secondary, work.context, frame_ray_bound(work)),
       noc_model(cfg, shape, true), progress_(std::move(progress)) {
-  dispatcher.reserve_rays(frame_ray_bound(work));
   const uint64_t cycle_ps = cfg.cycle_ps();
   const auto module = [](const std::string& instance) { return MachineShape::module_name(instance); };
   // Built in the order of the one-core model before it (ray generation, L2, DRAM,

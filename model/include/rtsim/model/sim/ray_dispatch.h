@@ -51,8 +51,13 @@ class RayDispatcher {
   // initial: the frame's rays. spawn = true: they are primary rays and shading
   // adds secondary rays (add_spawned); false: a replayed ray set, ordered once
   // with its parent links. context: the tree the stages read (only with a stage).
-  RayDispatcher(const IssuePolicy& policy, std::vector<Ray> initial, uint32_t width,
-                uint32_t height, bool spawn, const TraversalContext* context = nullptr);
+  // frame_rays: the frame's rays in all, initial and spawned (frame_ray_bound), for
+  // which rays() has room before the frame runs: a frame of a million rays
+  // otherwise grows the array twenty times, each a copy of all of it onto fresh
+  // pages.
+  RayDispatcher(const IssuePolicy& policy, const std::vector<Ray>& initial, uint32_t width,
+                uint32_t height, bool spawn, const TraversalContext* context = nullptr,
+                uint64_t frame_rays = 0);
 
   // The next ray core `core` issues that is ready at now_ps (index into rays();
   // UINT64_MAX: untimed); false if none.
@@ -71,10 +76,6 @@ class RayDispatcher {
   const RayReorderUnit* reorder_unit() const { return reorder_.get(); }  // null: not built
   // Rays a core's shading spawned (ready at ready_ps), appended to rays().
   void add_spawned(uint32_t core, const std::vector<Ray>& rays, uint64_t ready_ps);
-  // Room for `rays` rays in all (the initial and the spawned) before the frame
-  // runs: a frame of a million rays otherwise grows the array twenty times, each
-  // a copy of all of it onto fresh pages.
-  void reserve_rays(uint64_t rays);
   const std::vector<Ray>& rays() const { return rays_; }
   // The next frame, from frame_start_ps: the same initial rays again (shading spawns
   // the same secondaries).
