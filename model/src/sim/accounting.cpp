@@ -44,10 +44,12 @@ const char* cycle_bucket_meaning(CycleBucket bucket) {
 }
 
 const UnitTraits& unit_traits(UnitKind kind) {
-  // Busy, WaitingL1, WaitingNoc, WaitingL2, WaitingDram, Blocked, WaitingIst, Latency, Idle
-  static const UnitTraits trv{"trv", {true, true, true, true, true, true, true, true, true}};
-  static const UnitTraits ist{"ist", {true, true, true, true, true, false, false, true, true}};
-  static const UnitTraits shading{"shading", {true, false, false, false, false, false, false, true, true}};
+  using B = CycleBucket;
+  static const UnitTraits trv{"trv", bucket_set({B::Busy, B::WaitingL1, B::WaitingNoc, B::WaitingL2, B::WaitingDram,
+                                                 B::Blocked, B::WaitingIst, B::Latency, B::Idle})};
+  static const UnitTraits ist{"ist", bucket_set({B::Busy, B::WaitingL1, B::WaitingNoc, B::WaitingL2, B::WaitingDram,
+                                                 B::Latency, B::Idle})};
+  static const UnitTraits shading{"shading", bucket_set({B::Busy, B::Latency, B::Idle})};
   switch (kind) {
     case UnitKind::Trv: return trv;
     case UnitKind::Ist: return ist;

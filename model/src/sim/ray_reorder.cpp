@@ -83,9 +83,9 @@ RayReorderUnit::RayReorderUnit(const ReorderSettings& settings, uint32_t cores, 
       buffers_(cores, RayReorderBuffer(settings.batch_rays, settings.latency_ps)) {}
 
 const StageDescription& RayReorderUnit::description() {
-  // Busy, WaitingL1, WaitingNoc, WaitingL2, WaitingDram, Blocked, WaitingIst, Latency, Idle:
-  // the sort is its busy time, then its rays are blocked at once until TRV takes them.
-  static const UnitTraits traits{"reorder", {true, false, false, false, false, true, false, false, true}};
+  // The sort is its busy time, then its rays are blocked at once until TRV takes them.
+  static const UnitTraits traits{"reorder",
+                                 bucket_set({CycleBucket::Busy, CycleBucket::Blocked, CycleBucket::Idle})};
   static const StageDescription d{&traits, "reorder.batch_rays = 64\nreorder.key = \"first_node\"\n"};
   return d;
 }

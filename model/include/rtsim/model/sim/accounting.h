@@ -23,6 +23,7 @@
 // is never dated before its caller's `now`, so once the unit's clock passes a time
 // no change before it can still come: dated changes wait in a small heap until then.
 #include <array>
+#include <initializer_list>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -51,6 +52,12 @@ struct UnitTraits {
   std::array<bool, kCycleBucketCount> buckets;  // by CycleBucket
   bool has(CycleBucket b) const { return buckets[size_t(b)]; }
 };
+// The bucket set of a kind, named rather than by position.
+inline std::array<bool, kCycleBucketCount> bucket_set(std::initializer_list<CycleBucket> list) {
+  std::array<bool, kCycleBucketCount> out{};
+  for (CycleBucket b : list) out[size_t(b)] = true;
+  return out;
+}
 // The units every machine has; optional stages (units/stage.h) bring their own traits.
 enum class UnitKind : uint8_t { Trv, Ist, Shading };
 constexpr UnitKind kAllUnitKinds[] = {UnitKind::Trv, UnitKind::Ist, UnitKind::Shading};
