@@ -76,20 +76,25 @@ struct BoxQuadLanes {
   }
 };
 
-// The ray's slab-test data broadcast to four lanes, made once per ray.
+// The ray's slab-test data broadcast to four lanes, made once per ray, with the
+// byte offsets in a BoxQuadLanes of the rows it enters and leaves by per axis
+// (its direction's signs), so that a node step only loads.
 struct RayBoxLanes {
 #if defined(RTSIM_SSE2)
   __m128 origin[3], inv_direction[3];
 #endif
+  size_t near_row_offset[3] = {0, 0, 0}, far_row_offset[3] = {0, 0, 0};
   RayBoxPrecompute scalar;
   RayBoxLanes() = default;
   explicit RayBoxLanes(const RayBoxPrecompute& r) : scalar(r) {
-#if defined(RTSIM_SSE2)
     for (int a = 0; a < 3; ++a) {
+      near_row_offset[a] = sizeof(BoxQuadLanes::plane[0]) * size_t(r.near_is_hi[a]) + sizeof(BoxQuadLanes::plane[0][0]) * size_t(a);
+      far_row_offset[a] = sizeof(BoxQuadLanes::plane[0]) * size_t(1 - r.near_is_hi[a]) + sizeof(BoxQuadLanes::plane[0][0]) * size_t(a);
+#if defined(RTSIM_SSE2)
       origin[a] = _mm_set1_ps(r.origin[a]);
       inv_direction[a] = _mm_set1_ps(r.inv_direction[a]);
-    }
 #endif
+    }
   }
 };
 
@@ -103,11 +108,11 @@ inline uint32_t intersect_box_quad(const RayBoxLanes& r, const BoxQuadLanes& qua
 #if defined(RTSIM_SSE2)
   constexpr float kFarScale = 1.0f + 2.0f * float_gamma(3);
   const __m128 scale = _mm_set1_ps(kFarScale);
+  const char* rows = reinterpret_cast<const char*>(&quad);
   __m128 t_near = _mm_set1_ps(tmin), t_far = _mm_set1_ps(tmax);
   for (int a = 0; a < 3; ++a) {
-    const int near_row = r.scalar.near_is_hi[a];
-    const __m128 near_plane = _mm_load_ps(quad.plane[near_row][a]);
-    const __m128 far_plane = _mm_load_ps(quad.plane[1 - near_row][a]);
+    const __m128 near_plane = _mm_load_ps(reinterpret_cast<const float*>(rows + r.near_row_offset[a]));
+    const __m128 far_plane = _mm_load_ps(reinterpret_cast<const float*>(rows + r.far_row_offset[a]));
     const __m128 t0 = _mm_mul_ps(_mm_sub_ps(near_plane, r.origin[a]), r.inv_direction[a]);
     const __m128 t1 = _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(far_plane, r.origin[a]), r.inv_direction[a]), scale);
     t_near = _mm_max_ps(t0, t_near);  // t0 > t_near ? t0 : t_near

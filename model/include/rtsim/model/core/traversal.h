@@ -179,6 +179,7 @@ class TraversalContext {
     return reinterpret_cast<const unsigned char*>(blocks_.data()) + size_t(r) * block_bytes_;
   }
   size_t record_block_bytes() const { return block_bytes_; }
+  size_t record_targets_offset() const { return targets_offset_; }
   uint32_t root_record() const { return root_record_; }
   bool two_level() const { return !instances_.empty(); }
   const InstancePlacement& instance(uint32_t i) const { return instances_[i]; }
@@ -250,7 +251,7 @@ class RayTraversal {
   TraversalMode mode() const { return mode_; }
   const HitRecord& hit() const { return hit_; }
   const RayCounters& counters() const { return counters_; }
-  uint32_t stack_size() const { return uint32_t(stack_.size()); }
+  uint32_t stack_size() const { return depth_; }
 
  private:
   // A node to visit later, with where it leads (ChildTarget; bvh2-32 uses the node only).
@@ -259,6 +260,7 @@ class RayTraversal {
     float tnear;
   };
   void push(uint32_t node, uint32_t target, uint32_t leaf_count, float tnear);
+  [[gnu::cold]] void grow_stack();
   void enter(uint32_t node, uint32_t target, uint32_t leaf_count);  // sets the next action
   void enter_leaf(uint32_t node);
   void pop_next();            // next non-culled stack entry, or Done
@@ -275,6 +277,10 @@ class RayTraversal {
   void after_candidates();    // the next candidate to test, or on with the leaf
   void test_candidate(uint32_t index);  // AlphaTest of candidates_[index] comes next
   uint64_t spill_address(uint32_t position) const;
+  const unsigned char* block(uint32_t record) const { return blocks_ + size_t(record) * block_bytes_; }
+  const TraversalContext::RecordHead& head(uint32_t record) const {
+    return *reinterpret_cast<const TraversalContext::RecordHead*>(block(record));
+  }
 
   // A hit on an alpha-tested triangle waiting for its any-hit test.
   struct Candidate {
@@ -285,6 +291,14 @@ class RayTraversal {
   const TraversalContext* context_;
   const BvhNode* nodes_;
   uint64_t stack_area_;
+  // The context's constants that every step reads, copied here once so that a
+  // step's first loads do not wait on context -> image -> field.
+  const unsigned char* blocks_ = nullptr;  // child-box formats: record block 0
+  const PackedTriangle* triangles_ = nullptr;  // by slot
+  const uint64_t* slot_addresses_ = nullptr;   // by slot
+  size_t block_bytes_ = 0, targets_offset_ = 0;
+  uint32_t node_bytes_ = 0, stack_limit_ = 0, triangles_per_step_ = 0;
+  bool own_box_records_ = false, two_level_ = false;
   Ray ray_;
   RayBoxLanes box_ray_;
   RayTrianglePrecompute tri_ray_;
@@ -299,7 +313,10 @@ class RayTraversal {
   uint32_t current_record_ = 0;  // child-box formats: the FetchNode step's record
   uint32_t leaf_slot_ = 0, leaf_count_ = 0, leaf_cursor_ = 0;
   uint32_t last_tests_ = 0, last_box_tests_ = 0;
+  // The stack: entries [0, depth_) of stack_, which grows (rarely) only
+  // when a push finds it full, so a push is a store and an increment.
   std::vector<StackEntry> stack_;
+  uint32_t depth_ = 0, stack_capacity_ = 0;
   std::vector<Candidate> candidates_;  // of the last triangle step, nearest first
   uint32_t candidate_ = 0;             // the one AlphaTest tests
   AlphaSample candidate_sample_;       // its texel, found once for the step's reads and its test
@@ -322,13 +339,12 @@ inline const std::vector<MemoryAccess>& RayTraversal::step_reads() const {
   reads_.clear();
   const MemoryImage& image = context_->image();
   if (action_ == TraversalAction::FetchNode) {
-    add(context_->own_box_records() ? image.node_address(current_node_)
-                                    : context_->record_head(current_record_).address,
+    add(own_box_records_ ? image.node_address(current_node_) : head(current_record_).address,
         image.node_bytes(), AccessKind::Node);
   } else if (action_ == TraversalAction::TestTriangles) {
     if (leaf_cursor_ == 0 && image.indexed())
       add(image.prim_refs_address(current_node_), leaf_count_ * 4u, AccessKind::PrimRef);
-    const uint32_t end = std::min(leaf_count_, leaf_cursor_ + context_->config().triangles_per_step);
+    const uint32_t end = std::min(leaf_count_, leaf_cursor_ + triangles_per_step_);
     for (uint32_t k = leaf_cursor_; k < end; ++k)
       add(image.slot_address(leaf_slot_ + k), image.triangle_bytes(), AccessKind::Triangle);
   } else if (action_ == TraversalAction::AlphaTest) {
@@ -347,7 +363,7 @@ inline uint32_t RayTraversal::step_independent_reads() const {
     case TraversalAction::FetchNode: return 1;
     case TraversalAction::TestTriangles:
       if (leaf_cursor_ == 0 && context_->image().indexed()) return 1;
-      return std::min(leaf_count_ - leaf_cursor_, context_->config().triangles_per_step);
+      return std::min(leaf_count_ - leaf_cursor_, triangles_per_step_);
     case TraversalAction::AlphaTest: return 1;  // the texel's address needs the UVs
     case TraversalAction::Transform: return 1;
     case TraversalAction::Done: break;
@@ -357,8 +373,8 @@ inline uint32_t RayTraversal::step_independent_reads() const {
 
 inline uint32_t RayTraversal::step_box_tests() const {
   if (action_ != TraversalAction::FetchNode) return 0;
-  if (context_->own_box_records()) return 1;
-  return context_->record_head(current_record_).children;
+  if (own_box_records_) return 1;
+  return head(current_record_).children;
 }
 
 // The functional driver: runs the ray to completion, sending every access (step
