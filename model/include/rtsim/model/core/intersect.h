@@ -141,14 +141,18 @@ struct RayTrianglePrecompute {
 
   RayTrianglePrecompute() = default;
   RayTrianglePrecompute(const vec3& o, const vec3& d) : origin(o), direction(d) {
-    const vec3 ad = glm::abs(d);
-    kz = (ad.x > ad.y) ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
-    kx = (kz + 1) % 3;
-    ky = (kx + 1) % 3;
-    if (d[kz] < 0.0f) std::swap(kx, ky);  // keeps the winding, so signs stay meaningful
-    shear_x = d[kx] / d[kz];
-    shear_y = d[ky] / d[kz];
-    shear_z = 1.0f / d[kz];
+    // The components by index from an array: glm's operator[] is a switch, whose
+    // branches a ray's random axis order would mispredict.
+    const float dv[3] = {d.x, d.y, d.z};
+    const float ax = std::fabs(d.x), ay = std::fabs(d.y), az = std::fabs(d.z);
+    kz = (ax > ay) ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
+    const int next_x = kz == 2 ? 0 : kz + 1, next_y = next_x == 2 ? 0 : next_x + 1;
+    const bool flip = dv[kz] < 0.0f;  // swapping keeps the winding, so signs stay meaningful
+    kx = flip ? next_y : next_x;
+    ky = flip ? next_x : next_y;
+    shear_x = dv[kx] / dv[kz];
+    shear_y = dv[ky] / dv[kz];
+    shear_z = 1.0f / dv[kz];
   }
 };
 
@@ -283,9 +287,10 @@ struct RayTriangleLanes {
   RayTriangleLanes() = default;
   explicit RayTriangleLanes(const RayTrianglePrecompute& r) : kx(r.kx), ky(r.ky), kz(r.kz) {
 #if defined(RTSIM_SSE2)
-    origin[0] = _mm_set1_ps(r.origin[r.kx]);
-    origin[1] = _mm_set1_ps(r.origin[r.ky]);
-    origin[2] = _mm_set1_ps(r.origin[r.kz]);
+    const float o[3] = {r.origin.x, r.origin.y, r.origin.z};  // indexed without glm's switch
+    origin[0] = _mm_set1_ps(o[r.kx]);
+    origin[1] = _mm_set1_ps(o[r.ky]);
+    origin[2] = _mm_set1_ps(o[r.kz]);
     shear_x = _mm_set1_ps(r.shear_x);
     shear_y = _mm_set1_ps(r.shear_y);
     shear_z = _mm_set1_ps(r.shear_z);
