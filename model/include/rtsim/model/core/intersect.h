@@ -167,17 +167,18 @@ namespace triangle_detail {
 // coordinate.
 struct ShearedVertex {
   const vec3* vertex;
-  vec3 p;      // vertex - origin, rounded to float
+  float z;     // (vertex - origin)[kz], rounded to float
   float x, y;  // sheared coordinates
   float ax, ay;  // |x|, |y|
   float mx, my;  // |p[kx]| + |shear_x p[kz]|, likewise for y
 };
 
 inline ShearedVertex shear(const RayTrianglePrecompute& r, const vec3& vertex) {
-  const vec3 p = vertex - r.origin;
+  const vec3 d = vertex - r.origin;
+  const float p[3] = {d.x, d.y, d.z};  // indexed without glm's switch (see RayTrianglePrecompute)
   const float sx = r.shear_x * p[r.kz], sy = r.shear_y * p[r.kz];
   const float x = p[r.kx] - sx, y = p[r.ky] - sy;
-  return {&vertex,      p, x, y, std::fabs(x), std::fabs(y), std::fabs(p[r.kx]) + std::fabs(sx),
+  return {&vertex,      p[r.kz], x, y, std::fabs(x), std::fabs(y), std::fabs(p[r.kx]) + std::fabs(sx),
           std::fabs(p[r.ky]) + std::fabs(sy)};
 }
 
@@ -263,7 +264,7 @@ inline bool intersect_triangle(const RayTrianglePrecompute& r, const vec3& v0, c
   // 256 times its error bound (the ray nearly parallel to the plane), take the
   // plane distance in double, and no hit when the ray is parallel in double.
   if (std::fabs(det) > 256.0f * (bound_u + bound_v + bound_w)) {
-    const float az = r.shear_z * a.p[r.kz], bz = r.shear_z * b.p[r.kz], cz = r.shear_z * c.p[r.kz];
+    const float az = r.shear_z * a.z, bz = r.shear_z * b.z, cz = r.shear_z * c.z;
     t = (u * az + v * bz + w * cz) * inv_det;
     if (!(t >= tmin && t <= tmax)) return false;  // also rejects NaN
   } else if (!plane_distance_in_double(r, v0, v1, v2, tmin, tmax, &t, exact_steps)) {
