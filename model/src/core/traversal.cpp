@@ -432,22 +432,31 @@ void RayTraversal::process_triangles() {
   // The triangles are tested four lanes at a time and their verdicts taken in
   // memory order, each against the closest hit so far, as if one by one: a lane
   // that needs a step in double takes the scalar test (which counts it).
-  TriangleQuadVerdict lanes;
-  for (uint32_t lane = 0; leaf_cursor_ < end; ++leaf_cursor_, lane = (lane + 1) & 3u) {
-    ++counters_.ist_ops;
-    ++last_tests_;
-    const uint32_t slot = leaf_slot_ + leaf_cursor_;
-    if (lane == 0)
-      lanes = intersect_triangle_quad(tri_lanes_, reinterpret_cast<const float*>(triangles_ + slot), ray_.tmin, tfar_);
-    const uint32_t bit = 1u << lane;
-    TriangleHit th{lanes.t[lane], lanes.u[lane], lanes.v[lane]};
-    bool hit = (lanes.hit & bit) && th.t <= tfar_;
-    if (lanes.exact & bit) {
-      const PackedTriangle& tri = triangles_[slot];
-      hit = intersect_triangle(tri_ray_, tri.v0, tri.v1, tri.v2, ray_.tmin, tfar_, &th,
-                               &counters_.ist_exact_steps);
+  while (leaf_cursor_ < end) {
+    const uint32_t first = leaf_slot_ + leaf_cursor_;
+    const uint32_t count = std::min(4u, end - leaf_cursor_);
+    const TriangleQuadVerdict lanes =
+        intersect_triangle_quad(tri_lanes_, reinterpret_cast<const float*>(triangles_ + first), ray_.tmin, tfar_);
+    if (((lanes.hit | lanes.exact) & ((1u << count) - 1)) == 0) {
+      // No lane hits or needs the scalar test (the common case): all missed.
+      counters_.ist_ops += count;
+      last_tests_ += count;
+      leaf_cursor_ += count;
+      continue;
     }
-    if (hit) {
+    for (uint32_t lane = 0; lane < count; ++lane, ++leaf_cursor_) {
+      ++counters_.ist_ops;
+      ++last_tests_;
+      const uint32_t slot = first + lane;
+      const uint32_t bit = 1u << lane;
+      TriangleHit th{lanes.t[lane], lanes.u[lane], lanes.v[lane]};
+      bool hit = (lanes.hit & bit) && th.t <= tfar_;
+      if (lanes.exact & bit) {
+        const PackedTriangle& tri = triangles_[slot];
+        hit = intersect_triangle(tri_ray_, tri.v0, tri.v1, tri.v2, ray_.tmin, tfar_, &th,
+                                 &counters_.ist_exact_steps);
+      }
+      if (!hit) continue;
       if (alpha_scene_ && context_->scene().alpha_tested(image.slot_triangle(slot))) {
         candidates_.push_back({th.t, th.u, th.v, slot});  // the any-hit stage decides
         continue;
