@@ -187,12 +187,7 @@ uint64_t RayTraversal::spill_address(uint32_t position) const {
   return stack_area_ + uint64_t(std::min(position, last)) * context_->config().stack_entry_bytes;
 }
 
-void RayTraversal::grow_stack() {
-  stack_.resize(stack_.size() * 2);
-  stack_capacity_ = uint32_t(stack_.size());
-}
-
-void RayTraversal::push(uint32_t node, uint32_t target, uint32_t leaf_count, float tnear) {
+void RayTraversal::make_room_to_push() {
   if (depth_ >= stack_limit_) {
     ++counters_.stack_overflows;
     if (context_->config().overflow_policy == StackOverflowPolicy::DropOldest) {
@@ -205,7 +200,15 @@ void RayTraversal::push(uint32_t node, uint32_t target, uint32_t leaf_count, flo
                                  AccessKind::Stack, true});
     }
   }
-  if (depth_ == stack_capacity_) grow_stack();
+  if (depth_ == stack_capacity_) {
+    stack_.resize(stack_.size() * 2);
+    stack_capacity_ = uint32_t(stack_.size());
+  }
+}
+
+inline void RayTraversal::push(uint32_t node, uint32_t target, uint32_t leaf_count, float tnear) {
+  // A push onto a stack with room, the common case, is a store and an increment.
+  if (depth_ >= stack_limit_ || depth_ == stack_capacity_) make_room_to_push();
   // Stored field by field: an entry built on the stack and copied in whole would
   // be read back wider than it was written (a stalled store forward).
   StackEntry& entry = stack_[depth_++];

@@ -260,7 +260,7 @@ class RayTraversal {
     float tnear;
   };
   void push(uint32_t node, uint32_t target, uint32_t leaf_count, float tnear);
-  [[gnu::cold]] void grow_stack();
+  [[gnu::cold, gnu::noinline]] void make_room_to_push();  // a spill, a drop or more storage
   void enter(uint32_t node, uint32_t target, uint32_t leaf_count);  // sets the next action
   void enter_leaf(uint32_t node);
   void pop_next();            // next non-culled stack entry, or Done
