@@ -73,12 +73,13 @@ TEST(CoreBox, TightBoxAroundAFarAwayTriangleIsNeverMissed) {
   EXPECT_EQ(misses, 0u);
 }
 
-// The traversal tests a record's boxes four at a time (intersect_box_quad).
+// The traversal tests a record's boxes four at a time, a binary record's two at
+// a time (intersect_box_lanes).
 // Property: its hit and entry distance are the scalar test's, bit for bit, for
 // random boxes and rays and for the awkward ones: zero and negative-zero
 // direction components, origins on face planes (0 * inf), flat and empty
 // boxes, infinite tmax and closest-hit limits inside the box.
-TEST(CoreBox, FourBoxSlabTestGivesTheScalarAnswersBitForBit) {
+TEST(CoreBox, LaneSlabTestsGiveTheScalarAnswersBitForBit) {
   const float specials[] = {0.0f, -0.0f, 1.0f, -1.0f, 0.5f, 2.0f, kInf, -kInf, 1e-30f, 3e7f};
   uint64_t checked = 0, hits = 0;
   for (uint32_t i = 0; i < 200000; ++i) {
@@ -106,17 +107,25 @@ TEST(CoreBox, FourBoxSlabTestGivesTheScalarAnswersBitForBit) {
     const float tmax = uint32_t(rng.next_u64()) % 2 ? kInf : rng.next_float() * 6.0f;
     const RayBoxPrecompute pre(o, d);
     BoxQuadLanes quad{};
+    BoxPairLanes pair{};  // a binary record's layout: the first two boxes
     for (int k = 0; k < 4; ++k) quad.set(k, boxes[k]);
-    float paired[4];
-    const uint32_t mask = intersect_box_quad(RayBoxLanes(pre), quad, tmin, tmax, paired);
+    for (int k = 0; k < 2; ++k) pair.set(k, boxes[k]);
+    float in_quad[4], in_pair[4];
+    const uint32_t quad_mask = intersect_box_lanes(RayBoxLanes(pre), quad, tmin, tmax, in_quad);
+    const uint32_t pair_mask = intersect_box_lanes(RayBoxLanes(pre), pair, tmin, tmax, in_pair);
     for (int k = 0; k < 4; ++k) {
       float scalar = 0.0f;
       const bool hit = intersect_box(pre, boxes[k], tmin, tmax, &scalar);
-      ASSERT_EQ(hit, ((mask >> k) & 1u) != 0) << "case " << i << " box " << k;
+      ASSERT_EQ(hit, ((quad_mask >> k) & 1u) != 0) << "case " << i << " box " << k;
       uint32_t a, b;
       std::memcpy(&a, &scalar, 4);
-      std::memcpy(&b, &paired[k], 4);
-      ASSERT_EQ(a, b) << "case " << i << " box " << k << ": " << scalar << " vs " << paired[k];
+      std::memcpy(&b, &in_quad[k], 4);
+      ASSERT_EQ(a, b) << "case " << i << " box " << k << ": " << scalar << " vs " << in_quad[k];
+      if (k < 2) {
+        ASSERT_EQ(hit, ((pair_mask >> k) & 1u) != 0) << "case " << i << " pair box " << k;
+        std::memcpy(&b, &in_pair[k], 4);
+        ASSERT_EQ(a, b) << "case " << i << " pair box " << k << ": " << scalar << " vs " << in_pair[k];
+      }
       hits += hit;
       ++checked;
     }

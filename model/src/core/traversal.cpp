@@ -83,7 +83,8 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
   if (own_box_records_ || bvh.empty()) return;
   const uint32_t width = image.format().width;
   const uint32_t quads = (width + 3) / 4;
-  targets_offset_ = sizeof(RecordHead) + quads * sizeof(BoxQuadLanes);
+  pair_records_ = width <= 2;
+  targets_offset_ = sizeof(RecordHead) + (pair_records_ ? sizeof(BoxPairLanes) : quads * sizeof(BoxQuadLanes));
   block_bytes_ = (targets_offset_ + width * sizeof(ChildTarget) + 15) & ~size_t(15);
   const size_t chunks = image.record_count() * block_bytes_ / sizeof(Chunk);
   reserve_on_huge_pages(blocks_, chunks);
@@ -95,13 +96,15 @@ TraversalContext::TraversalContext(const Scene& scene, const Bvh& bvh, const Mem
     const uint32_t children = node.is_leaf() ? 0 : node.children;
     unsigned char* block = reinterpret_cast<unsigned char*>(blocks_.data()) + size_t(r) * block_bytes_;
     new (block) RecordHead{image.node_address(n), n, children};
-    BoxQuadLanes* lanes = new (block + sizeof(RecordHead)) BoxQuadLanes[quads]{};
+    BoxPairLanes* pair = pair_records_ ? new (block + sizeof(RecordHead)) BoxPairLanes{} : nullptr;
+    BoxQuadLanes* lanes = pair_records_ ? nullptr : new (block + sizeof(RecordHead)) BoxQuadLanes[quads]{};
     ChildTarget* targets = new (block + targets_offset_) ChildTarget[width]{};
     const Aabb* boxes = children ? image.record_boxes(n) : nullptr;
     for (uint32_t k = 0; k < children; ++k) {
       const uint32_t c = node.index + k;
       const BvhNode& child = bvh.nodes[c];
-      lanes[k / 4].set(int(k % 4), boxes[k]);
+      if (pair) pair->set(int(k), boxes[k]);
+      else lanes[k / 4].set(int(k % 4), boxes[k]);
       targets[k] = bvh.is_instance_leaf(c) ? ChildTarget{c, image.leaf_first(c), kInstanceLeaf}
                    : child.is_leaf()        ? ChildTarget{c, image.leaf_first(c), child.count}
                                             : ChildTarget{c, image.record_ordinal(c), 0};
@@ -136,6 +139,7 @@ RayTraversal::RayTraversal(const TraversalContext& context, uint32_t stack_slot)
       stack_limit_(context.config().stack_limit),
       triangles_per_step_(context.config().triangles_per_step),
       own_box_records_(context.own_box_records()),
+      pair_records_(context.pair_records()),
       two_level_(context.two_level()) {
   stack_.resize(std::min<uint32_t>(stack_limit_, 64) + 1);
   stack_capacity_ = uint32_t(stack_.size());
@@ -334,12 +338,17 @@ void RayTraversal::process_child_boxes_node() {
     return;
   }
   // The child boxes as the record decodes them (quantized formats: conservative).
-  const auto* quads = reinterpret_cast<const BoxQuadLanes*>(record + sizeof(TraversalContext::RecordHead));
+  const unsigned char* boxes = record + sizeof(TraversalContext::RecordHead);
   const auto* targets = reinterpret_cast<const TraversalContext::ChildTarget*>(record + targets_offset_);
   float t_entry[(kMaxBvhWidth + 3) / 4 * 4];
   uint32_t hit_mask = 0;
-  for (uint32_t k = 0; k < children; k += 4)
-    hit_mask |= intersect_box_quad(box_ray_, quads[k / 4], ray_.tmin, tfar_, &t_entry[k]) << k;
+  if (pair_records_) {
+    hit_mask = intersect_box_lanes(box_ray_, *reinterpret_cast<const BoxPairLanes*>(boxes), ray_.tmin, tfar_, t_entry);
+  } else {
+    const auto* quads = reinterpret_cast<const BoxQuadLanes*>(boxes);
+    for (uint32_t k = 0; k < children; k += 4)
+      hit_mask |= intersect_box_lanes(box_ray_, quads[k / 4], ray_.tmin, tfar_, &t_entry[k]) << k;
+  }
   hit_mask &= (1u << children) - 1;  // a count that is no multiple of 4 leaves unused lanes
   counters_.box_tests += children;
   last_box_tests_ = children;

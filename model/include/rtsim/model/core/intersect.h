@@ -65,16 +65,22 @@ inline bool intersect_box(const RayBoxPrecompute& r, const Aabb& box, float tmin
   return t_near <= t_far;
 }
 
-// Four child boxes laid out for one 4-lane slab test: plane[0][axis] holds the four
-// boxes' lo on that axis, plane[1][axis] their hi. A wide record's boxes are a run
-// of these quads (the traversal context builds them once); lanes past the node's
-// children are unused and masked off by the caller.
-struct BoxQuadLanes {
-  alignas(16) float plane[2][3][4];
-  void set(int slot, const Aabb& box) {  // slot 0..3
+// Child boxes laid out for one 4-lane slab test: plane[0][axis] holds the boxes'
+// lo on that axis, plane[1][axis] their hi, kLanes to a row. A wide record's boxes
+// are a run of quads (kLanes = 4; the traversal context builds them once); a binary
+// record's are one pair (kLanes = 2), half a quad's bytes, whose rows load into the
+// low two lanes. Lanes past the node's children are unused and masked off by the
+// caller.
+template <int kLanes>
+struct BoxLanes {
+  static_assert(kLanes == 2 || kLanes == 4, "rows of two or four lanes");
+  alignas(16) float plane[2][3][kLanes];
+  void set(int slot, const Aabb& box) {  // slot 0..kLanes-1
     for (int a = 0; a < 3; ++a) plane[0][a][slot] = box.lo[a], plane[1][a][slot] = box.hi[a];
   }
 };
+using BoxQuadLanes = BoxLanes<4>;
+using BoxPairLanes = BoxLanes<2>;
 
 // The ray's slab-test data broadcast to four lanes, made once per ray, with the
 // byte offsets in a BoxQuadLanes of the rows it enters and leaves by per axis
@@ -98,21 +104,29 @@ struct RayBoxLanes {
   }
 };
 
-// intersect_box for the four boxes of a quad at once, with exactly its answers (the
-// same operations in the same order per lane, so traversal is bit-identical): the
-// ray's sign picks which plane row is near per axis (an address, not a blend), max
-// and min keep the running bound when a distance is NaN as the scalar test does.
-// Returns a hit mask (bit i: box i) and writes all four entry distances.
-inline uint32_t intersect_box_quad(const RayBoxLanes& r, const BoxQuadLanes& quad, float tmin,
-                                   float tmax, float t_entry[4]) {
+// intersect_box for the boxes of a quad (or a pair) at once, with exactly its
+// answers (the same operations in the same order per lane, so traversal is
+// bit-identical): the ray's sign picks which plane row is near per axis (an
+// address, not a blend), max and min keep the running bound when a distance is NaN
+// as the scalar test does. Returns a hit mask (bit i: box i) and writes four entry
+// distances (a pair's lanes 2 and 3 test empty planes: the caller masks them off).
+template <int kLanes>
+inline uint32_t intersect_box_lanes(const RayBoxLanes& r, const BoxLanes<kLanes>& boxes, float tmin,
+                                    float tmax, float t_entry[4]) {
 #if defined(RTSIM_SSE2)
   constexpr float kFarScale = 1.0f + 2.0f * float_gamma(3);
   const __m128 scale = _mm_set1_ps(kFarScale);
-  const char* rows = reinterpret_cast<const char*>(&quad);
+  const char* rows = reinterpret_cast<const char*>(&boxes);
+  // The ray's offsets are a quad's; a pair's rows are half as long.
+  const auto row = [&](size_t quad_offset) {
+    const char* p = rows + quad_offset * kLanes / 4;
+    if constexpr (kLanes == 4) return _mm_load_ps(reinterpret_cast<const float*>(p));
+    else return _mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(p)));
+  };
   __m128 t_near = _mm_set1_ps(tmin), t_far = _mm_set1_ps(tmax);
   for (int a = 0; a < 3; ++a) {
-    const __m128 near_plane = _mm_load_ps(reinterpret_cast<const float*>(rows + r.near_row_offset[a]));
-    const __m128 far_plane = _mm_load_ps(reinterpret_cast<const float*>(rows + r.far_row_offset[a]));
+    const __m128 near_plane = row(r.near_row_offset[a]);
+    const __m128 far_plane = row(r.far_row_offset[a]);
     const __m128 t0 = _mm_mul_ps(_mm_sub_ps(near_plane, r.origin[a]), r.inv_direction[a]);
     const __m128 t1 = _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(far_plane, r.origin[a]), r.inv_direction[a]), scale);
     t_near = _mm_max_ps(t0, t_near);  // t0 > t_near ? t0 : t_near
@@ -122,11 +136,12 @@ inline uint32_t intersect_box_quad(const RayBoxLanes& r, const BoxQuadLanes& qua
   return uint32_t(_mm_movemask_ps(_mm_cmple_ps(t_near, t_far)));
 #else
   uint32_t mask = 0;
-  for (int slot = 0; slot < 4; ++slot) {
+  for (int slot = 0; slot < kLanes; ++slot) {
     Aabb box;
-    for (int a = 0; a < 3; ++a) box.lo[a] = quad.plane[0][a][slot], box.hi[a] = quad.plane[1][a][slot];
+    for (int a = 0; a < 3; ++a) box.lo[a] = boxes.plane[0][a][slot], box.hi[a] = boxes.plane[1][a][slot];
     if (intersect_box(r.scalar, box, tmin, tmax, &t_entry[slot])) mask |= 1u << slot;
   }
+  for (int slot = kLanes; slot < 4; ++slot) t_entry[slot] = tmin;
   return mask;
 #endif
 }

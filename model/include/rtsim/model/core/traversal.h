@@ -128,7 +128,8 @@ class TraversalContext {
  public:
   // The host's copy of a record that holds its children's boxes, laid out for the
   // hot loop in one block per record, in address order: its head, its children's
-  // decoded boxes four to a BoxQuadLanes (one 4-lane slab test per quad), then
+  // decoded boxes four to a BoxQuadLanes (one 4-lane slab test per quad; a binary
+  // format's two in one BoxPairLanes, half the bytes), then
   // where each child leads (its own record, or its leaf's triangle slots). A node
   // step reads one block instead of the tree, the image and its box table, and
   // the ray can prefetch it as soon as it knows its next node: the engines
@@ -164,13 +165,10 @@ class TraversalContext {
   // four slots from any slot (three slots of zero padding at the end).
   const float* slot_vertices(uint32_t slot) const { return reinterpret_cast<const float*>(triangles_.data() + slot); }
   bool own_box_records() const { return own_box_records_; }  // bvh2-32
-  // Child-box formats only: record r's head, its box quads (the boxes as the
-  // record decodes them) and its children's targets.
+  bool pair_records() const { return pair_records_; }  // binary child-box formats: BoxPairLanes
+  // Child-box formats only: record r's head and its children's targets.
   const RecordHead& record_head(uint32_t r) const {
     return *reinterpret_cast<const RecordHead*>(record_block(r));
-  }
-  const BoxQuadLanes* record_box_quads(uint32_t r) const {
-    return reinterpret_cast<const BoxQuadLanes*>(record_block(r) + sizeof(RecordHead));
   }
   const ChildTarget* record_targets(uint32_t r) const {
     return reinterpret_cast<const ChildTarget*>(record_block(r) + targets_offset_);
@@ -196,6 +194,7 @@ class TraversalContext {
   const MemoryImage* image_;
   TraversalConfig config_;
   bool own_box_records_;
+  bool pair_records_ = false;
   uint64_t stack_base_;
   std::vector<PackedTriangle> triangles_;  // by slot
   // Record blocks (child-box formats), block_bytes_ each, 16-byte aligned.
@@ -298,7 +297,7 @@ class RayTraversal {
   const uint64_t* slot_addresses_ = nullptr;   // by slot
   size_t block_bytes_ = 0, targets_offset_ = 0;
   uint32_t node_bytes_ = 0, stack_limit_ = 0, triangles_per_step_ = 0;
-  bool own_box_records_ = false, two_level_ = false;
+  bool own_box_records_ = false, pair_records_ = false, two_level_ = false;
   Ray ray_;
   RayBoxLanes box_ray_;
   RayTrianglePrecompute tri_ray_;
