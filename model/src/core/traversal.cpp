@@ -142,7 +142,6 @@ RayTraversal::RayTraversal(const TraversalContext& context, uint32_t stack_slot)
       pair_records_(context.pair_records()),
       two_level_(context.two_level()) {
   stack_.resize(std::min<uint32_t>(stack_limit_, 64) + 1);
-  stack_capacity_ = uint32_t(stack_.size());
   reads_.reserve(2 + context.config().triangles_per_step);
   alpha_scene_ = context.image().has_alpha_data();
   if (alpha_scene_) candidates_.reserve(context.config().triangles_per_step);
@@ -204,15 +203,12 @@ void RayTraversal::make_room_to_push() {
                                  AccessKind::Stack, true});
     }
   }
-  if (depth_ == stack_capacity_) {
-    stack_.resize(stack_.size() * 2);
-    stack_capacity_ = uint32_t(stack_.size());
-  }
+  if (depth_ == stack_.size()) stack_.resize(stack_.size() * 2);
 }
 
 inline void RayTraversal::push(uint32_t node, uint32_t target, uint32_t leaf_count, float tnear) {
   // A push onto a stack with room, the common case, is a store and an increment.
-  if (depth_ >= stack_limit_ || depth_ == stack_capacity_) make_room_to_push();
+  if (depth_ >= stack_limit_ || depth_ == stack_.size()) make_room_to_push();
   // Stored field by field: an entry built on the stack and copied in whole would
   // be read back wider than it was written (a stalled store forward).
   StackEntry& entry = stack_[depth_++];

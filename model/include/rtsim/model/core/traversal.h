@@ -166,13 +166,8 @@ class TraversalContext {
   const float* slot_vertices(uint32_t slot) const { return reinterpret_cast<const float*>(triangles_.data() + slot); }
   bool own_box_records() const { return own_box_records_; }  // bvh2-32
   bool pair_records() const { return pair_records_; }  // binary child-box formats: BoxPairLanes
-  // Child-box formats only: record r's head and its children's targets.
-  const RecordHead& record_head(uint32_t r) const {
-    return *reinterpret_cast<const RecordHead*>(record_block(r));
-  }
-  const ChildTarget* record_targets(uint32_t r) const {
-    return reinterpret_cast<const ChildTarget*>(record_block(r) + targets_offset_);
-  }
+  // Child-box formats only: record r's block, and where in a block its children's
+  // targets start (its head is at 0, its boxes right after the head).
   const unsigned char* record_block(uint32_t r) const {
     return reinterpret_cast<const unsigned char*>(blocks_.data()) + size_t(r) * block_bytes_;
   }
@@ -315,7 +310,7 @@ class RayTraversal {
   // The stack: entries [0, depth_) of stack_, which grows (rarely) only
   // when a push finds it full, so a push is a store and an increment.
   std::vector<StackEntry> stack_;
-  uint32_t depth_ = 0, stack_capacity_ = 0;
+  uint32_t depth_ = 0;
   std::vector<Candidate> candidates_;  // of the last triangle step, nearest first
   uint32_t candidate_ = 0;             // the one AlphaTest tests
   AlphaSample candidate_sample_;       // its texel, found once for the step's reads and its test
