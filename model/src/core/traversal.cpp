@@ -328,7 +328,7 @@ void RayTraversal::process_node() {
 
 void RayTraversal::process_child_boxes_node() {
   const unsigned char* record = block(current_record_);
-  const uint32_t children = reinterpret_cast<const TraversalContext::RecordHead*>(record)->children;
+  const uint32_t children = head(current_record_).children;
   if (children == 0) {  // only a root that is a leaf is ever fetched as a node
     enter_leaf(current_node_);
     return;
