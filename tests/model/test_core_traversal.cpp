@@ -135,17 +135,19 @@ TEST(CoreBox, LaneSlabTestsGiveTheScalarAnswersBitForBit) {
   EXPECT_LT(hits, checked - checked / 20);
 }
 
-// The four-lane triangle test decides in float exactly the lanes the scalar test
-// decides in float, with its verdicts bit for bit, and flags the others (those
-// where the scalar test takes a step in double) for the scalar test. The cases
-// mix random triangles with rays through vertices, along edges, in the plane and
-// parallel to it, and degenerate triangles.
-TEST(CoreTriangle, FourLaneTestGivesTheScalarVerdictsBitForBit) {
+namespace {
+
+struct QuadCheckCounts {
   uint64_t float_lanes = 0, exact_lanes = 0, hits = 0;
-  for (uint32_t i = 0; i < 100000; ++i) {
-    KeyedRng rng(2025, {i});
+};
+
+// Random quads of triangles and rays (see FourLaneTestGivesTheScalarVerdictsBitForBit),
+// every coordinate times `scale`, each lane checked against the scalar test.
+void check_quads_against_scalar(uint64_t seed, uint32_t cases, float scale, QuadCheckCounts* counts) {
+  for (uint32_t i = 0; i < cases; ++i) {
+    KeyedRng rng(seed, {i});
     const auto point = [&] {
-      return vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f) * 4.0f;
+      return vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f) * 4.0f * scale;
     };
     float vertices[36];
     vec3 tri[4][3];
@@ -177,23 +179,56 @@ TEST(CoreTriangle, FourLaneTestGivesTheScalarVerdictsBitForBit) {
       uint32_t steps = 0;
       const bool hit = intersect_triangle(pre, tri[k][0], tri[k][1], tri[k][2], tmin, tmax, &th, &steps);
       const bool exact = (lanes.exact >> k) & 1u;
-      ASSERT_EQ(exact, steps > 0) << "case " << i << " lane " << k;
+      ASSERT_EQ(exact, steps > 0) << "scale " << scale << " case " << i << " lane " << k;
       if (exact) {
-        ASSERT_FALSE((lanes.hit >> k) & 1u) << "case " << i << " lane " << k;
-        ++exact_lanes;
+        ASSERT_FALSE((lanes.hit >> k) & 1u) << "scale " << scale << " case " << i << " lane " << k;
+        ++counts->exact_lanes;
         continue;
       }
-      ++float_lanes;
-      ASSERT_EQ(hit, ((lanes.hit >> k) & 1u) != 0) << "case " << i << " lane " << k;
+      ++counts->float_lanes;
+      ASSERT_EQ(hit, ((lanes.hit >> k) & 1u) != 0) << "scale " << scale << " case " << i << " lane " << k;
       if (!hit) continue;
-      ++hits;
+      ++counts->hits;
       const float mine[3] = {lanes.t[k], lanes.u[k], lanes.v[k]}, theirs[3] = {th.t, th.u, th.v};
-      ASSERT_EQ(std::memcmp(mine, theirs, sizeof mine), 0) << "case " << i << " lane " << k;
+      ASSERT_EQ(std::memcmp(mine, theirs, sizeof mine), 0) << "scale " << scale << " case " << i << " lane " << k;
     }
   }
-  EXPECT_GT(hits, float_lanes / 20);   // both verdicts occur often
-  EXPECT_GT(exact_lanes, 5000u) << float_lanes;  // and so do the lanes left to the scalar test
-  EXPECT_GT(float_lanes, 250000u);  // of 400,000 lanes, less the skipped cases
+}
+
+}  // namespace
+
+// The four-lane triangle test decides in float exactly the lanes the scalar test
+// decides in float, with its verdicts bit for bit, and flags the others (those
+// where the scalar test takes a step in double) for the scalar test. The cases
+// mix random triangles with rays through vertices, along edges, in the plane and
+// parallel to it, and degenerate triangles.
+TEST(CoreTriangle, FourLaneTestGivesTheScalarVerdictsBitForBit) {
+  QuadCheckCounts counts;
+  check_quads_against_scalar(2025, 100000, 1.0f, &counts);
+  EXPECT_GT(counts.hits, counts.float_lanes / 20);   // both verdicts occur often
+  EXPECT_GT(counts.exact_lanes, 5000u) << counts.float_lanes;  // and so do the lanes left to the scalar test
+  EXPECT_GT(counts.float_lanes, 250000u);  // of 400,000 lanes, less the skipped cases
+}
+
+// The same at scales where the error bounds' products fall below float's normal
+// range or beyond its largest value: the lanes must still flag exactly the
+// scalar test's steps in double, and agree bit for bit elsewhere. Near 1e-19 the
+// bounds' products are subnormal; near 1e19 the bounds' sums overflow, and at
+// 3e19 nearly every lane's do. At 1e-36 the edge values themselves underflow, so
+// every lane is left to the scalar test.
+TEST(CoreTriangle, FourLaneTestKeepsTheScalarVerdictsAtExtremeScales) {
+  struct Scale {
+    float scale;
+    bool both_kinds;  // float and scalar lanes both occur, so both paths are checked
+  };
+  for (const Scale& s : {Scale{1e-36f, false}, Scale{3e-20f, true}, Scale{1e-19f, true}, Scale{1e-12f, true},
+                         Scale{1e12f, true}, Scale{1e18f, true}, Scale{1e19f, true}, Scale{3e19f, false}}) {
+    QuadCheckCounts counts;
+    check_quads_against_scalar(2026, 20000, s.scale, &counts);
+    if (HasFatalFailure()) return;
+    EXPECT_GT(counts.exact_lanes, 100u) << "scale " << s.scale;
+    if (s.both_kinds) EXPECT_GT(counts.float_lanes, 100u) << "scale " << s.scale;
+  }
 }
 
 TEST(CoreTriangle, FanSharedVertexAndEdgesHitAtLeastOnce) {
