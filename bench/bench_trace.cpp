@@ -4,6 +4,9 @@
 // (tri_accel=bvh4.triangle4 / bvh8.triangle4).
 // Scenes: the default scene, and `dragon` when it has been fetched into the
 // scene cache (RTSIM_CACHE). Report: items_per_second = rays/s.
+// env RTSIM_BENCH_BUILDER=NAME: the builder of our trees (default sah), as in
+// bench_simulate; Embree's rows always traverse Embree's own trees, so the ratio
+// between the two shows the core and the tree together.
 #include <rtsim/builder/build.h>
 #include <rtsim/builder/memory_image.h>
 #include <rtsim/model/core/functional_tracer.h>
@@ -12,6 +15,9 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -36,10 +42,10 @@ struct Workload {
   std::unique_ptr<EmbreeScene> embree4, embree8;
   std::vector<Ray> primary, ao;
 
-  explicit Workload(const std::string& name) : scene(load_scene(name)) {
+  Workload(const std::string& name, const std::string& builder) : scene(load_scene(name)) {
     for (const char* format : kFormats) {
       BuildParams params;
-      params.builder = "sah";
+      params.builder = builder;
       apply_node_format(params, node_format(format));
       FormatTree& t = trees[format];
       t.bvh = build_bvh(scene, params);
@@ -97,9 +103,17 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   std::vector<std::string> names{default_scene_name()};
   if (std::filesystem::exists(scene_cache_dir() / "dragon" / "scene.toml")) names.push_back("dragon");
+  const char* builder_env = std::getenv("RTSIM_BENCH_BUILDER");
+  const std::string builder = builder_env ? builder_env : "sah";
+  benchmark::AddCustomContext("builder", builder);
   std::vector<std::unique_ptr<Workload>> workloads;
   for (const std::string& name : names) {
-    workloads.push_back(std::make_unique<Workload>(name));
+    try {
+      workloads.push_back(std::make_unique<Workload>(name, builder));
+    } catch (const std::exception& e) {  // e.g. an unknown RTSIM_BENCH_BUILDER, a damaged scene
+      std::fprintf(stderr, "bench_trace: %s: %s\n", name.c_str(), e.what());
+      return 2;
+    }
     const Workload* w = workloads.back().get();
     for (bool ao : {false, true}) {
       const std::string kind = ao ? "ao/" : "primary/";
