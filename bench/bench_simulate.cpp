@@ -3,10 +3,12 @@
 // SystemC allows one elaboration per process, so every timed run happens in a
 // forked child; the scene and BVH are built once in the parent. The reported
 // time is the simulation proper (SimulationResult::host_seconds).
-//   bench_simulate [--benchmark_filter=cycle] ; env RTSIM_BENCH_RES=WxH (default 128x128)
+//   bench_simulate [--benchmark_filter=cycle] ; env RTSIM_BENCH_RES=WxH (default 128x128),
+//   RTSIM_BENCH_BUILDER=NAME (default sah)
 #include <rtsim/builder/build.h>
 #include <rtsim/model/sim/simulator.h>
 #include <rtsim/workloads/fork.h>
+#include <rtsim/workloads/numbers.h>
 #include <rtsim/workloads/scene_registry.h>
 
 #include <benchmark/benchmark.h>
@@ -16,6 +18,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <memory>
 
 using namespace rtsim;
@@ -28,7 +31,7 @@ struct Fixture {
   Bvh bvh;
   uint32_t width = 128, height = 128;
   Fixture() {
-    if (const char* res = std::getenv("RTSIM_BENCH_RES")) std::sscanf(res, "%ux%u", &width, &height);
+    if (const char* res = std::getenv("RTSIM_BENCH_RES")) read_size_text(res, kMaxResolutionSide, "RTSIM_BENCH_RES", width, height);
     BuildParams params;
     params.builder = std::getenv("RTSIM_BENCH_BUILDER") ? std::getenv("RTSIM_BENCH_BUILDER") : "sah";
     bvh = build_bvh(scene, params);
@@ -102,4 +105,18 @@ BENCHMARK_CAPTURE(BM_Simulate, functional, Fidelity::Functional)->UseManualTime(
 BENCHMARK_CAPTURE(BM_Simulate, lt, Fidelity::Lt)->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(BM_Simulate, cycle, Fidelity::Cycle)->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(1.0);
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  // The scene and tree are built here, before any run, so that a bad
+  // RTSIM_BENCH_RES or RTSIM_BENCH_BUILDER is a message and exit 2, not an
+  // exception inside a benchmark.
+  try {
+    fixture();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_simulate: %s\n", e.what());
+    return 2;
+  }
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
