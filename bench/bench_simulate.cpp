@@ -5,6 +5,8 @@
 // time is the simulation proper (SimulationResult::host_seconds).
 //   bench_simulate [--benchmark_filter=cycle] ; env RTSIM_BENCH_RES=WxH (default 128x128),
 //   RTSIM_BENCH_BUILDER=NAME (default sah)
+#include "bench_env.h"
+
 #include <rtsim/builder/build.h>
 #include <rtsim/model/sim/simulator.h>
 #include <rtsim/workloads/fork.h>
@@ -33,7 +35,7 @@ struct Fixture {
   Fixture() {
     if (const char* res = std::getenv("RTSIM_BENCH_RES")) read_size_text(res, kMaxResolutionSide, "RTSIM_BENCH_RES", width, height);
     BuildParams params;
-    params.builder = std::getenv("RTSIM_BENCH_BUILDER") ? std::getenv("RTSIM_BENCH_BUILDER") : "sah";
+    params.builder = bench_builder();
     bvh = build_bvh(scene, params);
   }
 };

@@ -7,6 +7,8 @@
 // env RTSIM_BENCH_BUILDER=NAME: the builder of our trees (default sah), as in
 // bench_simulate; Embree's rows always traverse Embree's own trees, so the ratio
 // between the two shows the core and the tree together.
+#include "bench_env.h"
+
 #include <rtsim/builder/build.h>
 #include <rtsim/builder/memory_image.h>
 #include <rtsim/model/core/functional_tracer.h>
@@ -16,7 +18,6 @@
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
-#include <cstdlib>
 #include <exception>
 #include <filesystem>
 #include <map>
@@ -103,8 +104,7 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   std::vector<std::string> names{default_scene_name()};
   if (std::filesystem::exists(scene_cache_dir() / "dragon" / "scene.toml")) names.push_back("dragon");
-  const char* builder_env = std::getenv("RTSIM_BENCH_BUILDER");
-  const std::string builder = builder_env ? builder_env : "sah";
+  const std::string builder = bench_builder();
   benchmark::AddCustomContext("builder", builder);
   std::vector<std::unique_ptr<Workload>> workloads;
   for (const std::string& name : names) {
