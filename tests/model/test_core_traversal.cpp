@@ -231,6 +231,39 @@ TEST(CoreTriangle, FourLaneTestKeepsTheScalarVerdictsAtExtremeScales) {
   }
 }
 
+// The watertight frame: kz is an axis of largest |d| (ties go to the later axis),
+// (kx, ky, kz) is a permutation, an even one (the winding kept) exactly when the ray
+// runs toward +kz, and the shear is the direction's own ratios. Every sign and
+// every order of the three magnitudes, with ties and zeros.
+TEST(CoreTriangle, SetUpPicksTheDominantAxisAndKeepsTheWinding) {
+  const float magnitudes[] = {0.0f, 0.5f, 1.0f, 2.0f};
+  int cases = 0;
+  for (float mx : magnitudes)
+    for (float my : magnitudes)
+      for (float mz : magnitudes)
+        for (int signs = 0; signs < 8; ++signs) {
+          if (mx == 0.0f && my == 0.0f && mz == 0.0f) continue;
+          const vec3 d((signs & 1) ? -mx : mx, (signs & 2) ? -my : my, (signs & 4) ? -mz : mz);
+          const RayTrianglePrecompute r(vec3(0.0f), d);
+          const float m[3] = {mx, my, mz}, dv[3] = {d.x, d.y, d.z};
+          SCOPED_TRACE("d = (" + std::to_string(d.x) + ", " + std::to_string(d.y) + ", " + std::to_string(d.z) + ")");
+          ASSERT_TRUE(r.kz >= 0 && r.kz < 3 && r.kx >= 0 && r.kx < 3 && r.ky >= 0 && r.ky < 3);
+          EXPECT_EQ(r.kx + r.ky + r.kz, 3);
+          EXPECT_NE(r.kx, r.ky);
+          for (int a = 0; a < 3; ++a) {
+            EXPECT_GE(m[r.kz], m[a]);
+            if (a > r.kz) EXPECT_GT(m[r.kz], m[a]) << "a tie goes to the later axis";
+          }
+          const bool even = r.kx == (r.kz + 1) % 3;  // (kz+1, kz+2, kz) is a rotation of (0, 1, 2)
+          EXPECT_EQ(even, !(dv[r.kz] < 0.0f));
+          EXPECT_EQ(r.shear_x, dv[r.kx] / dv[r.kz]);
+          EXPECT_EQ(r.shear_y, dv[r.ky] / dv[r.kz]);
+          EXPECT_EQ(r.shear_z, 1.0f / dv[r.kz]);
+          ++cases;
+        }
+  EXPECT_EQ(cases, 63 * 8);
+}
+
 TEST(CoreTriangle, FanSharedVertexAndEdgesHitAtLeastOnce) {
   // A fan of triangles around a centre vertex, in the plane z = 0 and tilted.
   for (int tilt = 0; tilt < 2; ++tilt) {

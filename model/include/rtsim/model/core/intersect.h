@@ -156,10 +156,9 @@ struct RayTrianglePrecompute {
 
   RayTrianglePrecompute() = default;
   RayTrianglePrecompute(const vec3& o, const vec3& d) : origin(o), direction(d) {
-    // The components by index from an array: glm's operator[] is a switch, whose
-    // branches a ray's random axis order would mispredict.
-    // The axes from tables and masks, not branches: an AO ray's dominant axis and
-    // sign are random, so a branch on them is mispredicted about once a ray.
+    // Components indexed in an array (glm's operator[] is a switch), and the axes
+    // found by a table and a mask: an AO ray's dominant axis and sign are random,
+    // so any branch on them is mispredicted about once a ray.
     const float dv[3] = {d.x, d.y, d.z};
     const float ax = std::fabs(d.x), ay = std::fabs(d.y), az = std::fabs(d.z);
     // kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2), indexed by the three comparisons.
@@ -167,7 +166,7 @@ struct RayTrianglePrecompute {
     static constexpr int kNext[3] = {1, 2, 0};
     kz = kDominant[int(ax > ay) | int(ax > az) << 1 | int(ay > az) << 2];
     const int next_x = kNext[kz], next_y = kNext[next_x];
-    // Swapping x and y when the ray runs down z keeps the winding, so signs stay meaningful.
+    // Swapping x and y when the ray runs toward -z keeps the winding, so signs stay meaningful.
     const int flip = -int(dv[kz] < 0.0f);  // all ones or zero
     kx = next_x ^ ((next_x ^ next_y) & flip);
     ky = next_x ^ next_y ^ kx;
